@@ -1,0 +1,204 @@
+//! Two-level bounding volume hierarchy: one bottom-level BVH (BLAS) per mesh in object
+//! space, and a top-level BVH (TLAS) over instances in world space, rebuilt whenever
+//! instances move. Every hit is reported as (instance, mesh-local primitive, barycentrics),
+//! which maps it to the same surface point in any later frame (`docs/architecture.md`).
+//!
+//! Both levels are built on the CPU with obvhs (PLOC + reinsertion, `medium_build` preset)
+//! and uploaded in the [`gpu_layout`] formats that `wgsl/shared/bvh.wgsl` traverses.
+
+pub mod cpu_trace;
+pub mod gpu_layout;
+pub mod trace_pass;
+
+use crate::scene::{Mesh, Scene};
+use glam::{Mat4, Vec3, Vec3A};
+use gpu_layout::{GpuInstance, GpuNode, GpuTriangle, GpuTriangleShading};
+use obvhs::{BvhBuildParams, aabb::Aabb, bvh2::Bvh2, triangle::Triangle};
+use std::time::{Duration, Instant};
+
+/// BVH build preset for meshes. `medium_build` (PLOC, search distance 14, reinsertion
+/// 5 %, leaves of up to 8 triangles before collapse) is obvhs's "embree-like build time,
+/// faster traversal" setting; see `docs/architecture.md` for the measurements behind it.
+pub fn blas_params() -> BvhBuildParams {
+    BvhBuildParams::medium_build()
+}
+
+/// TLAS preset: one instance per leaf so a TLAS leaf names its instance directly.
+pub fn tlas_params() -> BvhBuildParams {
+    BvhBuildParams {
+        max_prims_per_leaf: 1,
+        ..BvhBuildParams::medium_build()
+    }
+}
+
+/// The bottom-level BVH of one mesh, with its triangles in leaf order.
+pub struct Blas {
+    /// Nodes in obvhs order (root at 0), child/primitive indices local to this BLAS.
+    pub bvh: Bvh2,
+    /// Object-space triangles in BVH leaf order.
+    pub triangles: Vec<Triangle>,
+    /// For each triangle in leaf order, its index in the mesh.
+    pub mesh_triangle: Vec<u32>,
+}
+
+impl Blas {
+    /// Builds the BLAS of a mesh.
+    pub fn build(mesh: &Mesh) -> Blas {
+        let tris: Vec<Triangle> = mesh
+            .indices
+            .iter()
+            .map(|t| Triangle {
+                v0: mesh.positions[t[0] as usize].into(),
+                v1: mesh.positions[t[1] as usize].into(),
+                v2: mesh.positions[t[2] as usize].into(),
+            })
+            .collect();
+        let mut core = Duration::ZERO;
+        let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, blas_params(), &mut core);
+        let mesh_triangle = bvh.primitive_indices.clone();
+        let triangles = mesh_triangle.iter().map(|&i| tris[i as usize]).collect();
+        Blas {
+            bvh,
+            triangles,
+            mesh_triangle,
+        }
+    }
+}
+
+/// Timings of one BVH build, in milliseconds.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BuildTimes {
+    pub blas_ms: f64,
+    pub tlas_ms: f64,
+}
+
+/// The whole scene's acceleration structure, in GPU layout (ready for upload).
+pub struct SceneBvh {
+    pub tlas_nodes: Vec<GpuNode>,
+    pub blas_nodes: Vec<GpuNode>,
+    pub triangles: Vec<GpuTriangle>,
+    pub shading: Vec<GpuTriangleShading>,
+    pub instances: Vec<GpuInstance>,
+    /// Per mesh: first node of its BLAS in `blas_nodes`, first triangle in `triangles`.
+    pub mesh_offsets: Vec<(u32, u32)>,
+    pub times: BuildTimes,
+    /// Deepest BLAS and the TLAS depth, for stack sizing.
+    pub max_depth: u32,
+}
+
+impl SceneBvh {
+    /// Builds every mesh's BLAS and the TLAS for the scene's current instance transforms.
+    pub fn build(scene: &Scene) -> SceneBvh {
+        let t0 = Instant::now();
+        let blases: Vec<Blas> = scene.meshes.iter().map(Blas::build).collect();
+        let blas_ms = t0.elapsed().as_secs_f64() * 1e3;
+
+        let mut blas_nodes = Vec::new();
+        let mut triangles = Vec::new();
+        let mut shading = Vec::new();
+        let mut mesh_offsets = Vec::new();
+        let mut max_depth = 0u32;
+        for (mesh, blas) in scene.meshes.iter().zip(&blases) {
+            let node_base = blas_nodes.len() as u32;
+            let tri_base = triangles.len() as u32;
+            mesh_offsets.push((node_base, tri_base));
+            max_depth = max_depth.max(tree_depth(&blas.bvh));
+            blas_nodes.extend(
+                blas.bvh
+                    .nodes
+                    .iter()
+                    .map(|n| GpuNode::from_obvhs(n, node_base, tri_base)),
+            );
+            for (tri, &mesh_tri) in blas.triangles.iter().zip(&blas.mesh_triangle) {
+                triangles.push(GpuTriangle::new(tri));
+                shading.push(GpuTriangleShading::new(mesh, mesh_tri));
+            }
+        }
+
+        let t1 = Instant::now();
+        let (tlas_nodes, tlas_depth) = build_tlas(scene);
+        let tlas_ms = t1.elapsed().as_secs_f64() * 1e3;
+        let instances = scene
+            .instances
+            .iter()
+            .map(|inst| {
+                let (node_base, tri_base) = mesh_offsets[inst.mesh as usize];
+                GpuInstance::new(inst.transform, node_base, tri_base, inst.mesh)
+            })
+            .collect();
+        SceneBvh {
+            tlas_nodes,
+            blas_nodes,
+            triangles,
+            shading,
+            instances,
+            mesh_offsets,
+            times: BuildTimes { blas_ms, tlas_ms },
+            max_depth: max_depth + tlas_depth,
+        }
+    }
+}
+
+/// World-space bounds of every instance.
+pub fn instance_bounds(scene: &Scene) -> Vec<Aabb> {
+    scene
+        .instances
+        .iter()
+        .map(|inst| {
+            let mesh = &scene.meshes[inst.mesh as usize];
+            let mut aabb = Aabb::empty();
+            for p in &mesh.positions {
+                aabb.extend(Vec3A::from(inst.transform.transform_point3(*p)));
+            }
+            aabb
+        })
+        .collect()
+}
+
+/// Builds the TLAS over instance bounds; leaves hold exactly one instance.
+fn build_tlas(scene: &Scene) -> (Vec<GpuNode>, u32) {
+    let bounds = instance_bounds(scene);
+    let mut core = Duration::ZERO;
+    let bvh = obvhs::bvh2::builder::build_bvh2(&bounds, tlas_params(), &mut core);
+    let nodes = bvh
+        .nodes
+        .iter()
+        .map(|n| {
+            if n.prim_count > 0 {
+                // One instance per leaf (tlas_params): store the instance id itself.
+                GpuNode::leaf(
+                    n.aabb.min.into(),
+                    n.aabb.max.into(),
+                    bvh.primitive_indices[n.first_index as usize],
+                    1,
+                )
+            } else {
+                GpuNode::from_obvhs(n, 0, 0)
+            }
+        })
+        .collect();
+    (nodes, tree_depth(&bvh))
+}
+
+/// Object-space transform helpers shared by the CPU reference and the GPU layout.
+pub fn normal_matrix(transform: Mat4) -> glam::Mat3 {
+    glam::Mat3::from_mat4(transform).inverse().transpose()
+}
+
+/// Scene bounds over all instances (for ray offsets and camera sanity checks).
+pub fn scene_bounds(scene: &Scene) -> (Vec3, Vec3) {
+    let mut aabb = Aabb::empty();
+    for b in instance_bounds(scene) {
+        aabb = aabb.union(&b);
+    }
+    (aabb.min.into(), aabb.max.into())
+}
+
+/// Actual depth of a BVH (obvhs's `max_depth` field is a stack-size hint, not the depth).
+pub fn tree_depth(bvh: &Bvh2) -> u32 {
+    if bvh.nodes.is_empty() {
+        0
+    } else {
+        bvh.depth(0) as u32
+    }
+}

@@ -1,0 +1,79 @@
+//! The direct-light pass: shadow rays to every light (area lights and the environment
+//! with a deterministic low-discrepancy sequence), textured diffuse albedo, visible
+//! emitters. [`reference`] is its plain-Rust counterpart used by tests.
+
+pub mod reference;
+
+use crate::Result;
+use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
+use crate::gpu::{GpuContext, GpuScene};
+use crate::visibility::VisibilityBuffer;
+
+/// Per-pixel outputs of the direct pass, resident on the GPU (RGBA f32 each).
+pub struct DirectOutput {
+    /// Emission + reflected direct light (environment on background pixels).
+    pub beauty: wgpu::Buffer,
+    /// Diffuse albedo (textured), zero on background pixels.
+    pub albedo: wgpu::Buffer,
+    /// Reflected direct light only.
+    pub direct: wgpu::Buffer,
+}
+
+/// The direct-light pass (`wgsl/direct_light.wgsl`).
+pub struct DirectLightPass {
+    pass: ComputePass,
+}
+
+impl DirectLightPass {
+    pub fn new(ctx: &GpuContext) -> Result<Self> {
+        use Binding::*;
+        Ok(Self {
+            pass: ComputePass::new(
+                ctx,
+                "direct_light.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
+            )?,
+        })
+    }
+
+    /// Records the pass for a visibility buffer.
+    pub fn record(
+        &self,
+        ctx: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<DirectOutput> {
+        let bytes = u64::from(vis.width) * u64::from(vis.height) * 16;
+        let out = DirectOutput {
+            beauty: ctx.storage_buffer_sized("beauty", bytes)?,
+            albedo: ctx.storage_buffer_sized("albedo", bytes)?,
+            direct: ctx.storage_buffer_sized("direct", bytes)?,
+        };
+        let bind = self.pass.bind(
+            ctx,
+            &[
+                &vis.camera_buffer,
+                &vis.samples,
+                &out.beauty,
+                &out.albedo,
+                &out.direct,
+            ],
+        );
+        self.pass.record(
+            encoder,
+            &scene.bind_group,
+            &bind,
+            image_groups(vis.width, vis.height),
+            timestamps,
+        );
+        Ok(out)
+    }
+}

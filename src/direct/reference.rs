@@ -1,0 +1,289 @@
+//! Plain-Rust reference of the visibility and direct-light passes: the same camera rays,
+//! surface reconstruction, texture filtering, light sampling (bit-identical sample
+//! points) and shading, with shadow and camera rays traced by obvhs on the CPU.
+
+use crate::bvh::cpu_trace::{CpuHit, CpuTracer};
+use crate::bvh::normal_matrix;
+use crate::sampling::{cosine_hemisphere, hash_combine, hash_u32, orthonormal_basis, sobol_2d};
+use crate::scene::{Light, Scene, Texture};
+use crate::visibility::GpuCamera;
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// A shaded point, as WGSL `Surface`.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    pub position: Vec3,
+    pub geometric_normal: Vec3,
+    pub shading_normal: Vec3,
+    pub uv: Vec2,
+    pub material: u32,
+    pub front_face: bool,
+}
+
+/// Per-pixel result of the reference.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ReferencePixel {
+    pub hit: Option<(u32, u32)>,
+    pub beauty: Vec3,
+    pub albedo: Vec3,
+    pub direct: Vec3,
+}
+
+/// CPU reference renderer for direct light.
+pub struct DirectReference<'a> {
+    pub scene: &'a Scene,
+    pub tracer: CpuTracer,
+    pub light_samples: u32,
+}
+
+impl<'a> DirectReference<'a> {
+    pub fn new(scene: &'a Scene, light_samples: u32) -> Self {
+        Self {
+            scene,
+            tracer: CpuTracer::new(scene),
+            light_samples: light_samples.max(1),
+        }
+    }
+
+    /// Reconstructs the surface at a CPU hit.
+    pub fn surface_at(&self, hit: &CpuHit, ray_dir: Vec3) -> Surface {
+        let inst = &self.scene.instances[hit.instance as usize];
+        let mesh = &self.scene.meshes[inst.mesh as usize];
+        let idx = mesh.indices[hit.triangle as usize];
+        let p = |k: usize| mesh.positions[idx[k] as usize];
+        let (u, v) = (hit.u, hit.v);
+        let w = 1.0 - u - v;
+        let (e1, e2) = (p(1) - p(0), p(2) - p(0));
+        let position = inst.transform.transform_point3(p(0) + u * e1 + v * e2);
+        let nm = normal_matrix(inst.transform);
+        let mut ng = (nm * e1.cross(e2)).normalize();
+        let n = |k: usize| {
+            mesh.normals
+                .get(idx[k] as usize)
+                .copied()
+                .unwrap_or(Vec3::ZERO)
+        };
+        let mut ns = ng;
+        if (0..3).all(|k| n(k).length_squared() > 0.0) {
+            let n_obj = w * n(0) + u * n(1) + v * n(2);
+            if n_obj.length_squared() > 1e-12 {
+                ns = (nm * n_obj).normalize();
+            }
+        }
+        let front_face = ng.dot(ray_dir) < 0.0;
+        if !front_face {
+            ng = -ng;
+        }
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        let uv = |k: usize| mesh.uvs.get(idx[k] as usize).copied().unwrap_or_default();
+        Surface {
+            position,
+            geometric_normal: ng,
+            shading_normal: ns,
+            uv: w * uv(0) + u * uv(1) + v * uv(2),
+            material: mesh.material_ids[hit.triangle as usize],
+            front_face,
+        }
+    }
+
+    /// Textured albedo, as WGSL `surface_albedo`.
+    pub fn albedo(&self, s: &Surface) -> Vec3 {
+        let m = &self.scene.materials[s.material as usize];
+        match m.albedo_texture {
+            None => m.albedo,
+            Some(t) => m.albedo * sample_texture(&self.scene.textures[t as usize], s.uv),
+        }
+    }
+
+    fn visible(&self, s: &Surface, target: Vec3, to_infinity: bool) -> bool {
+        let origin = offset_ray_origin(s.position, s.geometric_normal);
+        if to_infinity {
+            !self.tracer.occluded(origin, target, 0.0, f32::INFINITY)
+        } else {
+            !self
+                .tracer
+                .occluded(origin, target - origin, 0.0, 1.0 - 1e-4)
+        }
+    }
+
+    /// Direct irradiance, as WGSL `direct_irradiance`.
+    pub fn direct_irradiance(&self, s: &Surface, seed: u32) -> Vec3 {
+        let (n, ng) = (s.shading_normal, s.geometric_normal);
+        let count = self.light_samples;
+        let mut e = Vec3::ZERO;
+        for (li, light) in self.scene.lights.iter().enumerate() {
+            match *light {
+                Light::Point {
+                    position,
+                    intensity,
+                }
+                | Light::Spot {
+                    position,
+                    intensity,
+                    ..
+                } => {
+                    let to_light = position - s.position;
+                    let d2 = to_light.length_squared();
+                    let l = to_light / d2.sqrt();
+                    let cos_s = n.dot(l);
+                    if cos_s <= 0.0 || ng.dot(l) <= 0.0 {
+                        continue;
+                    }
+                    let mut intensity = intensity;
+                    if let Light::Spot {
+                        direction,
+                        cos_inner,
+                        cos_outer,
+                        ..
+                    } = *light
+                    {
+                        intensity *=
+                            smoothstep(cos_outer, cos_inner, (-l).dot(direction.normalize()));
+                    }
+                    if intensity == Vec3::ZERO || !self.visible(s, position, false) {
+                        continue;
+                    }
+                    e += intensity * cos_s / d2;
+                }
+                Light::Sun {
+                    direction,
+                    irradiance,
+                } => {
+                    let l = direction.normalize();
+                    let cos_s = n.dot(l);
+                    if cos_s <= 0.0 || ng.dot(l) <= 0.0 || !self.visible(s, l, true) {
+                        continue;
+                    }
+                    e += irradiance * cos_s;
+                }
+                Light::Rect {
+                    corner,
+                    edge_u,
+                    edge_v,
+                    radiance,
+                } => {
+                    let cr = edge_u.cross(edge_v);
+                    let area = cr.length();
+                    let nl = cr / area;
+                    let light_seed = hash_combine(seed, li as u32);
+                    let mut sum = 0.0;
+                    for k in 0..count {
+                        let xi = sobol_2d(k, light_seed);
+                        let q = corner + xi.x * edge_u + xi.y * edge_v;
+                        let to_q = q - s.position;
+                        let d2 = to_q.length_squared();
+                        let l = to_q / d2.sqrt();
+                        let cos_s = n.dot(l);
+                        let cos_l = -nl.dot(l);
+                        if cos_s <= 0.0 || cos_l <= 0.0 || ng.dot(l) <= 0.0 {
+                            continue;
+                        }
+                        if self.visible(s, q, false) {
+                            sum += cos_s * cos_l / d2;
+                        }
+                    }
+                    e += radiance * sum * (area / count as f32);
+                }
+            }
+        }
+        let env = self.scene.environment;
+        if env != Vec3::ZERO {
+            let frame = orthonormal_basis(n);
+            let env_seed = hash_combine(seed, 0xe17);
+            let unoccluded = (0..count)
+                .filter(|&k| {
+                    let dir = frame * cosine_hemisphere(sobol_2d(k, env_seed));
+                    dir.dot(ng) > 0.0 && self.visible(s, dir, true)
+                })
+                .count();
+            e += env * (PI * unoccluded as f32 / count as f32);
+        }
+        e
+    }
+
+    /// Renders one pixel.
+    pub fn pixel(&self, camera: &GpuCamera, x: u32, y: u32) -> ReferencePixel {
+        let dir = camera.ray_dir(x, y);
+        let Some(hit) = self
+            .tracer
+            .closest_hit(camera.origin.into(), dir, 0.0, f32::INFINITY)
+        else {
+            return ReferencePixel {
+                beauty: self.scene.environment,
+                ..Default::default()
+            };
+        };
+        let s = self.surface_at(&hit, dir);
+        let albedo = self.albedo(&s);
+        let pixel = y * camera.width + x;
+        let direct = albedo / PI * self.direct_irradiance(&s, hash_u32(pixel));
+        let m = &self.scene.materials[s.material as usize];
+        let emission = if s.front_face { m.emission } else { Vec3::ZERO };
+        ReferencePixel {
+            hit: Some((hit.instance, hit.triangle)),
+            beauty: emission + direct,
+            albedo,
+            direct,
+        }
+    }
+}
+
+fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// As WGSL `offset_ray_origin` (Wächter & Binder, Ray Tracing Gems ch. 6).
+pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
+    const INT_SCALE: f32 = 256.0;
+    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
+    const ORIGIN: f32 = 1.0 / 32.0;
+    let off = |p: f32, n: f32| {
+        let of_i = (INT_SCALE * n) as i32;
+        let p_i =
+            f32::from_bits(
+                (p.to_bits() as i32).wrapping_add(if p < 0.0 { -of_i } else { of_i }) as u32,
+            );
+        if p.abs() < ORIGIN {
+            p + FLOAT_SCALE * n
+        } else {
+            p_i
+        }
+    };
+    Vec3::new(off(p.x, n.x), off(p.y, n.y), off(p.z, n.z))
+}
+
+fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+fn texel(t: &Texture, x: i32, y: i32) -> Vec3 {
+    let (w, h) = (t.width as i32, t.height as i32);
+    let xi = x.rem_euclid(w) as usize;
+    let yi = y.rem_euclid(h) as usize;
+    let c = t.texels[yi * t.width as usize + xi];
+    Vec3::new(
+        srgb_to_linear(c[0] as f32 / 255.0),
+        srgb_to_linear(c[1] as f32 / 255.0),
+        srgb_to_linear(c[2] as f32 / 255.0),
+    )
+}
+
+/// Bilinear, repeat-wrapped lookup in linear colour (v = 1 is the top row), as WGSL.
+pub fn sample_texture(t: &Texture, uv: Vec2) -> Vec3 {
+    let x = (uv.x - uv.x.floor()) * t.width as f32 - 0.5;
+    let y = (1.0 - (uv.y - uv.y.floor())) * t.height as f32 - 0.5;
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let (xi, yi) = (x0 as i32, y0 as i32);
+    let top = texel(t, xi, yi).lerp(texel(t, xi + 1, yi), fx);
+    let bottom = texel(t, xi, yi + 1).lerp(texel(t, xi + 1, yi + 1), fx);
+    top.lerp(bottom, fy)
+}

@@ -1,0 +1,103 @@
+//! Small helpers for creating, filling and reading back buffers.
+
+use super::GpuContext;
+use crate::{Error, Result};
+use wgpu::util::DeviceExt;
+
+impl GpuContext {
+    /// Creates a storage buffer holding `data` (at least 16 bytes so empty tables stay bindable).
+    /// Fails with [`Error::DeviceLimit`] when it exceeds the device's binding size.
+    pub fn storage_buffer<T: bytemuck::Pod>(
+        &self,
+        label: &str,
+        data: &[T],
+    ) -> Result<wgpu::Buffer> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        self.check_binding_size(label, bytes.len() as u64)?;
+        let mut padded;
+        let contents = if bytes.len() < 16 {
+            padded = bytes.to_vec();
+            padded.resize(16, 0);
+            &padded[..]
+        } else {
+            bytes
+        };
+        Ok(self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::COPY_SRC,
+            }))
+    }
+
+    /// Creates an uninitialised (zeroed) storage buffer of `size` bytes.
+    pub fn storage_buffer_sized(&self, label: &str, size: u64) -> Result<wgpu::Buffer> {
+        self.check_binding_size(label, size)?;
+        Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: size.max(16),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        }))
+    }
+
+    /// Creates a uniform buffer holding one `T`.
+    pub fn uniform_buffer<T: bytemuck::Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::bytes_of(value),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            })
+    }
+
+    /// Errors if a binding of `size` bytes would exceed the device limits.
+    pub fn check_binding_size(&self, label: &str, size: u64) -> Result<()> {
+        let max = self.max_binding_size();
+        if size > max {
+            return Err(Error::DeviceLimit(format!(
+                "{label} needs {} MiB in one storage buffer; this device allows {} MiB",
+                size.div_ceil(1 << 20),
+                max >> 20
+            )));
+        }
+        Ok(())
+    }
+
+    /// Copies a whole buffer back to the CPU (waits for the GPU).
+    pub fn read_buffer<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer) -> Result<Vec<T>> {
+        let size = buffer.size();
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        self.queue.submit([enc.finish()]);
+        let slice = staging.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        rx.recv()
+            .map_err(|_| Error::Gpu("readback was cancelled".into()))?
+            .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
+        let data = {
+            let view = slice
+                .get_mapped_range()
+                .map_err(|e| Error::Gpu(format!("readback mapping: {e}")))?;
+            let n = view.len() / std::mem::size_of::<T>();
+            bytemuck::cast_slice::<u8, T>(&view[..n * std::mem::size_of::<T>()]).to_vec()
+        };
+        staging.unmap();
+        Ok(data)
+    }
+}

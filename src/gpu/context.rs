@@ -1,0 +1,187 @@
+//! The GPU context: instance, adapter, device and queue, either created headless by us or
+//! handed to us by an embedding engine.
+
+use crate::{Error, Result};
+use std::sync::{Arc, Mutex};
+
+/// Features radsplat can use when the adapter has them. None is required.
+pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY;
+
+/// Number of storage buffers one radsplat pass binds at most (scene tables + pass buffers).
+pub const STORAGE_BUFFERS_PER_STAGE: u32 = 16;
+
+/// The limits radsplat needs from a device. Engines that hand us their device must have
+/// created it with at least these. Buffer sizes of a given scene or resolution are
+/// checked against the device's actual limits before anything is allocated.
+pub fn required_limits() -> wgpu::Limits {
+    wgpu::Limits {
+        max_storage_buffers_per_shader_stage: STORAGE_BUFFERS_PER_STAGE,
+        max_compute_invocations_per_workgroup: 64,
+        max_compute_workgroup_size_x: 64,
+        max_compute_workgroup_size_y: 8,
+        ..wgpu::Limits::downlevel_defaults()
+    }
+}
+
+/// A device and queue radsplat runs on.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// Adapter description, when we created the device ourselves.
+    pub adapter_info: Option<wgpu::AdapterInfo>,
+    /// First uncaptured wgpu error (validation, out of memory) or device loss, if any.
+    fault: Arc<Mutex<Option<String>>>,
+}
+
+impl GpuContext {
+    /// Creates a headless context on the best adapter. Honours `WGPU_BACKEND` (e.g. `vulkan`),
+    /// `WGPU_ADAPTER_NAME` (substring of the adapter name, case-insensitive) and
+    /// `WGPU_POWER_PREF`. Runs on lavapipe (Mesa's CPU Vulkan) with no variables set.
+    pub fn new() -> Result<Self> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pick_adapter(&instance)?;
+        let info = adapter.get_info();
+        log::info!(
+            "adapter: {} ({:?}, {:?}, driver {} {})",
+            info.name,
+            info.backend,
+            info.device_type,
+            info.driver,
+            info.driver_info
+        );
+        let required = required_limits();
+        if let Some(missing) = missing_limit(&adapter.limits(), &required) {
+            return Err(Error::Gpu(format!(
+                "adapter '{}' lacks a required limit: {missing}",
+                info.name
+            )));
+        }
+        // Ask for everything the adapter offers: scene and image sizes are then checked
+        // against the real limits instead of the WebGPU defaults.
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("radsplat"),
+            required_features: adapter.features() & OPTIONAL_FEATURES,
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .map_err(|e| Error::Gpu(format!("cannot create a device on '{}': {e}", info.name)))?;
+        let ctx = Self::from_device(device, queue);
+        let fault = ctx.fault.clone();
+        ctx.device
+            .on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+                log::error!("wgpu: {e}");
+                let mut f = fault.lock().unwrap_or_else(|p| p.into_inner());
+                f.get_or_insert_with(|| e.to_string());
+            }));
+        Ok(Self {
+            adapter_info: Some(info),
+            ..ctx
+        })
+    }
+
+    /// Wraps a device and queue owned by an embedding engine. The device must satisfy
+    /// [`required_limits`]; radsplat uses [`OPTIONAL_FEATURES`] only where enabled.
+    /// Our own errors are caught with error scopes, so the engine's uncaptured-error
+    /// handler is left alone; device loss is reported by the next call.
+    pub fn from_device(device: wgpu::Device, queue: wgpu::Queue) -> Self {
+        let fault = Arc::new(Mutex::new(None::<String>));
+        let lost = fault.clone();
+        device.set_device_lost_callback(move |reason, msg| {
+            let mut f = lost.lock().unwrap_or_else(|p| p.into_inner());
+            f.get_or_insert_with(|| format!("device lost ({reason:?}): {msg}"));
+        });
+        Self {
+            device,
+            queue,
+            adapter_info: None,
+            fault,
+        }
+    }
+
+    /// Returns the first recorded wgpu error or device loss as an [`Error::Gpu`].
+    pub fn check(&self) -> Result<()> {
+        let f = self.fault.lock().unwrap_or_else(|p| p.into_inner());
+        match f.as_ref() {
+            Some(msg) => Err(Error::Gpu(msg.clone())),
+            None => Ok(()),
+        }
+    }
+
+    /// Waits for all submitted work, then reports errors.
+    pub fn wait(&self) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| Error::Gpu(format!("waiting for the device: {e}")))?;
+        self.check()
+    }
+
+    /// Whether GPU timestamp queries can be used for per-pass timings.
+    pub fn has_timestamps(&self) -> bool {
+        self.device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+    }
+
+    /// Largest storage buffer binding this device accepts, in bytes.
+    pub fn max_binding_size(&self) -> u64 {
+        let l = self.device.limits();
+        u64::from(l.max_storage_buffer_binding_size).min(l.max_buffer_size)
+    }
+}
+
+fn pick_adapter(instance: &wgpu::Instance) -> Result<wgpu::Adapter> {
+    if let Ok(wanted) = std::env::var("WGPU_ADAPTER_NAME") {
+        let wanted = wanted.to_lowercase();
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+        return adapters
+            .into_iter()
+            .find(|a| a.get_info().name.to_lowercase().contains(&wanted))
+            .ok_or_else(|| {
+                Error::Gpu(format!(
+                    "WGPU_ADAPTER_NAME={wanted}: no such adapter (found: {})",
+                    if names.is_empty() {
+                        "none".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                ))
+            });
+    }
+    pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference:
+            wgpu::PowerPreference::from_env().unwrap_or(wgpu::PowerPreference::HighPerformance),
+        ..Default::default()
+    }))
+    .map_err(|e| {
+        Error::Gpu(format!(
+            "no GPU adapter found ({e}); on Linux without a GPU install Mesa's lavapipe: \
+             apt-get install mesa-vulkan-drivers"
+        ))
+    })
+}
+
+fn missing_limit(have: &wgpu::Limits, need: &wgpu::Limits) -> Option<String> {
+    let checks = [
+        (
+            "max_storage_buffers_per_shader_stage",
+            have.max_storage_buffers_per_shader_stage,
+            need.max_storage_buffers_per_shader_stage,
+        ),
+        (
+            "max_compute_invocations_per_workgroup",
+            have.max_compute_invocations_per_workgroup,
+            need.max_compute_invocations_per_workgroup,
+        ),
+        (
+            "max_compute_workgroup_size_x",
+            have.max_compute_workgroup_size_x,
+            need.max_compute_workgroup_size_x,
+        ),
+    ];
+    checks
+        .iter()
+        .find(|(_, h, n)| h < n)
+        .map(|(name, h, n)| format!("{name} is {h}, radsplat needs {n}"))
+}

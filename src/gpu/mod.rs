@@ -1,0 +1,13 @@
+//! Everything that talks to wgpu: the device, buffers, shader composition, the scene
+//! tables on the GPU, and a small helper for compute pipelines.
+
+mod buffers;
+pub mod context;
+pub mod pipeline;
+pub mod scene_buffers;
+pub mod shader;
+pub mod timer;
+
+pub use context::{GpuContext, OPTIONAL_FEATURES, required_limits};
+pub use pipeline::ComputePass;
+pub use scene_buffers::GpuScene;

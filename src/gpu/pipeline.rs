@@ -1,0 +1,118 @@
+//! A compute pipeline for one pass: the scene tables at group 0, the pass's own buffers
+//! at group 1.
+
+use super::{GpuContext, scene_buffers::scene_layout, shader};
+use crate::{Error, Result};
+
+/// How a pass binds one of its own buffers (group 1, bindings in order).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Binding {
+    Uniform,
+    StorageRead,
+    StorageReadWrite,
+}
+
+/// A compiled compute pass.
+pub struct ComputePass {
+    pub name: &'static str,
+    pub pipeline: wgpu::ComputePipeline,
+    pub pass_layout: wgpu::BindGroupLayout,
+}
+
+impl ComputePass {
+    /// Compiles `wgsl/<name>` (entry point `main`) with the given group-1 bindings.
+    pub fn new(ctx: &GpuContext, name: &'static str, bindings: &[Binding]) -> Result<Self> {
+        let device = &ctx.device;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = shader::module(device, name)?;
+        let entries: Vec<_> = bindings
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupLayoutEntry {
+                binding: i as u32,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: match b {
+                        Binding::Uniform => wgpu::BufferBindingType::Uniform,
+                        Binding::StorageRead => {
+                            wgpu::BufferBindingType::Storage { read_only: true }
+                        }
+                        Binding::StorageReadWrite => {
+                            wgpu::BufferBindingType::Storage { read_only: false }
+                        }
+                    },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            })
+            .collect();
+        let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(name),
+            entries: &entries,
+        });
+        let scene = scene_layout(device);
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(name),
+            bind_group_layouts: &[Some(&scene), Some(&pass_layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(name),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("creating pass {name}: {e}")));
+        }
+        Ok(Self {
+            name,
+            pipeline,
+            pass_layout,
+        })
+    }
+
+    /// Binds `buffers` (in binding order) for this pass.
+    pub fn bind(&self, ctx: &GpuContext, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+        let entries: Vec<_> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(self.name),
+            layout: &self.pass_layout,
+            entries: &entries,
+        })
+    }
+
+    /// Records one dispatch into `encoder`.
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        scene: &wgpu::BindGroup,
+        pass: &wgpu::BindGroup,
+        groups: [u32; 3],
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(self.name),
+            timestamp_writes: timestamps,
+        });
+        cpass.set_pipeline(&self.pipeline);
+        cpass.set_bind_group(0, scene, &[]);
+        cpass.set_bind_group(1, pass, &[]);
+        cpass.dispatch_workgroups(groups[0], groups[1], groups[2]);
+    }
+}
+
+/// Workgroup counts covering a `width x height` image with 8x8 groups.
+pub fn image_groups(width: u32, height: u32) -> [u32; 3] {
+    [width.div_ceil(8), height.div_ceil(8), 1]
+}

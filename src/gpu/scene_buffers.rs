@@ -1,0 +1,250 @@
+//! The scene tables on the GPU (bind group 0 of every pass): BVH levels, triangles,
+//! shading data, instances, materials, textures, lights and a small info block.
+
+use super::GpuContext;
+use crate::bvh::SceneBvh;
+use crate::scene::{Light, Scene};
+use crate::{Error, Result};
+use bytemuck::{Pod, Zeroable};
+
+/// Must match `BVH_STACK_SIZE` in `wgsl/shared/bvh.wgsl`.
+pub const BVH_STACK_SIZE: u32 = 64;
+
+/// Rust mirror of WGSL `Material`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub albedo: [f32; 3],
+    pub texture: u32,
+    pub emission: [f32; 3],
+    pub _pad: u32,
+}
+
+/// Rust mirror of WGSL `TextureInfo`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuTextureInfo {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub _pad: u32,
+}
+
+/// Rust mirror of WGSL `Light` (see the field comments in `wgsl/shared/scene.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuLight {
+    pub a: [f32; 4],
+    pub b: [f32; 4],
+    pub c: [f32; 4],
+    pub d: [f32; 4],
+}
+
+/// Light kinds, as in WGSL.
+pub const LIGHT_POINT: u32 = 0;
+pub const LIGHT_SPOT: u32 = 1;
+pub const LIGHT_RECT: u32 = 2;
+pub const LIGHT_SUN: u32 = 3;
+/// Material without texture.
+pub const NO_TEXTURE: u32 = u32::MAX;
+
+impl GpuLight {
+    pub fn new(light: &Light) -> Self {
+        let v4 = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
+        let kind = |k: u32| f32::from_bits(k);
+        let z = glam::Vec3::ZERO;
+        match *light {
+            Light::Point {
+                position,
+                intensity,
+            } => GpuLight {
+                a: v4(position, kind(LIGHT_POINT)),
+                b: v4(z, 0.0),
+                c: v4(z, 0.0),
+                d: v4(intensity, 0.0),
+            },
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => GpuLight {
+                a: v4(position, kind(LIGHT_SPOT)),
+                b: v4(direction.normalize(), cos_inner),
+                c: v4(z, cos_outer),
+                d: v4(intensity, 0.0),
+            },
+            Light::Rect {
+                corner,
+                edge_u,
+                edge_v,
+                radiance,
+            } => GpuLight {
+                a: v4(corner, kind(LIGHT_RECT)),
+                b: v4(edge_u, 0.0),
+                c: v4(edge_v, 0.0),
+                d: v4(radiance, 0.0),
+            },
+            Light::Sun {
+                direction,
+                irradiance,
+            } => GpuLight {
+                a: v4(direction.normalize(), kind(LIGHT_SUN)),
+                b: v4(z, 0.0),
+                c: v4(z, 0.0),
+                d: v4(irradiance, 0.0),
+            },
+        }
+    }
+}
+
+/// Rust mirror of WGSL `SceneInfo` (uniform).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuSceneInfo {
+    pub environment: [f32; 3],
+    pub light_count: u32,
+    pub light_samples: u32,
+    pub instance_count: u32,
+    pub _pad: [u32; 2],
+}
+
+/// Materials, texture table and packed texels in GPU layout.
+pub fn material_tables(scene: &Scene) -> (Vec<GpuMaterial>, Vec<GpuTextureInfo>, Vec<u32>) {
+    let materials = scene
+        .materials
+        .iter()
+        .map(|m| GpuMaterial {
+            albedo: m.albedo.into(),
+            texture: m.albedo_texture.unwrap_or(NO_TEXTURE),
+            emission: m.emission.into(),
+            _pad: 0,
+        })
+        .collect();
+    let mut infos = Vec::new();
+    let mut texels = Vec::new();
+    for t in &scene.textures {
+        infos.push(GpuTextureInfo {
+            offset: texels.len() as u32,
+            width: t.width,
+            height: t.height,
+            _pad: 0,
+        });
+        texels.extend(t.texels.iter().map(|c| u32::from_le_bytes(*c)));
+    }
+    (materials, infos, texels)
+}
+
+/// Scene data resident on the GPU, with its bind group.
+pub struct GpuScene {
+    pub layout: wgpu::BindGroupLayout,
+    pub bind_group: wgpu::BindGroup,
+    pub info: GpuSceneInfo,
+    info_buffer: wgpu::Buffer,
+    /// Buffers kept alive for the bind group, in binding order.
+    _buffers: Vec<wgpu::Buffer>,
+    /// Bytes uploaded, for memory reports.
+    pub bytes: u64,
+}
+
+/// The bind group layout of the scene tables (group 0 in every pass).
+pub fn scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let storage = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let mut entries: Vec<_> = (0..9).map(storage).collect();
+    entries.push(wgpu::BindGroupLayoutEntry {
+        binding: 9,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    });
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("scene"),
+        entries: &entries,
+    })
+}
+
+impl GpuScene {
+    /// Uploads a scene and its BVH. Fails cleanly when a table exceeds the device limits.
+    pub fn upload(
+        ctx: &GpuContext,
+        scene: &Scene,
+        bvh: &SceneBvh,
+        light_samples: u32,
+    ) -> Result<Self> {
+        if bvh.max_depth >= BVH_STACK_SIZE {
+            return Err(Error::DeviceLimit(format!(
+                "BVH depth {} exceeds the traversal stack of {BVH_STACK_SIZE} entries",
+                bvh.max_depth
+            )));
+        }
+        let (materials, texture_infos, texels) = material_tables(scene);
+        let lights: Vec<GpuLight> = scene.lights.iter().map(GpuLight::new).collect();
+        let buffers = vec![
+            ctx.storage_buffer("tlas nodes", &bvh.tlas_nodes)?,
+            ctx.storage_buffer("blas nodes", &bvh.blas_nodes)?,
+            ctx.storage_buffer("triangles", &bvh.triangles)?,
+            ctx.storage_buffer("triangle shading", &bvh.shading)?,
+            ctx.storage_buffer("instances", &bvh.instances)?,
+            ctx.storage_buffer("materials", &materials)?,
+            ctx.storage_buffer("texture table", &texture_infos)?,
+            ctx.storage_buffer("texels", &texels)?,
+            ctx.storage_buffer("lights", &lights)?,
+        ];
+        let info = GpuSceneInfo {
+            environment: scene.environment.into(),
+            light_count: lights.len() as u32,
+            light_samples: light_samples.max(1),
+            instance_count: scene.instances.len() as u32,
+            _pad: [0; 2],
+        };
+        let info_buffer = ctx.uniform_buffer("scene info", &info);
+        let layout = scene_layout(&ctx.device);
+        let mut entries: Vec<_> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        entries.push(wgpu::BindGroupEntry {
+            binding: 9,
+            resource: info_buffer.as_entire_binding(),
+        });
+        let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("scene"),
+            layout: &layout,
+            entries: &entries,
+        });
+        let bytes = buffers.iter().map(|b| b.size()).sum();
+        Ok(Self {
+            layout,
+            bind_group,
+            info,
+            info_buffer,
+            _buffers: buffers,
+            bytes,
+        })
+    }
+
+    /// Changes the number of light samples without re-uploading the scene.
+    pub fn set_light_samples(&mut self, ctx: &GpuContext, samples: u32) {
+        self.info.light_samples = samples.max(1);
+        ctx.queue
+            .write_buffer(&self.info_buffer, 0, bytemuck::bytes_of(&self.info));
+    }
+}

@@ -1,0 +1,117 @@
+//! WGSL sources and their composition.
+//!
+//! WGSL has no include mechanism, so shared code (`wgsl/shared/*.wgsl`: ray, BVH
+//! traversal, sampling, scene bindings, shading) is written once and spliced into each pass
+//! by `//!include <name>` lines. Every source is embedded in the binary at compile time.
+
+use crate::{Error, Result};
+
+/// All WGSL files, by the name used in `//!include` lines and [`compose`].
+const SOURCES: &[(&str, &str)] = &[
+    (
+        "shared/ray.wgsl",
+        include_str!("../../wgsl/shared/ray.wgsl"),
+    ),
+    (
+        "shared/scene.wgsl",
+        include_str!("../../wgsl/shared/scene.wgsl"),
+    ),
+    (
+        "shared/bvh.wgsl",
+        include_str!("../../wgsl/shared/bvh.wgsl"),
+    ),
+    (
+        "shared/sampling.wgsl",
+        include_str!("../../wgsl/shared/sampling.wgsl"),
+    ),
+    (
+        "shared/shading.wgsl",
+        include_str!("../../wgsl/shared/shading.wgsl"),
+    ),
+    (
+        "shared/camera.wgsl",
+        include_str!("../../wgsl/shared/camera.wgsl"),
+    ),
+    (
+        "visibility.wgsl",
+        include_str!("../../wgsl/visibility.wgsl"),
+    ),
+    (
+        "direct_light.wgsl",
+        include_str!("../../wgsl/direct_light.wgsl"),
+    ),
+    (
+        "trace_rays.wgsl",
+        include_str!("../../wgsl/trace_rays.wgsl"),
+    ),
+];
+
+fn source(name: &str) -> Result<&'static str> {
+    SOURCES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, s)| *s)
+        .ok_or_else(|| Error::Gpu(format!("internal: no WGSL source named {name}")))
+}
+
+/// Returns the full WGSL text of a pass with its includes expanded (each file once).
+pub fn compose(name: &str) -> Result<String> {
+    let mut out = String::new();
+    let mut seen = Vec::new();
+    expand(name, &mut out, &mut seen)?;
+    Ok(out)
+}
+
+fn expand(name: &str, out: &mut String, seen: &mut Vec<String>) -> Result<()> {
+    if seen.iter().any(|s| s == name) {
+        return Ok(());
+    }
+    seen.push(name.to_string());
+    for line in source(name)?.lines() {
+        if let Some(inc) = line.trim().strip_prefix("//!include ") {
+            expand(inc.trim(), out, seen)?;
+        } else {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    Ok(())
+}
+
+/// Compiles a composed pass into a shader module, turning WGSL errors into [`Error::Gpu`].
+pub fn module(device: &wgpu::Device, name: &str) -> Result<wgpu::ShaderModule> {
+    let text = compose(name)?;
+    // Validate with naga first: its messages name the line, wgpu's uncaptured error would not.
+    let parsed = naga::front::wgsl::parse_str(&text)
+        .map_err(|e| Error::Gpu(format!("{name}: {}", e.emit_to_string(&text))))?;
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&parsed)
+    .map_err(|e| Error::Gpu(format!("{name}: {}", e.emit_to_string(&text))))?;
+    Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(name),
+        source: wgpu::ShaderSource::Wgsl(text.into()),
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_pass_composes_and_validates() {
+        for (name, _) in SOURCES.iter().filter(|(n, _)| !n.starts_with("shared/")) {
+            let text = compose(name).expect("compose");
+            let module = naga::front::wgsl::parse_str(&text)
+                .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&text)));
+            naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::all(),
+            )
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&text)));
+        }
+    }
+}

@@ -1,0 +1,85 @@
+//! GPU timestamps around compute passes, when the device supports them.
+
+use super::GpuContext;
+use crate::Result;
+
+/// Collects begin/end timestamps for up to `capacity` passes of one submission.
+pub struct PassTimer {
+    set: Option<wgpu::QuerySet>,
+    resolve: Option<wgpu::Buffer>,
+    names: Vec<&'static str>,
+    capacity: u32,
+}
+
+impl PassTimer {
+    pub fn new(ctx: &GpuContext, capacity: u32) -> Self {
+        if !ctx.has_timestamps() {
+            return Self {
+                set: None,
+                resolve: None,
+                names: Vec::new(),
+                capacity,
+            };
+        }
+        let set = ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("pass timer"),
+            ty: wgpu::QueryType::Timestamp,
+            count: capacity * 2,
+        });
+        let resolve = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("pass timer resolve"),
+            size: u64::from(capacity) * 16,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        Self {
+            set: Some(set),
+            resolve: Some(resolve),
+            names: Vec::new(),
+            capacity,
+        }
+    }
+
+    /// Timestamp writes for the next pass, named `name` (None when unsupported or full).
+    pub fn next(&mut self, name: &'static str) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        if self.names.len() as u32 >= self.capacity {
+            return None;
+        }
+        let i = self.names.len() as u32;
+        self.names.push(name);
+        self.set
+            .as_ref()
+            .map(|set| wgpu::ComputePassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: Some(2 * i),
+                end_of_pass_write_index: Some(2 * i + 1),
+            })
+    }
+
+    /// Records the query resolve; call before finishing the encoder.
+    pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
+        if let (Some(set), Some(buf)) = (&self.set, &self.resolve) {
+            encoder.resolve_query_set(set, 0..self.names.len() as u32 * 2, buf, 0);
+        }
+    }
+
+    /// Per-pass durations in milliseconds (empty when unsupported). Waits for the GPU.
+    pub fn read(&self, ctx: &GpuContext) -> Result<Vec<(&'static str, f64)>> {
+        let Some(buf) = &self.resolve else {
+            return Ok(Vec::new());
+        };
+        let ticks: Vec<u64> = ctx.read_buffer(buf)?;
+        let period = f64::from(ctx.queue.get_timestamp_period());
+        Ok(self
+            .names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| {
+                (
+                    *n,
+                    ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * period * 1e-6,
+                )
+            })
+            .collect())
+    }
+}

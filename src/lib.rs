@@ -1,0 +1,24 @@
+//! radsplat: global illumination on compute shaders — radiance cache splatting and
+//! temporal radiance caching (Gautron et al.) on wgpu.
+//!
+//! The data flow of a frame is readable from the module names and from
+//! [`frame::Renderer::render_frame`]:
+//! [`scene`] → [`bvh`] → [`visibility`] → [`direct`] → [`output`].
+//! (Irradiance records, splatting and resolve join between visibility and output.)
+//!
+//! Embedding: build a [`gpu::GpuContext`] from your own `wgpu::Device` and `Queue` with
+//! [`gpu::GpuContext::from_device`]; [`gpu::required_limits`] says what the device needs.
+
+pub mod bench;
+pub mod bvh;
+pub mod direct;
+pub mod error;
+pub mod frame;
+pub mod gpu;
+pub mod output;
+pub mod sampling;
+pub mod scene;
+pub mod visibility;
+
+pub use error::{Error, Result};
+pub use frame::{Frame, FrameStats, PreparedScene, Renderer};

@@ -1,0 +1,257 @@
+//! The `radsplat` command line.
+
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use radsplat::gpu::GpuContext;
+use radsplat::output::{tonemap_to_srgb8, write_atomically, write_exr, write_png};
+use radsplat::scene::load_scene;
+use radsplat::{Error, Renderer, Result};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "radsplat",
+    version,
+    about = "Compute-shader global illumination renderer"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene to a linear EXR (with AOVs) and optionally a tone-mapped PNG.
+    Render {
+        /// Scene file (TOML, see docs/scene-format.md).
+        scene: PathBuf,
+        /// Output EXR (default: <scene name>.exr in the current directory).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Also write a tone-mapped sRGB PNG here.
+        #[arg(long)]
+        png: Option<PathBuf>,
+        /// Override the scene's resolution, e.g. 640x480.
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        /// Override the scene's light samples per pixel (area lights, environment).
+        #[arg(long)]
+        light_samples: Option<u32>,
+        /// Write frame statistics as JSON here.
+        #[arg(long)]
+        stats: Option<PathBuf>,
+        /// No progress bar or summary.
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// Print the adapter, driver, limits and features radsplat would use.
+    Info,
+    /// Benchmark BVH build and ray kernels on a scene; prints a table of medians.
+    Bench {
+        scene: PathBuf,
+        /// Timed runs per kernel (after one warm-up).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Override the scene's resolution, e.g. 512x512.
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        /// Write the results as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        #[arg(short, long)]
+        quiet: bool,
+    },
+}
+
+fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}' is not WIDTHxHEIGHT"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&n| n > 0)
+            .ok_or_else(|| format!("'{v}' in '{s}' is not a positive integer"))
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+fn main() -> ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render {
+            scene,
+            output,
+            png,
+            size,
+            light_samples,
+            stats,
+            quiet,
+        } => render(&scene, output, png, size, light_samples, stats, quiet),
+        Command::Info => info(),
+        Command::Bench {
+            scene,
+            runs,
+            size,
+            json,
+            quiet,
+        } => radsplat::bench::run_cli(&scene, runs, size, json.as_deref(), quiet),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn progress(quiet: bool, steps: u64) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(steps);
+    if let Ok(style) =
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} {msg}")
+    {
+        bar.set_style(style);
+    }
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    bar
+}
+
+fn render(
+    scene_path: &Path,
+    output: Option<PathBuf>,
+    png: Option<PathBuf>,
+    size: Option<(u32, u32)>,
+    light_samples: Option<u32>,
+    stats: Option<PathBuf>,
+    quiet: bool,
+) -> Result<()> {
+    let bar = progress(quiet, 5);
+    bar.set_message("loading scene");
+    let mut scene = load_scene(scene_path)?;
+    if let Some((w, h)) = size {
+        scene.camera.width = w;
+        scene.camera.height = h;
+    }
+    if let Some(n) = light_samples {
+        if n == 0 {
+            return Err(Error::Usage("--light-samples must be at least 1".into()));
+        }
+        scene.settings.light_samples = n;
+    }
+    let output = output.unwrap_or_else(|| {
+        let stem = scene_path.file_stem().unwrap_or_default().to_string_lossy();
+        PathBuf::from(format!("{stem}.exr"))
+    });
+    bar.inc(1);
+    bar.set_message("starting GPU");
+    let renderer = Renderer::new(GpuContext::new()?)?;
+    radsplat::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
+    bar.inc(1);
+    bar.set_message("building BVH");
+    let prepared = renderer.prepare(&scene)?;
+    bar.inc(1);
+    bar.set_message("rendering");
+    let frame = renderer.render_frame(&prepared, &scene.camera)?;
+    bar.inc(1);
+    bar.set_message("writing");
+    write_exr(&output, &frame)?;
+    if let Some(png) = &png {
+        let rgb = tonemap_to_srgb8(&frame.beauty, scene.settings.exposure);
+        write_png(png, frame.width, frame.height, &rgb)?;
+    }
+    if let Some(stats_path) = &stats {
+        let json = serde_json_string(&prepared.bvh_stats, &frame.stats);
+        write_atomically(stats_path, json.as_bytes())?;
+    }
+    bar.inc(1);
+    bar.finish_and_clear();
+    if !quiet {
+        let passes: Vec<String> = frame
+            .stats
+            .pass_ms
+            .iter()
+            .map(|(n, ms)| format!("{n} {ms:.1} ms"))
+            .collect();
+        eprintln!(
+            "{}x{}, {} triangles, BVH {:.1} ms, GPU: {}; wrote {}{}",
+            frame.width,
+            frame.height,
+            prepared.bvh_stats.triangles,
+            prepared.bvh_stats.build_ms,
+            if passes.is_empty() {
+                "no timestamps".to_string()
+            } else {
+                passes.join(", ")
+            },
+            output.display(),
+            png.map(|p| format!(" and {}", p.display()))
+                .unwrap_or_default()
+        );
+    }
+    Ok(())
+}
+
+fn serde_json_string(bvh: &radsplat::frame::BvhStats, frame: &radsplat::FrameStats) -> String {
+    #[derive(serde::Serialize)]
+    struct Stats<'a> {
+        bvh: &'a radsplat::frame::BvhStats,
+        frame: &'a radsplat::FrameStats,
+    }
+    serde_json::to_string_pretty(&Stats { bvh, frame }).unwrap_or_default()
+}
+
+fn info() -> Result<()> {
+    let ctx = GpuContext::new()?;
+    if let Some(a) = &ctx.adapter_info {
+        println!("adapter:      {}", a.name);
+        println!("backend:      {:?}", a.backend);
+        println!("device type:  {:?}", a.device_type);
+        println!("driver:       {} ({})", a.driver, a.driver_info);
+    }
+    let l = ctx.device.limits();
+    println!("limits:");
+    println!(
+        "  max_storage_buffer_binding_size   {} MiB",
+        l.max_storage_buffer_binding_size >> 20
+    );
+    println!(
+        "  max_buffer_size                   {} MiB",
+        l.max_buffer_size >> 20
+    );
+    println!(
+        "  max_storage_buffers_per_stage     {}",
+        l.max_storage_buffers_per_shader_stage
+    );
+    println!(
+        "  max_compute_workgroups_per_dim    {}",
+        l.max_compute_workgroups_per_dimension
+    );
+    println!(
+        "  max_compute_invocations_per_wg    {}",
+        l.max_compute_invocations_per_workgroup
+    );
+    println!(
+        "  max_compute_workgroup_storage     {} KiB",
+        l.max_compute_workgroup_storage_size >> 10
+    );
+    let side =
+        ((ctx.max_binding_size() / radsplat::visibility::VIS_SAMPLE_BYTES) as f64).sqrt() as u64;
+    println!("  largest square image              {side}x{side}");
+    println!("features used:");
+    println!(
+        "  TIMESTAMP_QUERY (per-pass GPU times): {}",
+        ctx.has_timestamps()
+    );
+    println!(
+        "required by radsplat: {:?}",
+        radsplat::gpu::required_limits().max_storage_buffers_per_shader_stage
+    );
+    Ok(())
+}

@@ -1,0 +1,53 @@
+//! Output files: linear EXR with AOVs, tone-mapped sRGB PNG, false-colour PNGs. Every
+//! file is written atomically: to a temporary file next to it, then renamed, so a
+//! failure never leaves a half-written output.
+
+pub mod exr_out;
+pub mod png_out;
+
+pub use exr_out::{read_exr_channels, write_exr};
+pub use png_out::{tonemap_to_srgb8, write_png};
+
+use crate::{Error, Result};
+use std::io::Write;
+use std::path::Path;
+
+/// Writes `bytes` to `path` atomically (temp file in the same directory, fsync, rename).
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    let err = |message: String| Error::Output {
+        path: path.to_path_buf(),
+        message,
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(err(format!("directory {} does not exist", dir.display())));
+    }
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| err("not a file name".into()))?
+        .to_string_lossy();
+    let tmp = dir.join(format!(".{file_name}.{}.tmp", std::process::id()));
+    let result = (|| -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(err(e.to_string()));
+    }
+    Ok(())
+}
+
+/// SHA-256 of a byte string, lowercase hex.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::{Digest, Sha256};
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}

@@ -1,0 +1,128 @@
+//! Bad input through the command line: a clear message naming the problem, a non-zero
+//! exit code, no panic and no output file.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn tmp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("radsplat-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+fn radsplat(args: &[&str]) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_radsplat"))
+        .args(args)
+        .output()
+        .expect("run radsplat");
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!stderr.contains("panicked"), "radsplat panicked: {stderr}");
+    (out.status.code().unwrap_or(-1), stderr)
+}
+
+fn no_files_in(dir: &Path) {
+    let left: Vec<_> = std::fs::read_dir(dir)
+        .expect("dir")
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert!(left.is_empty(), "output left behind: {left:?}");
+}
+
+#[test]
+fn resolution_beyond_device_limits_is_refused() {
+    let dir = tmp_dir("huge");
+    let exr = dir.join("out.exr");
+    let scene = common::bundled("cornell-box.toml");
+    let (code, err) = radsplat(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--size",
+        "100000x100000",
+        "--quiet",
+    ]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("100000x100000") && err.contains("device limit"),
+        "{err}"
+    );
+    no_files_in(&dir);
+}
+
+#[test]
+fn missing_scene_file_is_named() {
+    let dir = tmp_dir("missing");
+    let exr = dir.join("out.exr");
+    let (code, err) = radsplat(&[
+        "render",
+        "no/such/scene.toml",
+        "-o",
+        exr.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("no/such/scene.toml"), "{err}");
+    no_files_in(&dir);
+}
+
+#[test]
+fn malformed_size_is_a_usage_error() {
+    let scene = common::bundled("cornell-box.toml");
+    let (code, err) = radsplat(&["render", scene.to_str().unwrap(), "--size", "12xfoo"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("foo"), "{err}");
+}
+
+#[test]
+fn output_into_missing_directory_fails_cleanly() {
+    let dir = tmp_dir("nodir");
+    let exr = dir.join("not-here").join("out.exr");
+    let scene = common::bundled("cornell-box.toml");
+    let (code, err) = radsplat(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--size",
+        "16x16",
+        "--quiet",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("not-here"), "{err}");
+    no_files_in(&dir);
+}
+
+#[test]
+fn render_writes_exr_and_png() {
+    let dir = tmp_dir("ok");
+    let exr = dir.join("c.exr");
+    let png = dir.join("c.png");
+    let scene = common::bundled("cornell-box.toml");
+    let (code, err) = radsplat(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--png",
+        png.to_str().unwrap(),
+        "--size",
+        "32x32",
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (w, h, channels) = radsplat::output::read_exr_channels(&exr).expect("read back");
+    assert_eq!((w, h), (32, 32));
+    for name in ["R", "G", "B", "albedo.R", "normal.X", "depth.Z", "direct.R"] {
+        assert!(
+            channels.iter().any(|(n, _)| n == name),
+            "missing channel {name}"
+        );
+    }
+    let img = image::open(&png).expect("png");
+    assert_eq!((img.width(), img.height()), (32, 32));
+}

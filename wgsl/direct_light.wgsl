@@ -1,0 +1,33 @@
+// Direct-light pass: shades every visible pixel with direct light (shadow rays) and
+// emission; background pixels see the environment. Writes the beauty image and AOVs.
+//!include shared/shading.wgsl
+//!include shared/camera.wgsl
+
+@group(1) @binding(0) var<uniform> camera: Camera;
+@group(1) @binding(1) var<storage, read> vis: array<VisSample>;
+@group(1) @binding(2) var<storage, read_write> beauty: array<vec4f>;   // emission + direct
+@group(1) @binding(3) var<storage, read_write> albedo_out: array<vec4f>;
+@group(1) @binding(4) var<storage, read_write> direct_out: array<vec4f>; // reflected direct light
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    if id.x >= camera.width || id.y >= camera.height {
+        return;
+    }
+    let pixel = id.y * camera.width + id.x;
+    let v = vis[pixel];
+    if v.instance == NO_HIT {
+        beauty[pixel] = vec4f(scene_info.environment, 1.0);
+        albedo_out[pixel] = vec4f(0.0);
+        direct_out[pixel] = vec4f(0.0);
+        return;
+    }
+    let dir = camera_ray_dir(camera, id.xy);
+    let s = surface_at(Hit(v.t, v.instance, v.triangle, v.bary.x, v.bary.y), dir);
+    let albedo = surface_albedo(s);
+    // Lambertian: L = albedo / pi * E.
+    let direct = albedo * (1.0 / PI) * direct_irradiance(s, hash_u32(pixel));
+    beauty[pixel] = vec4f(surface_emission(s) + direct, 1.0);
+    albedo_out[pixel] = vec4f(albedo, 1.0);
+    direct_out[pixel] = vec4f(direct, 1.0);
+}

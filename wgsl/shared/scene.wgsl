@@ -1,0 +1,97 @@
+// Scene tables, bound at group 0 by every pass (layout: src/gpu/scene_buffers.rs,
+// Rust mirrors: src/bvh/gpu_layout.rs and src/gpu/scene_buffers.rs).
+
+struct BvhNode {
+    min: vec3f,
+    index: u32,   // inner: first child (second at index+1); leaf: first primitive
+    max: vec3f,
+    count: u32,   // 0 = inner node, else primitive count
+}
+
+struct Triangle {
+    v0: vec4f,
+    e1: vec4f,   // v1 - v0
+    e2: vec4f,   // v2 - v0
+}
+
+struct TriangleShading {
+    n0: vec3f,
+    material: u32,
+    n1: vec3f,
+    mesh_triangle: u32,
+    n2: vec3f,
+    _pad: u32,
+    uv01: vec4f,
+    uv2: vec4f,
+}
+
+struct Instance {
+    world_from_object: array<vec4f, 3>,   // rows of a 3x4 affine matrix
+    object_from_world: array<vec4f, 3>,
+    normal_to_world: array<vec4f, 3>,
+    blas_root: u32,
+    first_triangle: u32,
+    mesh: u32,
+    _pad: u32,
+}
+
+struct Material {
+    albedo: vec3f,
+    texture: u32,   // NO_TEXTURE or index into texture_infos
+    emission: vec3f,
+    _pad: u32,
+}
+
+struct TextureInfo {
+    offset: u32,   // first texel in `texels`
+    width: u32,
+    height: u32,
+    _pad: u32,
+}
+
+const NO_TEXTURE: u32 = 0xffffffffu;
+const LIGHT_POINT: u32 = 0u;
+const LIGHT_SPOT: u32 = 1u;
+const LIGHT_RECT: u32 = 2u;
+const LIGHT_SUN: u32 = 3u;
+
+// a.xyz: position / corner / direction to the sun; a.w: kind (bitcast u32)
+// b.xyz: spot direction / rect edge_u;            b.w: spot cos_inner
+// c.xyz: rect edge_v;                              c.w: spot cos_outer
+// d.xyz: intensity (W/sr) / radiance / irradiance
+struct Light {
+    a: vec4f,
+    b: vec4f,
+    c: vec4f,
+    d: vec4f,
+}
+
+struct SceneInfo {
+    environment: vec3f,
+    light_count: u32,
+    light_samples: u32,
+    instance_count: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(0) @binding(0) var<storage, read> tlas_nodes: array<BvhNode>;
+@group(0) @binding(1) var<storage, read> blas_nodes: array<BvhNode>;
+@group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(3) var<storage, read> shading: array<TriangleShading>;
+@group(0) @binding(4) var<storage, read> instances: array<Instance>;
+@group(0) @binding(5) var<storage, read> materials: array<Material>;
+@group(0) @binding(6) var<storage, read> texture_infos: array<TextureInfo>;
+@group(0) @binding(7) var<storage, read> texels: array<u32>;
+@group(0) @binding(8) var<storage, read> lights: array<Light>;
+@group(0) @binding(9) var<uniform> scene_info: SceneInfo;
+
+fn transform_point(m: array<vec4f, 3>, p: vec3f) -> vec3f {
+    let h = vec4f(p, 1.0);
+    return vec3f(dot(m[0], h), dot(m[1], h), dot(m[2], h));
+}
+
+fn transform_vector(m: array<vec4f, 3>, v: vec3f) -> vec3f {
+    let h = vec4f(v, 0.0);
+    return vec3f(dot(m[0], h), dot(m[1], h), dot(m[2], h));
+}
