@@ -1,1 +1,77 @@
-fn main() {}
+//! Criterion benchmarks of the ray kernels (the same kernels `radsplat bench` reports):
+//! BVH build, GPU primary / shadow / incoherent rays, and obvhs's CPU traversal of the
+//! incoherent rays on one thread. Scene: the bundled Cornell box, or Sponza when
+//! `RADSPLAT_ASSET_PATH` is set (`RADSPLAT_BENCH_SCENE` picks another scene file).
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use radsplat::bench::make_rays;
+use radsplat::bvh::SceneBvh;
+use radsplat::bvh::cpu_trace::CpuTracer;
+use radsplat::bvh::trace_pass::TraceRaysPass;
+use radsplat::gpu::{GpuContext, GpuScene};
+use radsplat::scene::load_scene;
+use std::path::PathBuf;
+
+fn scene_path() -> PathBuf {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    if let Ok(p) = std::env::var("RADSPLAT_BENCH_SCENE") {
+        return PathBuf::from(p);
+    }
+    if std::env::var_os("RADSPLAT_ASSET_PATH").is_some() {
+        root.join("sponza.toml")
+    } else {
+        root.join("cornell-box.toml")
+    }
+}
+
+fn kernels(c: &mut Criterion) {
+    let mut scene = load_scene(&scene_path()).expect("scene");
+    scene.camera.width = 256;
+    scene.camera.height = 256;
+    let ctx = GpuContext::new().expect("gpu");
+    let mut group = c.benchmark_group("bvh");
+    group.sample_size(10);
+    group.bench_function("build", |b| b.iter(|| SceneBvh::build(&scene)));
+    group.finish();
+
+    let bvh = SceneBvh::build(&scene);
+    let gpu_scene = GpuScene::upload(&ctx, &scene, &bvh, 1).expect("upload");
+    let tracer = CpuTracer::new(&scene);
+    let rays = make_rays(&scene, &tracer);
+    let pass = TraceRaysPass::new(&ctx).expect("pass");
+    let mut group = c.benchmark_group("rays");
+    group.sample_size(10);
+    for (name, list, any_hit) in [
+        ("gpu_primary", &rays.primary, false),
+        ("gpu_shadow", &rays.shadow, true),
+        ("gpu_incoherent", &rays.incoherent, false),
+    ] {
+        if list.is_empty() {
+            continue;
+        }
+        let batch = pass.upload(&ctx, list, any_hit).expect("upload rays");
+        pass.trace(&ctx, &gpu_scene, &batch).expect("warm-up");
+        group.throughput(Throughput::Elements(list.len() as u64));
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let mut enc = ctx.device.create_command_encoder(&Default::default());
+                pass.record(&mut enc, &gpu_scene, &batch, None);
+                ctx.queue.submit([enc.finish()]);
+                ctx.wait().expect("gpu");
+            })
+        });
+    }
+    group.throughput(Throughput::Elements(rays.incoherent.len() as u64));
+    group.bench_function("cpu_obvhs_incoherent_1_thread", |b| {
+        b.iter(|| {
+            rays.incoherent
+                .iter()
+                .filter(|r| tracer.closest_hit(r.origin.into(), r.dir.into(), r.tmin, r.tmax).is_some())
+                .count()
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, kernels);
+criterion_main!(benches);

@@ -2,7 +2,7 @@
 //! primary, shadow and incoherent (cosine-hemisphere) rays, and obvhs's CPU traversal on
 //! one thread over the same incoherent rays. Reports medians of several runs.
 
-use crate::bvh::SceneBvh;
+use crate::bvh::{BvhPreset, SceneBvh};
 use crate::bvh::cpu_trace::CpuTracer;
 use crate::bvh::trace_pass::{GpuHit, GpuRay, RayBatch, TraceRaysPass};
 use crate::direct::reference::offset_ray_origin;
@@ -119,6 +119,7 @@ pub struct BenchReport {
     pub height: u32,
     pub triangles: usize,
     pub runs: usize,
+    pub bvh_preset: BvhPreset,
     pub bvh_build_ms: f64,
     pub rows: Vec<BenchRow>,
     /// GPU incoherent Mrays/s divided by CPU (obvhs, 1 thread) incoherent Mrays/s.
@@ -150,6 +151,7 @@ pub fn run(
     ctx: &GpuContext,
     scene: &Scene,
     runs: usize,
+    preset: BvhPreset,
     mut progress: impl FnMut(&str),
 ) -> Result<BenchReport> {
     let runs = runs.max(1);
@@ -158,7 +160,7 @@ pub fn run(
     let mut bvh = None;
     for _ in 0..runs {
         let t0 = Instant::now();
-        let b = SceneBvh::build(scene);
+        let b = SceneBvh::build_with(scene, preset);
         build.push(t0.elapsed().as_secs_f64() * 1e3);
         bvh = Some(b);
     }
@@ -242,6 +244,7 @@ pub fn run(
         height: scene.camera.height,
         triangles: bvh.triangles.len(),
         runs,
+        bvh_preset: preset,
         bvh_build_ms: median(&mut build),
         rows,
         gpu_over_cpu_incoherent: match (gpu_inc, cpu_inc) {
@@ -264,7 +267,7 @@ pub fn format_table(r: &BenchReport) -> String {
     );
     s += &format!(
         "{:<36} {:>10} {:>12.2} {:>10}\n",
-        "BVH build (BLAS+TLAS, CPU)", "-", r.bvh_build_ms, "-"
+        format!("BVH build ({:?}, CPU)", r.bvh_preset), "-", r.bvh_build_ms, "-"
     );
     for row in &r.rows {
         s += &format!(
@@ -290,6 +293,7 @@ pub fn run_cli(
     scene_path: &Path,
     runs: usize,
     size: Option<(u32, u32)>,
+    preset: BvhPreset,
     json: Option<&Path>,
     quiet: bool,
 ) -> Result<()> {
@@ -305,7 +309,7 @@ pub fn run_cli(
         indicatif::ProgressBar::new_spinner()
     };
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
-    let report = run(&ctx, &scene, runs, |m| bar.set_message(m.to_string()))?;
+    let report = run(&ctx, &scene, runs, preset, |m| bar.set_message(m.to_string()))?;
     bar.finish_and_clear();
     print!("{}", format_table(&report));
     if let Some(path) = json {

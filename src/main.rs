@@ -56,6 +56,9 @@ enum Command {
         /// Override the scene's resolution, e.g. 512x512.
         #[arg(long, value_parser = parse_size)]
         size: Option<(u32, u32)>,
+        /// obvhs preset for the mesh BVHs.
+        #[arg(long, value_enum, default_value_t = radsplat::bvh::BvhPreset::Medium)]
+        bvh_preset: radsplat::bvh::BvhPreset,
         /// Write the results as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -96,9 +99,10 @@ fn main() -> ExitCode {
             scene,
             runs,
             size,
+            bvh_preset,
             json,
             quiet,
-        } => radsplat::bench::run_cli(&scene, runs, size, json.as_deref(), quiet),
+        } => radsplat::bench::run_cli(&scene, runs, size, bvh_preset, json.as_deref(), quiet),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

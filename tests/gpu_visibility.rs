@@ -8,10 +8,37 @@ use radsplat::bvh::cpu_trace::CpuTracer;
 use radsplat::scene::Scene;
 use radsplat::visibility::GpuCamera;
 
-/// Renders the visibility buffer and checks every pixel against the CPU: same instance
-/// and triangle, t within 1e-4 relative. A differing triangle is accepted only as an exact
-/// tie: the GPU's triangle is hit by the same ray at the CPU's distance (within 1e-4),
-/// e.g. on a shared edge or coplanar overlap. Returns (pixels hit, ties).
+/// Ray/triangle test in f64: (t, smallest barycentric) of the triangle `tri` of the
+/// instance, or None if the ray's line misses its plane.
+fn exact_hit(scene: &Scene, instance: u32, tri: u32, o: Vec3, d: Vec3) -> Option<(f64, f64)> {
+    let inst = &scene.instances[instance as usize];
+    let mesh = &scene.meshes[inst.mesh as usize];
+    let idx = mesh.indices[tri as usize];
+    let p = |k: usize| {
+        inst.transform
+            .transform_point3(mesh.positions[idx[k] as usize])
+            .as_dvec3()
+    };
+    let (o, d) = (o.as_dvec3(), d.as_dvec3());
+    let (e1, e2) = (p(1) - p(0), p(2) - p(0));
+    let pv = d.cross(e2);
+    let det = e1.dot(pv);
+    if det == 0.0 {
+        return None;
+    }
+    let s = o - p(0);
+    let u = s.dot(pv) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    Some((e2.dot(q) / det, u.min(v).min(1.0 - u - v)))
+}
+
+/// Renders the visibility buffer and checks every pixel against obvhs's CPU traversal:
+/// same instance and triangle, t within 1e-4 relative. A disagreement is accepted only
+/// when it is a precision case that both answers can claim, checked in f64: an exact tie
+/// (the other triangle is hit at the same distance), or a ray grazing a triangle edge
+/// (within 1e-5 in barycentric terms), where obvhs's and our Möller–Trumbore variants may
+/// round differently. Returns (pixels hit, ambiguous pixels).
 fn check_against_cpu(scene: &Scene) -> (usize, usize) {
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let prepared = renderer.prepare(scene).expect("prepare");
@@ -20,54 +47,50 @@ fn check_against_cpu(scene: &Scene) -> (usize, usize) {
         .expect("frame");
     let tracer = CpuTracer::new(scene);
     let cam = GpuCamera::new(&scene.camera);
-    let (mut hits, mut ties, mut bad) = (0, 0, Vec::new());
+    let origin = Vec3::from(cam.origin);
+    let (mut hits, mut ambiguous, mut bad) = (0, 0, Vec::new());
+    // Either answer is a real hit within rounding: on or within 1e-5 of the triangle.
+    let genuine = |inst: u32, tri: u32, t: f32, d: Vec3| {
+        exact_hit(scene, inst, tri, origin, d).is_some_and(|(te, margin)| {
+            margin > -1e-5 && (te - f64::from(t)).abs() <= 1e-4 * te.abs()
+        })
+    };
+    let on_edge = |inst: u32, tri: u32, d: Vec3| {
+        exact_hit(scene, inst, tri, origin, d).is_some_and(|(_, margin)| margin.abs() <= 1e-5)
+    };
     for y in 0..cam.height {
         for x in 0..cam.width {
             let g = frame.visibility[(y * cam.width + x) as usize];
             let dir = cam.ray_dir(x, y);
-            let c = tracer.closest_hit(cam.origin.into(), dir, 0.0, f32::INFINITY);
-            match c {
-                None => {
-                    if g.is_hit() {
-                        bad.push(format!("({x},{y}): GPU hit, CPU miss"));
-                    }
-                }
+            let c = tracer.closest_hit(origin, dir, 0.0, f32::INFINITY);
+            let same = match c {
+                None => !g.is_hit(),
                 Some(c) => {
-                    hits += 1;
-                    if !g.is_hit() {
-                        bad.push(format!("({x},{y}): GPU miss, CPU hit t={}", c.t));
-                        continue;
-                    }
-                    let rel = (g.t - c.t).abs() / c.t.max(1e-6);
-                    if rel > 1e-4 {
-                        bad.push(format!("({x},{y}): t GPU {} CPU {}", g.t, c.t));
-                    } else if (g.instance, g.mesh_triangle) != (c.instance, c.triangle) {
-                        // Exact tie? Intersect the GPU's triangle on the CPU.
-                        let inst = &scene.instances[g.instance as usize];
-                        let mesh = &scene.meshes[inst.mesh as usize];
-                        let idx = mesh.indices[g.mesh_triangle as usize];
-                        let p = |k: usize| {
-                            inst.transform
-                                .transform_point3(mesh.positions[idx[k] as usize])
-                        };
-                        let tri = obvhs::triangle::Triangle {
-                            v0: p(0).into(),
-                            v1: p(1).into(),
-                            v2: p(2).into(),
-                        };
-                        let ray =
-                            obvhs::ray::Ray::new_inf(Vec3::from(cam.origin).into(), dir.into());
-                        let t = tri.intersect(&ray);
-                        if t.is_finite() && (t - c.t).abs() <= 1e-4 * c.t {
-                            ties += 1;
-                        } else {
-                            bad.push(format!(
-                                "({x},{y}): GPU ({}, {}) CPU ({}, {}) t {}",
-                                g.instance, g.mesh_triangle, c.instance, c.triangle, c.t
-                            ));
-                        }
-                    }
+                    g.is_hit()
+                        && (g.instance, g.mesh_triangle) == (c.instance, c.triangle)
+                        && (g.t - c.t).abs() <= 1e-4 * c.t
                 }
+            };
+            if c.is_some() {
+                hits += 1;
+            }
+            if same {
+                continue;
+            }
+            // Which answers are precision cases?
+            let gpu_ok = !g.is_hit() || genuine(g.instance, g.mesh_triangle, g.t, dir);
+            let edge = (g.is_hit() && on_edge(g.instance, g.mesh_triangle, dir))
+                || c.is_some_and(|c| on_edge(c.instance, c.triangle, dir));
+            let tie = c.is_some_and(|c| g.is_hit() && (g.t - c.t).abs() <= 1e-4 * c.t);
+            if gpu_ok && (edge || tie) {
+                ambiguous += 1;
+            } else {
+                bad.push(format!(
+                    "({x},{y}): GPU {:?} t {}, CPU {:?}",
+                    g.is_hit().then_some((g.instance, g.mesh_triangle)),
+                    g.t,
+                    c.map(|c| (c.instance, c.triangle, c.t))
+                ));
             }
         }
     }
@@ -77,8 +100,13 @@ fn check_against_cpu(scene: &Scene) -> (usize, usize) {
         bad.len(),
         &bad[..bad.len().min(10)]
     );
+    // Ambiguous pixels must stay rare (here: < 0.1 % of hits).
+    assert!(
+        ambiguous * 1000 <= hits,
+        "{ambiguous} ambiguous pixels of {hits}"
+    );
     renderer.ctx.check().expect("no wgpu errors");
-    (hits, ties)
+    (hits, ambiguous)
 }
 
 #[test]
@@ -89,7 +117,6 @@ fn cornell_box_visibility_matches_cpu() {
         hits > 96 * 96 * 9 / 10,
         "most of the view is the box: {hits}"
     );
-    assert!(ties < hits / 100, "ties {ties}");
 }
 
 #[test]
@@ -106,6 +133,6 @@ fn sponza_visibility_matches_cpu() {
     }
     let scene = common::load("sponza.toml", Some((160, 160)));
     let (hits, ties) = check_against_cpu(&scene);
-    eprintln!("sponza: {hits} hits, {ties} exact ties");
+    eprintln!("sponza: {hits} hits, {ties} ambiguous (edge or tie)");
     assert!(hits > 160 * 160 / 2);
 }

@@ -16,11 +16,33 @@ use gpu_layout::{GpuInstance, GpuNode, GpuTriangle, GpuTriangleShading};
 use obvhs::{BvhBuildParams, aabb::Aabb, bvh2::Bvh2, triangle::Triangle};
 use std::time::{Duration, Instant};
 
-/// BVH build preset for meshes. `medium_build` (PLOC, search distance 14, reinsertion
-/// 5 %, leaves of up to 8 triangles before collapse) is obvhs's "embree-like build time,
-/// faster traversal" setting; see `docs/architecture.md` for the measurements behind it.
+/// obvhs build presets, from fastest build to best traversal.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+pub enum BvhPreset {
+    Fastest,
+    VeryFast,
+    Fast,
+    /// The default: PLOC (medium search distance) + reinsertion, leaves of up to 8
+    /// triangles; obvhs's "embree-like build time, faster traversal" setting. See
+    /// `docs/architecture.md` for the measurements behind the choice.
+    #[default]
+    Medium,
+}
+
+impl BvhPreset {
+    pub fn params(self) -> BvhBuildParams {
+        match self {
+            BvhPreset::Fastest => BvhBuildParams::fastest_build(),
+            BvhPreset::VeryFast => BvhBuildParams::very_fast_build(),
+            BvhPreset::Fast => BvhBuildParams::fast_build(),
+            BvhPreset::Medium => BvhBuildParams::medium_build(),
+        }
+    }
+}
+
+/// BVH build parameters for meshes (the default preset).
 pub fn blas_params() -> BvhBuildParams {
-    BvhBuildParams::medium_build()
+    BvhPreset::default().params()
 }
 
 /// TLAS preset: one instance per leaf so a TLAS leaf names its instance directly.
@@ -43,7 +65,7 @@ pub struct Blas {
 
 impl Blas {
     /// Builds the BLAS of a mesh.
-    pub fn build(mesh: &Mesh) -> Blas {
+    pub fn build(mesh: &Mesh, preset: BvhPreset) -> Blas {
         let tris: Vec<Triangle> = mesh
             .indices
             .iter()
@@ -54,7 +76,7 @@ impl Blas {
             })
             .collect();
         let mut core = Duration::ZERO;
-        let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, blas_params(), &mut core);
+        let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, preset.params(), &mut core);
         let mesh_triangle = bvh.primitive_indices.clone();
         let triangles = mesh_triangle.iter().map(|&i| tris[i as usize]).collect();
         Blas {
@@ -87,10 +109,16 @@ pub struct SceneBvh {
 }
 
 impl SceneBvh {
-    /// Builds every mesh's BLAS and the TLAS for the scene's current instance transforms.
+    /// Builds every mesh's BLAS (default preset) and the TLAS for the scene's current
+    /// instance transforms.
     pub fn build(scene: &Scene) -> SceneBvh {
+        Self::build_with(scene, BvhPreset::default())
+    }
+
+    /// As [`SceneBvh::build`] with a chosen BLAS preset.
+    pub fn build_with(scene: &Scene, preset: BvhPreset) -> SceneBvh {
         let t0 = Instant::now();
-        let blases: Vec<Blas> = scene.meshes.iter().map(Blas::build).collect();
+        let blases: Vec<Blas> = scene.meshes.iter().map(|m| Blas::build(m, preset)).collect();
         let blas_ms = t0.elapsed().as_secs_f64() * 1e3;
 
         let mut blas_nodes = Vec::new();

@@ -334,13 +334,14 @@ fn check_face_vertex(
         };
         if !in_range {
             let available = if index < 0 { seen } else { total };
+            let hint = if index == 0 {
+                " (OBJ indices start at 1)"
+            } else {
+                ""
+            };
             return Err(format!(
-                "face vertex '{word}' refers to {what} {index}, but there are {available} '{keyword}' lines{}",
-                if index == 0 {
-                    " (OBJ indices start at 1)"
-                } else {
-                    ""
-                }
+                "face vertex '{word}' refers to {what} {index}, \
+                 but there are {available} '{keyword}' lines{hint}"
             ));
         }
     }
@@ -616,7 +617,8 @@ fn assemble_mesh(
     }
     if stats.unusable_normals > 0 {
         log::info!(
-            "{}: {} vertex normals unusable (zero or not finite), shading uses the geometric normal there",
+            "{}: {} vertex normals unusable (zero or not finite); \
+             shading uses the geometric normal there",
             path.display(),
             stats.unusable_normals
         );

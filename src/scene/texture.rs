@@ -31,7 +31,8 @@ pub fn load_texture(path: &Path) -> Result<Texture> {
     if width.max(height) > MAX_TEXTURE_SIZE {
         let (new_width, new_height) = capped_size(width, height);
         log::info!(
-            "{}: downsampling texture {width}x{height} to {new_width}x{new_height} (limit {MAX_TEXTURE_SIZE})",
+            "{}: downsampling texture {width}x{height} to {new_width}x{new_height} \
+             (limit {MAX_TEXTURE_SIZE})",
             path.display()
         );
         rgba = image::imageops::resize(&rgba, new_width, new_height, FilterType::Triangle);

@@ -1,0 +1,617 @@
+//! Scene loading: every kind of bad input gives an error naming the file and the line or
+//! field; the bundled scenes load; Sponza loads when `RADSPLAT_ASSET_PATH` is set.
+
+use radsplat::Error;
+use radsplat::scene::{Light, Scene, load_scene};
+use std::path::{Path, PathBuf};
+
+/// A fresh, empty directory for one test's files.
+fn test_dir(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "radsplat-scene-tests-{}-{test}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create test directory");
+    dir
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("write test file");
+    path
+}
+
+/// Loads a scene that must fail, returning the error and its message.
+fn load_error(path: &Path) -> (Error, String) {
+    match load_scene(path) {
+        Ok(_) => panic!("{} loaded, but an error was expected", path.display()),
+        Err(e) => {
+            let message = e.to_string();
+            eprintln!("{message}");
+            (e, message)
+        }
+    }
+}
+
+fn assert_mentions(message: &str, parts: &[&str]) {
+    for part in parts {
+        assert!(
+            message.contains(part),
+            "error message should mention {part:?}:\n{message}"
+        );
+    }
+}
+
+const CAMERA: &str = "[camera]
+position = [0.0, 0.0, 5.0]
+target = [0.0, 0.0, 0.0]
+fov_y = 40.0
+resolution = [8, 8]
+";
+
+const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+/// A scene with the standard camera and one mesh entry naming `obj`.
+fn scene_with_mesh(dir: &Path, obj: &str) -> PathBuf {
+    write(
+        dir,
+        "scene.toml",
+        &format!("{CAMERA}\n[[mesh]]\nfile = \"{obj}\"\n"),
+    )
+}
+
+fn manifest_path(relative: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Errors.
+
+#[test]
+fn missing_scene_file() {
+    let dir = test_dir("missing-scene");
+    let (e, message) = load_error(&dir.join("absent.toml"));
+    assert!(matches!(e, Error::Io { .. }), "{e:?}");
+    assert_mentions(&message, &["absent.toml", "cannot read"]);
+}
+
+#[test]
+fn malformed_toml_names_line() {
+    let dir = test_dir("malformed-toml");
+    let path = write(
+        &dir,
+        "scene.toml",
+        "[camera]\nposition = [0, 0, 5]\ntarget = [0, 0,, 0]\n",
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["scene.toml", "line 3"]);
+}
+
+#[test]
+fn unknown_key_names_line_and_key() {
+    let dir = test_dir("unknown-key");
+    let text = CAMERA.replace("fov_y = 40.0", "fov_y = 40.0\nfovy = 40.0");
+    let path = write(&dir, "scene.toml", &text);
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["scene.toml", "line 5", "fovy"]);
+}
+
+#[test]
+fn unknown_key_in_mesh_entry_names_line_and_key() {
+    let dir = test_dir("unknown-mesh-key");
+    write(&dir, "tri.obj", TRIANGLE_OBJ);
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!("{CAMERA}\n[[mesh]]\nfile = \"tri.obj\"\nrotation = [0, 1, 0]\n"),
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["scene.toml", "line 9", "rotation"]);
+}
+
+#[test]
+fn missing_obj_names_field() {
+    let dir = test_dir("missing-obj");
+    let path = scene_with_mesh(&dir, "models/nothere.obj");
+    let (e, message) = load_error(&path);
+    assert!(matches!(e, Error::AssetNotFound { .. }), "{e:?}");
+    assert_mentions(
+        &message,
+        &["scene.toml", "mesh[0].file", "models/nothere.obj"],
+    );
+}
+
+#[test]
+fn missing_mtl_names_obj_and_mtllib() {
+    let dir = test_dir("missing-mtl");
+    write(
+        &dir,
+        "box.obj",
+        &format!("# a triangle\nmtllib gone.mtl\n{TRIANGLE_OBJ}"),
+    );
+    let path = scene_with_mesh(&dir, "box.obj");
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["box.obj", "line 2", "mtllib", "gone.mtl"]);
+}
+
+#[test]
+fn missing_texture_names_mtl_and_texture() {
+    let dir = test_dir("missing-texture");
+    write(
+        &dir,
+        "box.obj",
+        &format!("mtllib box.mtl\nusemtl paint\n{TRIANGLE_OBJ}"),
+    );
+    write(
+        &dir,
+        "box.mtl",
+        "newmtl paint\nKd 0.5 0.5 0.5\nmap_Kd textures/paint.png\n",
+    );
+    let path = scene_with_mesh(&dir, "box.obj");
+    let (e, message) = load_error(&path);
+    assert!(matches!(e, Error::AssetNotFound { .. }), "{e:?}");
+    assert_mentions(
+        &message,
+        &["box.mtl", "line 3", "map_Kd", "textures/paint.png"],
+    );
+}
+
+#[test]
+fn nan_coordinate_names_v_line() {
+    let dir = test_dir("nan-coordinate");
+    write(
+        &dir,
+        "bad.obj",
+        "# comment\nv 0 0 0\nvt 0 0\nv 1 NaN 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    let path = scene_with_mesh(&dir, "bad.obj");
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["bad.obj", "line 4", "not finite"]);
+}
+
+#[test]
+fn inf_coordinate_names_v_line() {
+    let dir = test_dir("inf-coordinate");
+    write(&dir, "bad.obj", "v 0 0 0\nv 1 0 0\nv 0 -inf 0\nf 1 2 3\n");
+    let path = scene_with_mesh(&dir, "bad.obj");
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["bad.obj", "line 3", "not finite"]);
+}
+
+#[test]
+fn nan_normal_names_vn_line() {
+    let dir = test_dir("nan-normal");
+    write(
+        &dir,
+        "bad.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn nan 0 1\nf 1//1 2//2 3//1\n",
+    );
+    let path = scene_with_mesh(&dir, "bad.obj");
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["bad.obj", "line 5", "normal"]);
+}
+
+#[test]
+fn face_index_out_of_range_names_line() {
+    let dir = test_dir("face-index");
+    write(
+        &dir,
+        "bad.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n",
+    );
+    let path = scene_with_mesh(&dir, "bad.obj");
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["bad.obj", "line 5", "vertex 7"]);
+}
+
+#[test]
+fn malformed_obj_line_names_line() {
+    let dir = test_dir("malformed-obj");
+    write(&dir, "bad.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n");
+    let path = scene_with_mesh(&dir, "bad.obj");
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["bad.obj", "line 2"]);
+}
+
+/// tobj panics on a colour with fewer than three numbers; we must report it instead.
+#[test]
+fn short_mtl_colour_names_line() {
+    let dir = test_dir("short-colour");
+    write(
+        &dir,
+        "box.obj",
+        &format!("mtllib box.mtl\nusemtl paint\n{TRIANGLE_OBJ}"),
+    );
+    write(&dir, "box.mtl", "newmtl paint\nNs 10\nKd 0.5 0.5\n");
+    let path = scene_with_mesh(&dir, "box.obj");
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["box.mtl", "line 3", "Kd"]);
+}
+
+#[test]
+fn empty_scene_is_an_error() {
+    let dir = test_dir("empty-scene");
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!(
+            "{CAMERA}\n[[light]]\ntype = \"point\"\nposition = [0, 1, 0]\nintensity = [1, 1, 1]\n"
+        ),
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["scene.toml", "scene has no geometry"]);
+}
+
+#[test]
+fn obj_without_faces_is_empty_scene() {
+    let dir = test_dir("no-faces");
+    write(&dir, "points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    let path = scene_with_mesh(&dir, "points.obj");
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["scene.toml", "scene has no geometry"]);
+}
+
+#[test]
+fn bad_camera_fov_names_field() {
+    let dir = test_dir("bad-fov");
+    write(&dir, "tri.obj", TRIANGLE_OBJ);
+    let text = CAMERA.replace("fov_y = 40.0", "fov_y = 0");
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!("{text}\n[[mesh]]\nfile = \"tri.obj\"\n"),
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["scene.toml", "camera.fov_y", "line 4"]);
+}
+
+#[test]
+fn camera_up_parallel_to_view_names_field() {
+    let dir = test_dir("bad-up");
+    write(&dir, "tri.obj", TRIANGLE_OBJ);
+    let text = CAMERA.replace("fov_y = 40.0", "fov_y = 40.0\nup = [0, 0, -2]");
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!("{text}\n[[mesh]]\nfile = \"tri.obj\"\n"),
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["scene.toml", "camera.up", "parallel"]);
+}
+
+#[test]
+fn non_invertible_transform_names_field() {
+    let dir = test_dir("singular-transform");
+    write(&dir, "tri.obj", TRIANGLE_OBJ);
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!(
+            "{CAMERA}\n[[mesh]]\nfile = \"tri.obj\"\n\n\
+             [[mesh]]\nfile = \"tri.obj\"\nscale = [1, 0, 1]\n"
+        ),
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["scene.toml", "mesh[1].scale", "not invertible"]);
+}
+
+#[test]
+fn matrix_with_trs_names_field() {
+    let dir = test_dir("matrix-and-trs");
+    write(&dir, "tri.obj", TRIANGLE_OBJ);
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!(
+            "{CAMERA}\n[[mesh]]\nfile = \"tri.obj\"\ntranslate = [1, 0, 0]\n\
+             matrix = [1, 0, 0, 0,  0, 1, 0, 0,  0, 0, 1, 0,  0, 0, 0, 1]\n"
+        ),
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["mesh[0].matrix", "cannot be combined"]);
+}
+
+#[test]
+fn light_parameter_of_other_type_names_field() {
+    let dir = test_dir("light-parameter");
+    write(&dir, "tri.obj", TRIANGLE_OBJ);
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!(
+            "{CAMERA}\n[[mesh]]\nfile = \"tri.obj\"\n\n[[light]]\ntype = \"point\"\n\
+             position = [0, 1, 0]\nintensity = [1, 1, 1]\nradiance = [1, 1, 1]\n"
+        ),
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["light[0].radiance", "point light"]);
+}
+
+#[test]
+fn negative_light_radiance_names_field() {
+    let dir = test_dir("negative-radiance");
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!(
+            "{CAMERA}\n[[light]]\ntype = \"rect\"\ncorner = [0, 1, 0]\nedge_u = [1, 0, 0]\n\
+             edge_v = [0, 0, 1]\nradiance = [1, -1, 1]\n"
+        ),
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["light[0].radiance", "negative"]);
+}
+
+#[test]
+fn override_of_unknown_material_names_field() {
+    let dir = test_dir("unknown-material");
+    write(&dir, "tri.obj", TRIANGLE_OBJ);
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!(
+            "{CAMERA}\n[[mesh]]\nfile = \"tri.obj\"\n\n[[material]]\nname = \"marble\"\n\
+             albedo = [0.5, 0.5, 0.5]\n"
+        ),
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["material[0].name", "marble", "__default"]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scenes that load.
+
+fn rect_light_mesh_emission(scene: &Scene) -> Vec<[f32; 3]> {
+    scene
+        .instances
+        .iter()
+        .flat_map(|instance| {
+            let mesh = &scene.meshes[instance.mesh as usize];
+            mesh.material_ids
+                .iter()
+                .map(|&m| &scene.materials[m as usize])
+                .filter(|m| m.name.starts_with("__rect_light_"))
+                .map(|m| m.emission.to_array())
+        })
+        .collect()
+}
+
+/// Checks the invariants the renderer relies on.
+fn check_consistent(scene: &Scene) {
+    for mesh in &scene.meshes {
+        let n = mesh.positions.len();
+        assert_eq!(mesh.normals.len(), n, "{}", mesh.name);
+        assert_eq!(mesh.uvs.len(), n, "{}", mesh.name);
+        assert_eq!(mesh.indices.len(), mesh.material_ids.len(), "{}", mesh.name);
+        assert!(mesh.positions.iter().all(|p| p.is_finite()));
+        assert!(
+            mesh.normals
+                .iter()
+                .all(|v| *v == glam::Vec3::ZERO || (v.length() - 1.0).abs() < 1e-4)
+        );
+        assert!(mesh.indices.iter().flatten().all(|&i| (i as usize) < n));
+        assert!(
+            mesh.material_ids
+                .iter()
+                .all(|&m| (m as usize) < scene.materials.len())
+        );
+    }
+    assert!(
+        scene
+            .instances
+            .iter()
+            .all(|i| (i.mesh as usize) < scene.meshes.len())
+    );
+    for material in &scene.materials {
+        if let Some(t) = material.albedo_texture {
+            assert!((t as usize) < scene.textures.len());
+        }
+    }
+    for texture in &scene.textures {
+        assert_eq!(
+            texture.texels.len(),
+            (texture.width * texture.height) as usize
+        );
+    }
+}
+
+#[test]
+fn cornell_box_loads() {
+    let scene = load_scene(&manifest_path("scenes/cornell-box.toml")).expect("cornell box");
+    check_consistent(&scene);
+    // 5 walls + 2 blocks of 5 faces, as quads, and the light's two triangles.
+    assert_eq!(scene.triangle_count(), 15 * 2 + 2);
+    assert_eq!(scene.instances.len(), 2);
+    assert_eq!(
+        (scene.camera.width, scene.camera.height),
+        (256, 256),
+        "resolution"
+    );
+    assert_eq!(scene.settings.light_samples, 16);
+    assert!(matches!(scene.lights.as_slice(), [Light::Rect { .. }]));
+    assert_eq!(rect_light_mesh_emission(&scene), vec![[17.0, 12.0, 4.0]; 2]);
+    let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["white", "red", "green", "__rect_light_0"]);
+}
+
+#[test]
+fn rect_light_mesh_faces_along_light_normal() {
+    let scene = load_scene(&manifest_path("scenes/cornell-box.toml")).expect("cornell box");
+    let Light::Rect { edge_u, edge_v, .. } = scene.lights[0] else {
+        panic!("expected a rect light");
+    };
+    let normal = edge_u.cross(edge_v).normalize();
+    assert!(
+        (normal - glam::Vec3::NEG_Y).length() < 1e-6,
+        "light faces down"
+    );
+    let mesh = &scene.meshes[scene.instances[1].mesh as usize];
+    for &[a, b, c] in &mesh.indices {
+        let p = |i: u32| mesh.positions[i as usize];
+        let geometric = (p(b) - p(a)).cross(p(c) - p(a)).normalize();
+        assert!(
+            (geometric - normal).length() < 1e-5,
+            "{geometric} vs {normal}"
+        );
+    }
+}
+
+#[test]
+fn cube_in_box_loads() {
+    let scene = load_scene(&manifest_path("scenes/cube-in-box.toml")).expect("cube in box");
+    check_consistent(&scene);
+    assert_eq!(scene.triangle_count(), 12 + 12 + 2);
+    assert_eq!(scene.meshes.len(), 3);
+    assert_eq!(scene.meshes[scene.instances[1].mesh as usize].name, "cube");
+    let translation = scene.instances[1].transform.w_axis.truncate();
+    assert_eq!(translation, glam::Vec3::new(0.4, 0.0, -0.3));
+    // room.obj and cube.obj share cube-in-box.mtl: its 5 materials appear once.
+    assert_eq!(scene.materials.len(), 5 + 1);
+    assert_eq!(
+        rect_light_mesh_emission(&scene),
+        vec![[20.0, 19.0, 17.0]; 2]
+    );
+}
+
+#[test]
+fn obj_used_twice_is_loaded_once() {
+    let dir = test_dir("shared-obj");
+    write(&dir, "tri.obj", TRIANGLE_OBJ);
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!(
+            "{CAMERA}\n[[mesh]]\nfile = \"tri.obj\"\n\n[[mesh]]\nfile = \"./tri.obj\"\n\
+             translate = [2, 0, 0]\nscale = 2\n"
+        ),
+    );
+    let scene = load_scene(&path).expect("scene");
+    check_consistent(&scene);
+    assert_eq!(scene.meshes.len(), 1);
+    assert_eq!(scene.instances.len(), 2);
+    assert_eq!(scene.triangle_count(), 2);
+    assert_eq!(scene.materials.len(), 1);
+    assert_eq!(scene.materials[0].name, "__default");
+}
+
+#[test]
+fn textures_are_shared_downsampled_and_overridable() {
+    let dir = test_dir("textures");
+    image::RgbaImage::from_pixel(4096, 8, image::Rgba([10, 20, 30, 255]))
+        .save(dir.join("wide.png"))
+        .expect("write png");
+    image::RgbaImage::from_pixel(2, 1, image::Rgba([200, 100, 50, 255]))
+        .save(dir.join("small.png"))
+        .expect("write png");
+    write(
+        &dir,
+        "two.obj",
+        &format!(
+            "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nusemtl a\nf 1 2 3\n\
+             usemtl b\nf 2 4 3\nusemtl c\nf 1 2 4\n"
+        ),
+    );
+    write(
+        &dir,
+        "two.mtl",
+        "newmtl a\nmap_Kd wide.png\nnewmtl b\nKd 0.5 0.5 0.5\nmap_Kd ./wide.png\n\
+         newmtl c\nKd 2 0.5 -1\nKe 1 2 3\nmap_Kd small.png\n",
+    );
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!(
+            "{CAMERA}\n[[mesh]]\nfile = \"two.obj\"\n\n[[material]]\nname = \"c\"\n\
+             texture = \"\"\nalbedo = [0.25, 0.5, 0.75]\n"
+        ),
+    );
+    let scene = load_scene(&path).expect("scene");
+    check_consistent(&scene);
+    assert_eq!(scene.textures.len(), 1, "wide.png once; small.png removed");
+    let texture = &scene.textures[0];
+    assert_eq!((texture.width, texture.height), (2048, 4));
+    assert_eq!(texture.texels[0], [10, 20, 30, 255]);
+    let [a, b, c] = [0, 1, 2].map(|i| &scene.materials[i]);
+    assert_eq!((a.albedo_texture, b.albedo_texture), (Some(0), Some(0)));
+    assert_eq!(a.albedo, glam::Vec3::ONE, "no Kd with a texture");
+    assert_eq!(b.albedo, glam::Vec3::splat(0.5));
+    assert_eq!(c.albedo_texture, None);
+    assert_eq!(c.albedo, glam::Vec3::new(0.25, 0.5, 0.75));
+    assert_eq!(c.emission, glam::Vec3::new(1.0, 2.0, 3.0));
+}
+
+#[test]
+fn degenerate_triangles_and_bad_normals_are_fixed_not_rejected() {
+    let dir = test_dir("degenerate");
+    write(
+        &dir,
+        "mesh.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nvn 0 0 0\nvn 0 0 3\n\
+         f 1//2 2//2 3//2\nf 1//1 2//1 4//1\nf 1//2 1//2 3//2\n",
+    );
+    let path = scene_with_mesh(&dir, "mesh.obj");
+    let scene = load_scene(&path).expect("scene");
+    check_consistent(&scene);
+    assert_eq!(scene.triangle_count(), 1);
+    let mesh = &scene.meshes[0];
+    assert!(mesh.normals.contains(&glam::Vec3::Z));
+    assert!(mesh.normals.contains(&glam::Vec3::ZERO));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sponza (third-party, found along RADSPLAT_ASSET_PATH).
+
+/// Triangles of the Dabrovic Sponza OBJ (every face is a triangle).
+const SPONZA_TRIANGLES: usize = 66_454;
+
+#[test]
+fn sponza_loads_when_asset_path_set() {
+    if std::env::var_os(radsplat::scene::asset_path::ASSET_PATH_VAR).is_none() {
+        eprintln!(
+            "sponza_loads_when_asset_path_set: RADSPLAT_ASSET_PATH is not set, test did not run"
+        );
+        return;
+    }
+    let scene_path = manifest_path("scenes/sponza.toml");
+    let start = std::time::Instant::now();
+    let scene = load_scene(&scene_path).expect("sponza must load when RADSPLAT_ASSET_PATH is set");
+    let elapsed = start.elapsed();
+    check_consistent(&scene);
+
+    let obj = radsplat::scene::asset_path::resolve_asset(
+        &scene_path,
+        "mesh[0].file",
+        "dabrovic-sponza/sponza.obj",
+    )
+    .expect("sponza.obj");
+    let data = radsplat::scene::obj::load_obj(&obj).expect("sponza.obj loads");
+    eprintln!(
+        "sponza: {} triangles in {elapsed:?}; {:?}; {} materials; {} textures: {:?}",
+        scene.triangle_count(),
+        data.stats,
+        scene.materials.len(),
+        scene.textures.len(),
+        scene
+            .textures
+            .iter()
+            .map(|t| format!(
+                "{} {}x{}",
+                t.path.file_name().unwrap_or_default().to_string_lossy(),
+                t.width,
+                t.height
+            ))
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(data.stats.triangles_read, SPONZA_TRIANGLES);
+    assert_eq!(data.stats.degenerate_dropped, SPONZA_DEGENERATE);
+    assert_eq!(scene.triangle_count(), SPONZA_TRIANGLES - SPONZA_DEGENERATE);
+    // sponza.mtl defines 20 materials; all faces have one.
+    assert_eq!(scene.materials.len(), 20);
+    // 12 distinct map_Kd files in sponza.mtl.
+    assert_eq!(scene.textures.len(), 12);
+    assert!(matches!(scene.lights.as_slice(), [Light::Sun { .. }]));
+}
+
+/// Degenerate triangles in the Dabrovic Sponza OBJ (measured: one zero-area face, line 233201).
+const SPONZA_DEGENERATE: usize = 1;
