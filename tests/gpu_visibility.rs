@@ -112,7 +112,7 @@ fn check_against_cpu(scene: &Scene) -> (usize, usize) {
 #[test]
 fn cornell_box_visibility_matches_cpu() {
     let scene = common::load("cornell-box.toml", Some((96, 96)));
-    let (hits, ties) = check_against_cpu(&scene);
+    let (hits, _) = check_against_cpu(&scene);
     assert!(
         hits > 96 * 96 * 9 / 10,
         "most of the view is the box: {hits}"

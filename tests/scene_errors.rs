@@ -507,10 +507,8 @@ fn textures_are_shared_downsampled_and_overridable() {
     write(
         &dir,
         "two.obj",
-        &format!(
-            "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nusemtl a\nf 1 2 3\n\
-             usemtl b\nf 2 4 3\nusemtl c\nf 1 2 4\n"
-        ),
+        "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nusemtl a\nf 1 2 3\n\
+         usemtl b\nf 2 4 3\nusemtl c\nf 1 2 4\n",
     );
     write(
         &dir,
