@@ -126,7 +126,7 @@ impl GpuContext {
     /// Largest storage buffer binding this device accepts, in bytes.
     pub fn max_binding_size(&self) -> u64 {
         let l = self.device.limits();
-        u64::from(l.max_storage_buffer_binding_size).min(l.max_buffer_size)
+        l.max_storage_buffer_binding_size.min(l.max_buffer_size)
     }
 }
 
