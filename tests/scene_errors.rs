@@ -244,12 +244,12 @@ fn empty_scene_is_an_error() {
 }
 
 #[test]
-fn obj_without_faces_is_empty_scene() {
+fn obj_without_faces_is_an_error() {
     let dir = test_dir("no-faces");
     write(&dir, "points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
     let path = scene_with_mesh(&dir, "points.obj");
     let (_, message) = load_error(&path);
-    assert_mentions(&message, &["scene.toml", "scene has no geometry"]);
+    assert_mentions(&message, &["scene.toml", "mesh[0].file", "points.obj", "no triangles"]);
 }
 
 #[test]

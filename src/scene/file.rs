@@ -372,8 +372,13 @@ impl<'a> SceneBuilder<'a> {
             Some(&mesh) => mesh,
             None => {
                 let data = load_obj(&file)?;
+                // An instance needs a BLAS with at least one triangle.
                 if data.mesh.indices.is_empty() {
-                    log::warn!("{}: OBJ has no triangles", file.display());
+                    return Err(Error::invalid(
+                        ctx.path,
+                        format!("mesh[{i}].file"),
+                        format!("{} has no triangles", file.display()),
+                    ));
                 }
                 let mesh = self.add_obj(data, def.name.as_deref());
                 self.mesh_by_file.insert(key, mesh);

@@ -2,7 +2,7 @@
 //! materials, textures, lights, environment and camera.
 //!
 //! The scene file format (TOML) is documented in `docs/scene-format.md`; parsing lives in
-//! [`file`], OBJ/MTL loading in [`obj`], textures in [`texture`], and asset lookup along
+//! [`mod@file`], OBJ/MTL loading in [`obj`], textures in [`texture`], and asset lookup along
 //! `RADSPLAT_ASSET_PATH` in [`asset_path`].
 
 pub mod asset_path;
@@ -82,7 +82,7 @@ pub enum Light {
         cos_outer: f32,
     },
     /// One-sided rectangular area light: the parallelogram `corner + s*edge_u + t*edge_v`,
-    /// s,t in [0,1], emitting `radiance` towards `normalize(cross(edge_u, edge_v))`.
+    /// s, t in \[0, 1\], emitting `radiance` towards `normalize(cross(edge_u, edge_v))`.
     /// The loader also adds the rectangle to the scene as an emissive two-triangle mesh, so
     /// the light is visible to camera and GI rays.
     Rect {

@@ -120,6 +120,15 @@ pub fn load_obj(path: &Path) -> Result<ObjData> {
         .map_err(|e| Error::invalid(path, "mtllib", format!("cannot load materials: {e}")))?;
 
     let materials = convert_materials(&tobj_materials, &libraries.into_inner())?;
+    for (line, name) in &scan.usemtls {
+        if !materials.iter().any(|m| m.material.name == *name) {
+            log::warn!(
+                "{}: line {line}: no MTL defines material '{name}'; its faces get '{}'",
+                path.display(),
+                DEFAULT_MATERIAL_NAME
+            );
+        }
+    }
     let mut data = assemble_mesh(path, models, materials)?;
     data.stats.short_faces_ignored = scan.short_faces;
     if scan.short_faces > 0 {
@@ -146,6 +155,8 @@ fn read_text(path: &Path) -> Result<String> {
 struct ObjScan {
     /// `(line number, name)` of each `mtllib` line, to name the line if the MTL is missing.
     mtllibs: Vec<(usize, String)>,
+    /// `(line number, name)` of the first `usemtl` of each material name.
+    usemtls: Vec<(usize, String)>,
     /// `f` lines with one or two vertices (tobj turns them into points/lines, which we ignore).
     short_faces: usize,
     /// Whether there are `l` lines with three or more vertices.
@@ -182,6 +193,7 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
     let mut seen = ElementCounts::default();
     let mut scan = ObjScan {
         mtllibs: Vec::new(),
+        usemtls: Vec::new(),
         short_faces: 0,
         has_polylines: false,
     };
@@ -228,8 +240,13 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
                         "'{keyword}' without a name (expected '{keyword} <name>')"
                     )));
                 }
-                if keyword == "mtllib" {
-                    scan.mtllibs.push((line_no, name.to_string()));
+                let list = if keyword == "mtllib" {
+                    &mut scan.mtllibs
+                } else {
+                    &mut scan.usemtls
+                };
+                if !list.iter().any(|(_, n)| n == name) {
+                    list.push((line_no, name.to_string()));
                 }
             }
             _ => {}
