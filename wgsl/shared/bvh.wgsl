@@ -15,10 +15,11 @@ fn safe_inverse(d: vec3f) -> vec3f {
     );
 }
 
-// Slab test; returns the entry distance, or INF when the box is missed or lies beyond tmax.
-fn intersect_aabb(bmin: vec3f, bmax: vec3f, origin: vec3f, inv_dir: vec3f, tmin: f32, tmax: f32) -> f32 {
-    let t0 = (bmin - origin) * inv_dir;
-    let t1 = (bmax - origin) * inv_dir;
+// Slab test in fma form (`oid` = origin * inv_dir); returns the entry distance, or INF
+// when the box is missed or lies beyond tmax.
+fn intersect_aabb(bmin: vec3f, bmax: vec3f, inv_dir: vec3f, oid: vec3f, tmin: f32, tmax: f32) -> f32 {
+    let t0 = fma(bmin, inv_dir, -oid);
+    let t1 = fma(bmax, inv_dir, -oid);
     let near = min(t0, t1);
     let far = max(t0, t1);
     let tn = max(max(near.x, near.y), max(near.z, tmin));
@@ -46,6 +47,17 @@ fn intersect_triangle(tri: Triangle, origin: vec3f, dir: vec3f, tmin: f32, tmax:
     return select(vec3f(INF, 0.0, 0.0), vec3f(t, u, v), inside);
 }
 
+// A traversal entry is one u32: an inner node's child pair (the index of its first child;
+// siblings are adjacent, so one entry names two boxes), or, with LEAF_BIT set, a leaf's
+// first primitive (bits 4..30) and primitive count - 1 (bits 0..3). Testing both children
+// of a pair in one step means a node's own record is never fetched: on lavapipe every
+// storage load is a per-lane scalar loop, so the fetches dominate the cost.
+const LEAF_BIT: u32 = 0x80000000u;
+
+fn node_entry(index: u32, count: u32) -> u32 {
+    return select(index, LEAF_BIT | (index << 4u) | (count - 1u), count > 0u);
+}
+
 // Traverses the scene. `any_hit`: stop at the first hit (shadow rays).
 fn trace(ray: Ray, any_hit: bool) -> Hit {
     var hit = Hit(ray.tmax, NO_HIT, 0u, 0.0, 0.0);
@@ -60,48 +72,45 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
     var origin = ray.origin;
     var dir = ray.dir;
     var inv_dir = safe_inverse(dir);
-    var node_index = 0u;
-    // The TLAS root's bounds are tested here; every other node is tested by its parent.
+    var oid = origin * inv_dir;
+    // The TLAS root's bounds are tested here; every other box is tested with its sibling.
     let root = tlas_nodes[0];
-    if intersect_aabb(root.min, root.max, origin, inv_dir, ray.tmin, hit.t) == INF {
+    if intersect_aabb(root.min, root.max, inv_dir, oid, ray.tmin, hit.t) == INF {
         return hit;
     }
+    var entry = node_entry(root.index, root.count);
     loop {
-        var node: BvhNode;
-        if in_blas {
-            node = blas_nodes[node_index];
-        } else {
-            node = tlas_nodes[node_index];
-        }
-        var descend = false;
-        if node.count == 0u {
-            var left: BvhNode;
-            var right: BvhNode;
+        if (entry & LEAF_BIT) == 0u {
+            var a: BvhNode;
+            var b: BvhNode;
             if in_blas {
-                left = blas_nodes[node.index];
-                right = blas_nodes[node.index + 1u];
+                a = blas_nodes[entry];
+                b = blas_nodes[entry + 1u];
             } else {
-                left = tlas_nodes[node.index];
-                right = tlas_nodes[node.index + 1u];
+                a = tlas_nodes[entry];
+                b = tlas_nodes[entry + 1u];
             }
-            let tl = intersect_aabb(left.min, left.max, origin, inv_dir, ray.tmin, hit.t);
-            let tr = intersect_aabb(right.min, right.max, origin, inv_dir, ray.tmin, hit.t);
-            let hit_l = tl != INF;
-            let hit_r = tr != INF;
-            if hit_l && hit_r {
+            let ta = intersect_aabb(a.min, a.max, inv_dir, oid, ray.tmin, hit.t);
+            let tb = intersect_aabb(b.min, b.max, inv_dir, oid, ray.tmin, hit.t);
+            let ea = node_entry(a.index, a.count);
+            let eb = node_entry(b.index, b.count);
+            if ta != INF && tb != INF {
                 // Visit the nearer child first; the farther one waits on the stack.
-                let near_is_left = tl <= tr;
-                node_index = select(node.index + 1u, node.index, near_is_left);
-                stack[sp] = select(node.index, node.index + 1u, near_is_left);
+                let a_first = ta <= tb;
+                entry = select(eb, ea, a_first);
+                stack[sp] = select(ea, eb, a_first);
                 sp = min(sp + 1u, BVH_STACK_SIZE - 1u);
-                descend = true;
-            } else if hit_l || hit_r {
-                node_index = select(node.index + 1u, node.index, hit_l);
-                descend = true;
+                continue;
+            }
+            if ta != INF || tb != INF {
+                entry = select(eb, ea, ta != INF);
+                continue;
             }
         } else if in_blas {
-            for (var i = 0u; i < node.count; i++) {
-                let tri_index = node.index + i;
+            let first = (entry >> 4u) & 0x07ffffffu;
+            let count = (entry & 15u) + 1u;
+            for (var i = 0u; i < count; i++) {
+                let tri_index = first + i;
                 let r = intersect_triangle(triangles[tri_index], origin, dir, ray.tmin, hit.t);
                 if r.x < hit.t {
                     hit = Hit(r.x, instance, tri_index, r.y, r.z);
@@ -112,18 +121,18 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
             }
         } else {
             // TLAS leaf: enter the instance's BLAS with the ray in object space. The
-            // direction is not renormalised, so t keeps its meaning across instances.
-            instance = node.index;
+            // direction is not renormalised, so t keeps its meaning across instances. The
+            // BLAS root's box is not tested: the TLAS leaf's box already bounds it.
+            instance = (entry >> 4u) & 0x07ffffffu;
             let inst = instances[instance];
             origin = transform_point(inst.object_from_world, ray.origin);
             dir = transform_vector(inst.object_from_world, ray.dir);
             inv_dir = safe_inverse(dir);
+            oid = origin * inv_dir;
             in_blas = true;
             tlas_sp = sp;
-            node_index = inst.blas_root;
-            descend = true;
-        }
-        if descend {
+            let blas_root = blas_nodes[inst.blas_root];
+            entry = node_entry(blas_root.index, blas_root.count);
             continue;
         }
         // Pop; leaving the BLAS when its part of the stack is used up.
@@ -132,12 +141,13 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
             origin = ray.origin;
             dir = ray.dir;
             inv_dir = safe_inverse(dir);
+            oid = origin * inv_dir;
         }
         if sp == 0u {
             break;
         }
         sp -= 1u;
-        node_index = stack[sp];
+        entry = stack[sp];
     }
     return hit;
 }
