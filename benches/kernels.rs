@@ -66,7 +66,11 @@ fn kernels(c: &mut Criterion) {
         b.iter(|| {
             rays.incoherent
                 .iter()
-                .filter(|r| tracer.closest_hit(r.origin.into(), r.dir.into(), r.tmin, r.tmax).is_some())
+                .filter(|r| {
+                    tracer
+                        .closest_hit(r.origin.into(), r.dir.into(), r.tmin, r.tmax)
+                        .is_some()
+                })
                 .count()
         })
     });

@@ -2,9 +2,9 @@
 //! primary, shadow and incoherent (cosine-hemisphere) rays, and obvhs's CPU traversal on
 //! one thread over the same incoherent rays. Reports medians of several runs.
 
-use crate::bvh::{BvhPreset, SceneBvh};
 use crate::bvh::cpu_trace::CpuTracer;
 use crate::bvh::trace_pass::{GpuHit, GpuRay, RayBatch, TraceRaysPass};
+use crate::bvh::{BvhPreset, SceneBvh};
 use crate::direct::reference::offset_ray_origin;
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, GpuScene};
@@ -267,7 +267,10 @@ pub fn format_table(r: &BenchReport) -> String {
     );
     s += &format!(
         "{:<36} {:>10} {:>12.2} {:>10}\n",
-        format!("BVH build ({:?}, CPU)", r.bvh_preset), "-", r.bvh_build_ms, "-"
+        format!("BVH build ({:?}, CPU)", r.bvh_preset),
+        "-",
+        r.bvh_build_ms,
+        "-"
     );
     for row in &r.rows {
         s += &format!(
@@ -309,7 +312,9 @@ pub fn run_cli(
         indicatif::ProgressBar::new_spinner()
     };
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
-    let report = run(&ctx, &scene, runs, preset, |m| bar.set_message(m.to_string()))?;
+    let report = run(&ctx, &scene, runs, preset, |m| {
+        bar.set_message(m.to_string())
+    })?;
     bar.finish_and_clear();
     print!("{}", format_table(&report));
     if let Some(path) = json {

@@ -7,8 +7,10 @@ use radsplat::Renderer;
 use radsplat::gpu::{GpuContext, required_limits};
 
 fn engine_device() -> (wgpu::Device, wgpu::Queue) {
-    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-    let adapter = pollster::block_on(instance.request_adapter(&Default::default())).expect("adapter");
+    let instance =
+        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter =
+        pollster::block_on(instance.request_adapter(&Default::default())).expect("adapter");
     // The engine asks for exactly what radsplat documents, nothing more.
     pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("engine"),
@@ -24,12 +26,17 @@ fn renders_on_a_callers_device_with_the_documented_limits() {
     let (device, queue) = engine_device();
     let renderer = Renderer::new(GpuContext::from_device(device, queue)).expect("renderer");
     let prepared = renderer.prepare(&scene).expect("prepare");
-    let embedded = renderer.render_frame(&prepared, &scene.camera).expect("frame");
+    let embedded = renderer
+        .render_frame(&prepared, &scene.camera)
+        .expect("frame");
     renderer.ctx.check().expect("no device loss");
 
     let own = Renderer::new(common::gpu()).expect("renderer");
     let prepared = own.prepare(&scene).expect("prepare");
     let reference = own.render_frame(&prepared, &scene.camera).expect("frame");
     assert_eq!(embedded.beauty, reference.beauty);
-    assert!(embedded.beauty.iter().any(|p| p[0] > 0.0), "image is not black");
+    assert!(
+        embedded.beauty.iter().any(|p| p[0] > 0.0),
+        "image is not black"
+    );
 }

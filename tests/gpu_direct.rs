@@ -94,7 +94,8 @@ fn cornell_exr_bytes() -> Vec<u8> {
 
 /// The golden hash is tied to the driver CI installs: Mesa 22.3.6 lavapipe (Debian 12).
 const GOLDEN_DRIVER: &str = "Mesa 22.3.6";
-const CORNELL_GOLDEN_SHA256: &str = "a3ca005cf55e7c93b1d5718082670fcf1635439c81159202105596d39dd31210";
+const CORNELL_GOLDEN_SHA256: &str =
+    "a3ca005cf55e7c93b1d5718082670fcf1635439c81159202105596d39dd31210";
 
 #[test]
 fn cornell_box_exr_golden_hash_and_determinism() {

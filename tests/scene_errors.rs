@@ -249,7 +249,10 @@ fn obj_without_faces_is_an_error() {
     write(&dir, "points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
     let path = scene_with_mesh(&dir, "points.obj");
     let (_, message) = load_error(&path);
-    assert_mentions(&message, &["scene.toml", "mesh[0].file", "points.obj", "no triangles"]);
+    assert_mentions(
+        &message,
+        &["scene.toml", "mesh[0].file", "points.obj", "no triangles"],
+    );
 }
 
 #[test]

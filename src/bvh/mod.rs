@@ -118,7 +118,11 @@ impl SceneBvh {
     /// As [`SceneBvh::build`] with a chosen BLAS preset.
     pub fn build_with(scene: &Scene, preset: BvhPreset) -> SceneBvh {
         let t0 = Instant::now();
-        let blases: Vec<Blas> = scene.meshes.iter().map(|m| Blas::build(m, preset)).collect();
+        let blases: Vec<Blas> = scene
+            .meshes
+            .iter()
+            .map(|m| Blas::build(m, preset))
+            .collect();
         let blas_ms = t0.elapsed().as_secs_f64() * 1e3;
 
         let mut blas_nodes = Vec::new();
