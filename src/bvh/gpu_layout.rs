@@ -6,8 +6,13 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use obvhs::{bvh2::node::Bvh2Node, triangle::Triangle};
 
-/// A BVH node, 32 bytes: bounds plus two words.
-/// Inner node: `count == 0`, children at `index` and `index + 1`.
+/// Most primitives a leaf may hold: the traversal packs `count - 1` into 4 bits of a stack
+/// entry (`wgsl/shared/bvh.wgsl`).
+pub const MAX_LEAF_PRIMS: u32 = 16;
+
+/// A BVH node, 32 bytes: bounds plus two words (WGSL reads it as two vec4s).
+/// Inner node: `count == 0`, children at `index` and `index + 1` (siblings are always
+/// adjacent: the traversal tests a pair of siblings per step).
 /// Leaf: `count > 0` primitives starting at `index` (BLAS: triangles; TLAS: the instance id).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -21,6 +26,11 @@ pub struct GpuNode {
 impl GpuNode {
     /// Converts an obvhs node, adding the BLAS's base offsets so indices are absolute.
     pub fn from_obvhs(n: &Bvh2Node, node_base: u32, tri_base: u32) -> Self {
+        assert!(
+            n.prim_count <= MAX_LEAF_PRIMS,
+            "BVH leaf of {} primitives exceeds {MAX_LEAF_PRIMS}",
+            n.prim_count
+        );
         let index = if n.prim_count > 0 {
             n.first_index + tri_base
         } else {

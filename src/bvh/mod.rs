@@ -96,7 +96,10 @@ pub struct BuildTimes {
 
 /// The whole scene's acceleration structure, in GPU layout (ready for upload).
 pub struct SceneBvh {
+    /// TLAS nodes; inner nodes' child indices point into [`SceneBvh::gpu_nodes`], i.e. are
+    /// offset by `blas_nodes.len()`. Leaves hold one instance id each.
     pub tlas_nodes: Vec<GpuNode>,
+    /// Every mesh's BLAS nodes, indices absolute in this array.
     pub blas_nodes: Vec<GpuNode>,
     pub triangles: Vec<GpuTriangle>,
     pub shading: Vec<GpuTriangleShading>,
@@ -148,7 +151,7 @@ impl SceneBvh {
         }
 
         let t1 = Instant::now();
-        let (tlas_nodes, tlas_depth) = build_tlas(scene);
+        let (tlas_nodes, tlas_depth) = build_tlas(scene, blas_nodes.len() as u32);
         let tlas_ms = t1.elapsed().as_secs_f64() * 1e3;
         let instances = scene
             .instances
@@ -171,6 +174,23 @@ impl SceneBvh {
     }
 }
 
+impl SceneBvh {
+    /// The node array the GPU traverses: every BLAS, then the TLAS (root at
+    /// [`SceneBvh::tlas_root`]). One array means traversal loads never branch on the level,
+    /// and a TLAS rebuild only rewrites the tail.
+    pub fn gpu_nodes(&self) -> Vec<GpuNode> {
+        let mut nodes = Vec::with_capacity(self.blas_nodes.len() + self.tlas_nodes.len());
+        nodes.extend_from_slice(&self.blas_nodes);
+        nodes.extend_from_slice(&self.tlas_nodes);
+        nodes
+    }
+
+    /// Index of the TLAS root in [`SceneBvh::gpu_nodes`].
+    pub fn tlas_root(&self) -> u32 {
+        self.blas_nodes.len() as u32
+    }
+}
+
 /// World-space bounds of every instance.
 pub fn instance_bounds(scene: &Scene) -> Vec<Aabb> {
     scene
@@ -187,8 +207,9 @@ pub fn instance_bounds(scene: &Scene) -> Vec<Aabb> {
         .collect()
 }
 
-/// Builds the TLAS over instance bounds; leaves hold exactly one instance.
-fn build_tlas(scene: &Scene) -> (Vec<GpuNode>, u32) {
+/// Builds the TLAS over instance bounds; leaves hold exactly one instance. Inner nodes'
+/// child indices are offset by `node_base`, where the TLAS starts in the GPU node array.
+fn build_tlas(scene: &Scene, node_base: u32) -> (Vec<GpuNode>, u32) {
     let bounds = instance_bounds(scene);
     let mut core = Duration::ZERO;
     let bvh = obvhs::bvh2::builder::build_bvh2(&bounds, tlas_params(), &mut core);
@@ -205,7 +226,7 @@ fn build_tlas(scene: &Scene) -> (Vec<GpuNode>, u32) {
                     1,
                 )
             } else {
-                GpuNode::from_obvhs(n, 0, 0)
+                GpuNode::from_obvhs(n, node_base, 0)
             }
         })
         .collect();

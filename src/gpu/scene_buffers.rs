@@ -107,7 +107,9 @@ pub struct GpuSceneInfo {
     pub light_count: u32,
     pub light_samples: u32,
     pub instance_count: u32,
-    pub _pad: [u32; 2],
+    /// Index of the TLAS root in the node array (see [`SceneBvh::gpu_nodes`]).
+    pub tlas_root: u32,
+    pub _pad: u32,
 }
 
 /// Materials, texture table and packed texels in GPU layout.
@@ -148,6 +150,9 @@ pub struct GpuScene {
     pub bytes: u64,
 }
 
+/// Storage buffers of group 0, bindings `0..SCENE_STORAGE_BINDINGS`; the info uniform follows.
+const SCENE_STORAGE_BINDINGS: u32 = 8;
+
 /// The bind group layout of the scene tables (group 0 in every pass).
 pub fn scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let storage = |binding| wgpu::BindGroupLayoutEntry {
@@ -160,9 +165,9 @@ pub fn scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
         },
         count: None,
     };
-    let mut entries: Vec<_> = (0..9).map(storage).collect();
+    let mut entries: Vec<_> = (0..SCENE_STORAGE_BINDINGS).map(storage).collect();
     entries.push(wgpu::BindGroupLayoutEntry {
-        binding: 9,
+        binding: SCENE_STORAGE_BINDINGS,
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::Buffer {
             ty: wgpu::BufferBindingType::Uniform,
@@ -191,11 +196,18 @@ impl GpuScene {
                 bvh.max_depth
             )));
         }
+        // Leaf entries pack the first primitive into 27 bits (`wgsl/shared/bvh.wgsl`).
+        if bvh.triangles.len() >= 1 << 27 || bvh.instances.len() >= 1 << 27 {
+            return Err(Error::DeviceLimit(format!(
+                "{} triangles / {} instances exceed the BVH leaf encoding (2^27)",
+                bvh.triangles.len(),
+                bvh.instances.len()
+            )));
+        }
         let (materials, texture_infos, texels) = material_tables(scene);
         let lights: Vec<GpuLight> = scene.lights.iter().map(GpuLight::new).collect();
         let buffers = vec![
-            ctx.storage_buffer("tlas nodes", &bvh.tlas_nodes)?,
-            ctx.storage_buffer("blas nodes", &bvh.blas_nodes)?,
+            ctx.storage_buffer("bvh nodes", &bvh.gpu_nodes())?,
             ctx.storage_buffer("triangles", &bvh.triangles)?,
             ctx.storage_buffer("triangle shading", &bvh.shading)?,
             ctx.storage_buffer("instances", &bvh.instances)?,
@@ -209,7 +221,8 @@ impl GpuScene {
             light_count: lights.len() as u32,
             light_samples: light_samples.max(1),
             instance_count: scene.instances.len() as u32,
-            _pad: [0; 2],
+            tlas_root: bvh.tlas_root(),
+            _pad: 0,
         };
         let info_buffer = ctx.uniform_buffer("scene info", &info);
         let layout = scene_layout(&ctx.device);
@@ -222,7 +235,7 @@ impl GpuScene {
             })
             .collect();
         entries.push(wgpu::BindGroupEntry {
-            binding: 9,
+            binding: SCENE_STORAGE_BINDINGS,
             resource: info_buffer.as_entire_binding(),
         });
         let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -50,18 +50,20 @@ fn intersect_triangle(tri: Triangle, origin: vec3f, dir: vec3f, tmin: f32, tmax:
 // A traversal entry is one u32: an inner node's child pair (the index of its first child;
 // siblings are adjacent, so one entry names two boxes), or, with LEAF_BIT set, a leaf's
 // first primitive (bits 4..30) and primitive count - 1 (bits 0..3). Testing both children
-// of a pair in one step means a node's own record is never fetched: on lavapipe every
-// storage load is a per-lane scalar loop, so the fetches dominate the cost.
+// of a pair in one step means a node's own record is never fetched. Limits checked in
+// `GpuScene::upload` and `bvh::SceneBvh::build_with`.
 const LEAF_BIT: u32 = 0x80000000u;
 
-fn node_entry(index: u32, count: u32) -> u32 {
+fn node_entry(node: BvhNode) -> u32 {
+    let index = bitcast<u32>(node.lo.w);
+    let count = bitcast<u32>(node.hi.w);
     return select(index, LEAF_BIT | (index << 4u) | (count - 1u), count > 0u);
 }
 
 // Traverses the scene. `any_hit`: stop at the first hit (shadow rays).
 fn trace(ray: Ray, any_hit: bool) -> Hit {
     var hit = Hit(ray.tmax, NO_HIT, 0u, 0.0, 0.0);
-    if arrayLength(&tlas_nodes) == 0u || scene_info.instance_count == 0u {
+    if scene_info.instance_count == 0u {
         return hit;
     }
     var stack: array<u32, BVH_STACK_SIZE>;
@@ -74,26 +76,19 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
     var inv_dir = safe_inverse(dir);
     var oid = origin * inv_dir;
     // The TLAS root's bounds are tested here; every other box is tested with its sibling.
-    let root = tlas_nodes[0];
-    if intersect_aabb(root.min, root.max, inv_dir, oid, ray.tmin, hit.t) == INF {
+    let root = bvh_nodes[scene_info.tlas_root];
+    if intersect_aabb(root.lo.xyz, root.hi.xyz, inv_dir, oid, ray.tmin, hit.t) == INF {
         return hit;
     }
-    var entry = node_entry(root.index, root.count);
+    var entry = node_entry(root);
     loop {
         if (entry & LEAF_BIT) == 0u {
-            var a: BvhNode;
-            var b: BvhNode;
-            if in_blas {
-                a = blas_nodes[entry];
-                b = blas_nodes[entry + 1u];
-            } else {
-                a = tlas_nodes[entry];
-                b = tlas_nodes[entry + 1u];
-            }
-            let ta = intersect_aabb(a.min, a.max, inv_dir, oid, ray.tmin, hit.t);
-            let tb = intersect_aabb(b.min, b.max, inv_dir, oid, ray.tmin, hit.t);
-            let ea = node_entry(a.index, a.count);
-            let eb = node_entry(b.index, b.count);
+            let a = bvh_nodes[entry];
+            let b = bvh_nodes[entry + 1u];
+            let ta = intersect_aabb(a.lo.xyz, a.hi.xyz, inv_dir, oid, ray.tmin, hit.t);
+            let tb = intersect_aabb(b.lo.xyz, b.hi.xyz, inv_dir, oid, ray.tmin, hit.t);
+            let ea = node_entry(a);
+            let eb = node_entry(b);
             if ta != INF && tb != INF {
                 // Visit the nearer child first; the farther one waits on the stack.
                 let a_first = ta <= tb;
@@ -131,8 +126,7 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
             oid = origin * inv_dir;
             in_blas = true;
             tlas_sp = sp;
-            let blas_root = blas_nodes[inst.blas_root];
-            entry = node_entry(blas_root.index, blas_root.count);
+            entry = node_entry(bvh_nodes[inst.blas_root]);
             continue;
         }
         // Pop; leaving the BLAS when its part of the stack is used up.

@@ -1,11 +1,12 @@
 // Scene tables, bound at group 0 by every pass (layout: src/gpu/scene_buffers.rs,
 // Rust mirrors: src/bvh/gpu_layout.rs and src/gpu/scene_buffers.rs).
 
+// Read as two vec4s so a node costs two vector loads (lavapipe turns every load
+// instruction into a per-lane loop; see docs/bvh-performance.md). Rust: `GpuNode`.
 struct BvhNode {
-    min: vec3f,
-    index: u32,   // inner: first child (second at index+1); leaf: first primitive
-    max: vec3f,
-    count: u32,   // 0 = inner node, else primitive count
+    lo: vec4f,   // xyz: min; w: bitcast u32 index (inner: first child, the second at
+                 // index + 1; BLAS leaf: first triangle; TLAS leaf: the instance)
+    hi: vec4f,   // xyz: max; w: bitcast u32 count (0 = inner node, else primitive count)
 }
 
 struct Triangle {
@@ -71,20 +72,21 @@ struct SceneInfo {
     light_count: u32,
     light_samples: u32,
     instance_count: u32,
+    tlas_root: u32,   // index of the TLAS root in `bvh_nodes` (after every BLAS)
     _pad0: u32,
-    _pad1: u32,
 }
 
-@group(0) @binding(0) var<storage, read> tlas_nodes: array<BvhNode>;
-@group(0) @binding(1) var<storage, read> blas_nodes: array<BvhNode>;
-@group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
-@group(0) @binding(3) var<storage, read> shading: array<TriangleShading>;
-@group(0) @binding(4) var<storage, read> instances: array<Instance>;
-@group(0) @binding(5) var<storage, read> materials: array<Material>;
-@group(0) @binding(6) var<storage, read> texture_infos: array<TextureInfo>;
-@group(0) @binding(7) var<storage, read> texels: array<u32>;
-@group(0) @binding(8) var<storage, read> lights: array<Light>;
-@group(0) @binding(9) var<uniform> scene_info: SceneInfo;
+// Every BLAS (one per mesh), then the TLAS: one array, so traversal loads never branch
+// on the level.
+@group(0) @binding(0) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(1) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(2) var<storage, read> shading: array<TriangleShading>;
+@group(0) @binding(3) var<storage, read> instances: array<Instance>;
+@group(0) @binding(4) var<storage, read> materials: array<Material>;
+@group(0) @binding(5) var<storage, read> texture_infos: array<TextureInfo>;
+@group(0) @binding(6) var<storage, read> texels: array<u32>;
+@group(0) @binding(7) var<storage, read> lights: array<Light>;
+@group(0) @binding(8) var<uniform> scene_info: SceneInfo;
 
 fn transform_point(m: array<vec4f, 3>, p: vec3f) -> vec3f {
     let h = vec4f(p, 1.0);
