@@ -133,9 +133,18 @@ impl Renderer {
                 .record(ctx, &mut encoder, &scene.gpu, &vis, timer.next("direct"))?;
         timer.resolve(&mut encoder);
         ctx.queue.submit([encoder.finish()]);
-        let beauty = ctx.read_buffer(&direct.beauty)?;
-        let albedo = ctx.read_buffer(&direct.albedo)?;
-        let direct_img = ctx.read_buffer(&direct.direct)?;
+        // One submission and one wait for all three images.
+        let mut images = ctx
+            .read_buffers::<[f32; 4]>(&[&direct.beauty, &direct.albedo, &direct.direct])?
+            .into_iter();
+        let (beauty, albedo, direct_img) = match (images.next(), images.next(), images.next()) {
+            (Some(b), Some(a), Some(d)) => (b, a, d),
+            _ => {
+                return Err(crate::Error::Gpu(
+                    "internal: image readback incomplete".into(),
+                ));
+            }
+        };
         let visibility = vis.read(ctx)?;
         let pass_ms = timer
             .read(ctx)?

@@ -172,9 +172,7 @@ impl SceneBvh {
             max_depth: max_depth + tlas_depth,
         }
     }
-}
 
-impl SceneBvh {
     /// The node array the GPU traverses: every BLAS, then the TLAS (root at
     /// [`SceneBvh::tlas_root`]). One array means traversal loads never branch on the level,
     /// and a TLAS rebuild only rewrites the tail.

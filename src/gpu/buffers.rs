@@ -71,33 +71,55 @@ impl GpuContext {
 
     /// Copies a whole buffer back to the CPU (waits for the GPU).
     pub fn read_buffer<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer) -> Result<Vec<T>> {
-        let size = buffer.size();
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let mut all = self.read_buffers::<T>(&[buffer])?;
+        Ok(all.pop().unwrap_or_default())
+    }
+
+    /// Copies several buffers back with one submission and one wait, in order.
+    pub fn read_buffers<T: bytemuck::Pod>(&self, buffers: &[&wgpu::Buffer]) -> Result<Vec<Vec<T>>> {
         let mut enc = self.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        let staging: Vec<wgpu::Buffer> = buffers
+            .iter()
+            .map(|b| {
+                let s = self.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("readback"),
+                    size: b.size(),
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                enc.copy_buffer_to_buffer(b, 0, &s, 0, b.size());
+                s
+            })
+            .collect();
         self.queue.submit([enc.finish()]);
-        let slice = staging.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
+        for s in &staging {
+            let tx = tx.clone();
+            s.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+                let _ = tx.send(r);
+            });
+        }
+        drop(tx);
         self.wait()?;
-        rx.recv()
-            .map_err(|_| Error::Gpu("readback was cancelled".into()))?
-            .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
-        let data = {
-            let view = slice
-                .get_mapped_range()
-                .map_err(|e| Error::Gpu(format!("readback mapping: {e}")))?;
-            let n = view.len() / std::mem::size_of::<T>();
-            bytemuck::cast_slice::<u8, T>(&view[..n * std::mem::size_of::<T>()]).to_vec()
-        };
-        staging.unmap();
-        Ok(data)
+        for _ in &staging {
+            rx.recv()
+                .map_err(|_| Error::Gpu("readback was cancelled".into()))?
+                .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
+        }
+        staging
+            .iter()
+            .map(|s| {
+                let data = {
+                    let view = s
+                        .slice(..)
+                        .get_mapped_range()
+                        .map_err(|e| Error::Gpu(format!("readback mapping: {e}")))?;
+                    let n = view.len() / std::mem::size_of::<T>();
+                    bytemuck::cast_slice::<u8, T>(&view[..n * std::mem::size_of::<T>()]).to_vec()
+                };
+                s.unmap();
+                Ok(data)
+            })
+            .collect()
     }
 }
