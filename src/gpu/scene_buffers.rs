@@ -17,8 +17,12 @@ pub struct GpuMaterial {
     pub albedo: [f32; 3],
     pub texture: u32,
     pub emission: [f32; 3],
-    pub _pad: u32,
+    /// Bit flags, `MATERIAL_SAMPLED_LIGHT`.
+    pub flags: u32,
 }
+
+/// [`GpuMaterial::flags`]: the emitter is sampled by direct lighting (a rect light's quad).
+pub const MATERIAL_SAMPLED_LIGHT: u32 = 1;
 
 /// Rust mirror of WGSL `TextureInfo`.
 #[repr(C)]
@@ -121,7 +125,11 @@ pub fn material_tables(scene: &Scene) -> (Vec<GpuMaterial>, Vec<GpuTextureInfo>,
             albedo: m.albedo.into(),
             texture: m.albedo_texture.unwrap_or(NO_TEXTURE),
             emission: m.emission.into(),
-            _pad: 0,
+            flags: if m.sampled_light {
+                MATERIAL_SAMPLED_LIGHT
+            } else {
+                0
+            },
         })
         .collect();
     let mut infos = Vec::new();

@@ -484,6 +484,7 @@ impl<'a> SceneBuilder<'a> {
             albedo: Vec3::ZERO,
             albedo_texture: None,
             emission: radiance,
+            sampled_light: true,
         });
         self.material_textures.push(None);
         let material = (self.materials.len() - 1) as u32;

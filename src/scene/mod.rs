@@ -54,6 +54,10 @@ pub struct Material {
     pub albedo_texture: Option<u32>,
     /// Emitted radiance (linear RGB, W/(m^2 sr)), one-sided along the geometric normal.
     pub emission: Vec3,
+    /// The emitter is also a sampled light (a rect light's quad): direct lighting already
+    /// accounts for it, so indirect light must count it as zero (Ward: "we count as zero any
+    /// samples that intersect a light source") or it would be counted twice.
+    pub sampled_light: bool,
 }
 
 /// An 8-bit RGBA texture, sRGB-encoded colour, rows top to bottom (v = 1 is the top row).

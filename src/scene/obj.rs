@@ -532,6 +532,7 @@ fn convert_materials(
                 albedo,
                 albedo_texture: None,
                 emission,
+                sampled_light: false,
             },
             texture,
             library: Some(library.path.clone()),
@@ -547,6 +548,7 @@ pub fn default_material() -> Material {
         albedo: Vec3::splat(DEFAULT_ALBEDO),
         albedo_texture: None,
         emission: Vec3::ZERO,
+        sampled_light: false,
     }
 }
 

@@ -40,7 +40,7 @@ struct Material {
     albedo: vec3f,
     texture: u32,   // NO_TEXTURE or index into texture_infos
     emission: vec3f,
-    _pad: u32,
+    flags: u32,     // MATERIAL_SAMPLED_LIGHT
 }
 
 struct TextureInfo {
@@ -51,6 +51,8 @@ struct TextureInfo {
 }
 
 const NO_TEXTURE: u32 = 0xffffffffu;
+// The emitter is a rect light's quad, already sampled by direct lighting.
+const MATERIAL_SAMPLED_LIGHT: u32 = 1u;
 const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;
 const LIGHT_RECT: u32 = 2u;

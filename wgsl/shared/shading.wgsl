@@ -88,6 +88,15 @@ fn surface_emission(s: Surface) -> vec3f {
     return select(vec3f(0.0), materials[s.material].emission, s.front_face);
 }
 
+// Emitted radiance seen by an indirect (secondary) ray: emitters that direct lighting
+// already samples count as zero there, or they would be counted twice (Ward's rule).
+fn indirect_emission(s: Surface) -> vec3f {
+    if (materials[s.material].flags & MATERIAL_SAMPLED_LIGHT) != 0u {
+        return vec3f(0.0);
+    }
+    return surface_emission(s);
+}
+
 // Shadow ray from the surface to `target_point` (excluded), or towards a direction when
 // `to_infinity`.
 fn visible(s: Surface, target_point: vec3f, to_infinity: bool) -> bool {
