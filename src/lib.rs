@@ -16,6 +16,7 @@ pub mod error;
 pub mod frame;
 pub mod gpu;
 pub mod output;
+pub mod records;
 pub mod sampling;
 pub mod scene;
 pub mod visibility;

@@ -41,6 +41,22 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/direct_light.wgsl"),
     ),
     (
+        "shared/records.wgsl",
+        include_str!("../../wgsl/shared/records.wgsl"),
+    ),
+    (
+        "record_sites.wgsl",
+        include_str!("../../wgsl/record_sites.wgsl"),
+    ),
+    (
+        "hemisphere_plane.wgsl",
+        include_str!("../../wgsl/hemisphere_plane.wgsl"),
+    ),
+    (
+        "record_reduce.wgsl",
+        include_str!("../../wgsl/record_reduce.wgsl"),
+    ),
+    (
         "trace_rays.wgsl",
         include_str!("../../wgsl/trace_rays.wgsl"),
     ),

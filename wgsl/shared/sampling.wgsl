@@ -1,6 +1,7 @@
 // Deterministic sampling: hashes, Owen-scrambled Sobol points (Burley 2020, "Practical
 // Hash-based Owen Scrambling"), cosine hemisphere, orthonormal bases. Mirrored bit for bit
 // by src/sampling.rs for the CPU references.
+//!include shared/ray.wgsl
 
 fn hash_u32(x: u32) -> u32 {
     // PCG output permutation (Jarzynski & Olano 2020).

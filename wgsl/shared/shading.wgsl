@@ -118,10 +118,15 @@ fn visible(s: Surface, target_point: vec3f, to_infinity: bool) -> bool {
 // visibility. Area lights and the environment use `scene_info.light_samples` points of an
 // Owen-scrambled Sobol sequence whose scramble is seeded by `seed` (e.g. the pixel).
 fn direct_irradiance(s: Surface, seed: u32) -> vec3f {
+    return direct_irradiance_samples(s, seed, scene_info.light_samples);
+}
+
+// Same with `count` samples per area light and for the environment (secondary hits use
+// fewer than camera pixels: the hemisphere sum averages their noise).
+fn direct_irradiance_samples(s: Surface, seed: u32, count: u32) -> vec3f {
     let n = s.shading_normal;
     let ng = s.geometric_normal;
     var e = vec3f(0.0);
-    let count = scene_info.light_samples;
     for (var li = 0u; li < scene_info.light_count; li++) {
         let light = lights[li];
         let kind = bitcast<u32>(light.a.w);

@@ -1,0 +1,511 @@
+//! Irradiance records (thesis chapter 4, Ward's irradiance caching underneath): what a
+//! record holds, where new ones go ([`RecordSite`]), how they are computed on the GPU from
+//! a hemisphere plane ([`RecordPass`]: sites → planes → reduction) and the cache that
+//! holds them across frames ([`RecordCache`]). [`reference`] mirrors the computation on
+//! the CPU.
+
+pub mod plane;
+pub mod reference;
+
+use crate::gpu::GpuContext;
+use crate::gpu::pipeline::{Binding, ComputePass};
+use crate::gpu::scene_buffers::GpuScene;
+use crate::visibility::VisibilityBuffer;
+use crate::{Error, Result};
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+pub use plane::{HemispherePlane, PlaneMode, PlanePixel};
+
+/// One irradiance record (Rust mirror of WGSL `Record`, 144 bytes): p, n, R, E and the
+/// rotational and translational gradients per colour channel (algorithms.md decision 3).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Record {
+    pub position: [f32; 3],
+    /// R_k: harmonic mean distance, clamped to `[r_min, r_max_factor * r_min]` and by
+    /// Ward's gradient limit.
+    pub radius: f32,
+    pub normal: [f32; 3],
+    /// The R_min the record was computed with.
+    pub r_min: f32,
+    /// E_k (rgb, w unused).
+    pub irradiance: [f32; 4],
+    /// Per channel (r, g, b): the world-space rotational gradient (xyz, w unused).
+    pub rotation_gradient: [[f32; 4]; 3],
+    /// Per channel: the world-space translational gradient.
+    pub translation_gradient: [[f32; 4]; 3],
+}
+
+impl Record {
+    pub fn position(&self) -> Vec3 {
+        self.position.into()
+    }
+    pub fn normal(&self) -> Vec3 {
+        self.normal.into()
+    }
+    pub fn irradiance(&self) -> Vec3 {
+        Vec3::new(self.irradiance[0], self.irradiance[1], self.irradiance[2])
+    }
+
+    /// Ward's error term `|p - p_k| / R_k + sqrt(1 - n.n_k)` (thesis eq. 4.2 is its inverse).
+    pub fn error_at(&self, p: Vec3, n: Vec3) -> f32 {
+        (p - self.position()).length() / self.radius + (1.0 - n.dot(self.normal())).max(0.0).sqrt()
+    }
+
+    /// The "behind" test of WGSL `record_in_front`.
+    pub fn in_front_of(&self, p: Vec3, n: Vec3, accuracy: f32) -> bool {
+        (p - self.position()).dot(n + self.normal()) * 0.5 >= -1.0e-2 * accuracy * self.radius
+    }
+
+    /// E_k extrapolated to (p, n) with the gradients, clamped at 0 (WGSL
+    /// `record_irradiance_at`).
+    pub fn irradiance_at(&self, p: Vec3, n: Vec3) -> Vec3 {
+        let axis = self.normal().cross(n);
+        let d = p - self.position();
+        let g = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]);
+        let mut e = self.irradiance();
+        for c in 0..3 {
+            e[c] += axis.dot(g(self.rotation_gradient[c])) + d.dot(g(self.translation_gradient[c]));
+        }
+        e.max(Vec3::ZERO)
+    }
+}
+
+/// Where a new record goes (mirror of WGSL `RecordSite`, 48 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct RecordSite {
+    pub position: [f32; 3],
+    pub r_min: f32,
+    /// Shading normal (the record's hemisphere).
+    pub normal: [f32; 3],
+    /// Scrambles the light samples of the plane's hits.
+    pub seed: u32,
+    /// Geometric normal (offsets ray origins).
+    pub geometric_normal: [f32; 3],
+    pub _pad: u32,
+}
+
+/// One traced plane pixel (mirror of WGSL `PlaneSample`, 16 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct PlaneSample {
+    pub radiance: [f32; 3],
+    /// Hit depth along the record normal (`r cos(theta)`), negative on a miss.
+    pub depth: f32,
+}
+
+/// Settings of the irradiance cache (scene file `[cache]`, CLI flags).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CacheSettings {
+    /// Ward's accuracy a: a record contributes where w >= 1/a.
+    pub accuracy: f32,
+    /// Plane resolution P (P x P rays per record).
+    pub plane_resolution: u32,
+    /// Plane field of view in degrees.
+    pub plane_fov_degrees: f32,
+    /// Plane border compensation.
+    pub plane_mode: PlaneMode,
+    /// Light samples per area light at each plane hit.
+    pub plane_light_samples: u32,
+    /// R_min in pixels of validity radius: a R_min spans this many pixels at creation.
+    pub r_min_pixels: f32,
+    /// R_max / R_min (Ward: 64).
+    pub r_max_factor: f32,
+    /// Most records the cache may hold.
+    pub record_budget: u32,
+    /// Store and use rotational and translational gradients.
+    pub gradients: bool,
+}
+
+impl Default for CacheSettings {
+    fn default() -> Self {
+        Self {
+            accuracy: 0.2,
+            plane_resolution: 64,
+            plane_fov_degrees: 120.0,
+            plane_mode: PlaneMode::Stretched,
+            plane_light_samples: 1,
+            r_min_pixels: 3.0,
+            r_max_factor: 64.0,
+            record_budget: 200_000,
+            gradients: true,
+        }
+    }
+}
+
+impl CacheSettings {
+    /// Checks the ranges; errors name the setting.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |what: &str| Err(Error::Usage(format!("cache setting {what}")));
+        if !(self.accuracy > 0.0 && self.accuracy <= 1.0) {
+            return bad("accuracy must be in (0, 1]");
+        }
+        if !(2..=512).contains(&self.plane_resolution) {
+            return bad("plane resolution must be in 2..=512");
+        }
+        if !(self.plane_fov_degrees > 1.0 && self.plane_fov_degrees < 179.0) {
+            return bad("plane field of view must be in (1, 179) degrees");
+        }
+        if self.plane_light_samples == 0 {
+            return bad("plane light samples must be at least 1");
+        }
+        if !(self.r_min_pixels > 0.0 && self.r_min_pixels.is_finite()) {
+            return bad("r_min_pixels must be positive");
+        }
+        if !(self.r_max_factor >= 1.0 && self.r_max_factor.is_finite()) {
+            return bad("r_max_factor must be >= 1");
+        }
+        Ok(())
+    }
+}
+
+/// The records of a scene, resident on the GPU, with room to grow (view-independent: a
+/// new camera reuses them, thesis section 4.7.2).
+pub struct RecordCache {
+    pub buffer: wgpu::Buffer,
+    /// Records in use (the first `count` of the buffer).
+    pub count: u32,
+    capacity: u32,
+}
+
+/// Bytes per record.
+pub const RECORD_BYTES: u64 = std::mem::size_of::<Record>() as u64;
+
+impl RecordCache {
+    pub fn new(ctx: &GpuContext) -> Result<Self> {
+        let capacity = 1024;
+        Ok(Self {
+            buffer: ctx.storage_buffer_sized("records", u64::from(capacity) * RECORD_BYTES)?,
+            count: 0,
+            capacity,
+        })
+    }
+
+    /// Makes room for `extra` more records, growing the buffer (copying the records) or
+    /// failing with a device-limit error naming the record count.
+    pub fn reserve(&mut self, ctx: &GpuContext, extra: u32) -> Result<()> {
+        let needed = u64::from(self.count) + u64::from(extra);
+        if needed <= u64::from(self.capacity) {
+            return Ok(());
+        }
+        let max_records = ctx.max_binding_size() / RECORD_BYTES;
+        if needed > max_records {
+            return Err(Error::DeviceLimit(format!(
+                "{needed} irradiance records need {} MiB in one buffer; this device allows {} \
+                 records ({} MiB per binding)",
+                (needed * RECORD_BYTES).div_ceil(1 << 20),
+                max_records,
+                ctx.max_binding_size() >> 20
+            )));
+        }
+        let capacity = (needed.max(u64::from(self.capacity) * 2)).min(max_records) as u32;
+        let buffer = ctx.storage_buffer_sized("records", u64::from(capacity) * RECORD_BYTES)?;
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(
+            &self.buffer,
+            0,
+            &buffer,
+            0,
+            u64::from(self.count) * RECORD_BYTES,
+        );
+        ctx.queue.submit([enc.finish()]);
+        self.buffer = buffer;
+        self.capacity = capacity;
+        Ok(())
+    }
+
+    /// Reads the records back.
+    pub fn read(&self, ctx: &GpuContext) -> Result<Vec<Record>> {
+        let mut all: Vec<Record> = ctx.read_buffer(&self.buffer)?;
+        all.truncate(self.count as usize);
+        Ok(all)
+    }
+
+    /// Replaces the contents with `records` (tests, cache files).
+    pub fn upload(&mut self, ctx: &GpuContext, records: &[Record]) -> Result<()> {
+        self.count = 0;
+        self.reserve(ctx, records.len() as u32)?;
+        ctx.queue
+            .write_buffer(&self.buffer, 0, bytemuck::cast_slice(records));
+        self.count = records.len() as u32;
+        Ok(())
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct SiteParams {
+    count: u32,
+    first_record: u32,
+    r_min_pixels: f32,
+    accuracy: f32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct PlaneParams {
+    resolution: u32,
+    count: u32,
+    light_samples: u32,
+    _pad: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ReduceParams {
+    resolution: u32,
+    count: u32,
+    first_record: u32,
+    gradients: u32,
+    r_max_factor: f32,
+    cos_weight_sum: f32,
+    _pad: [u32; 2],
+}
+
+/// Computes records on the GPU: `record_sites.wgsl` (pixels → sites),
+/// `hemisphere_plane.wgsl` (trace and shade the planes), `record_reduce.wgsl` (E, R,
+/// gradients), in batches sized to the device.
+pub struct RecordPass {
+    sites: ComputePass,
+    plane: ComputePass,
+    reduce: ComputePass,
+    /// The plane table for `settings`.
+    plane_table: wgpu::Buffer,
+    cos_weight_sum: f32,
+    pub settings: CacheSettings,
+    /// Records per plane dispatch.
+    pub batch: u32,
+}
+
+impl RecordPass {
+    pub fn new(ctx: &GpuContext, settings: &CacheSettings) -> Result<Self> {
+        use Binding::*;
+        settings.validate()?;
+        let table = HemispherePlane::new(
+            settings.plane_resolution,
+            settings.plane_fov_degrees,
+            settings.plane_mode,
+        );
+        let cos_weight_sum = table
+            .pixels
+            .iter()
+            .map(|p| f64::from(p.cos_weight))
+            .sum::<f64>();
+        let plane_bytes = u64::from(settings.plane_resolution).pow(2) * 16;
+        // As many records per dispatch as fit one binding, at most 256 (a few seconds of
+        // rays on a CPU device, so progress stays visible).
+        let batch = (ctx.max_binding_size() / plane_bytes).clamp(1, 256) as u32;
+        Ok(Self {
+            sites: ComputePass::new(
+                ctx,
+                "record_sites.wgsl",
+                &[Uniform, Uniform, StorageRead, StorageRead, StorageReadWrite],
+            )?,
+            plane: ComputePass::new(
+                ctx,
+                "hemisphere_plane.wgsl",
+                &[Uniform, StorageRead, StorageRead, StorageReadWrite],
+            )?,
+            reduce: ComputePass::new(
+                ctx,
+                "record_reduce.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                ],
+            )?,
+            plane_table: ctx.storage_buffer("plane table", &table.pixels)?,
+            cos_weight_sum: cos_weight_sum as f32,
+            settings: settings.clone(),
+            batch,
+        })
+    }
+
+    /// Sites for the visibility-buffer `pixels` (one per new record, in order), computed on
+    /// the GPU; `first_record` is the index the first of them will get.
+    pub fn sites_from_pixels(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
+        pixels: &[u32],
+        first_record: u32,
+    ) -> Result<wgpu::Buffer> {
+        let count = pixels.len() as u32;
+        let params = ctx.uniform_buffer(
+            "site params",
+            &SiteParams {
+                count,
+                first_record,
+                r_min_pixels: self.settings.r_min_pixels,
+                accuracy: self.settings.accuracy,
+            },
+        );
+        let pixel_buf = ctx.storage_buffer("site pixels", pixels)?;
+        let sites = ctx.storage_buffer_sized(
+            "record sites",
+            u64::from(count) * std::mem::size_of::<RecordSite>() as u64,
+        )?;
+        let bind = self.sites.bind(
+            ctx,
+            &[
+                &params,
+                &vis.camera_buffer,
+                &vis.samples,
+                &pixel_buf,
+                &sites,
+            ],
+        );
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        self.sites.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            [count.div_ceil(64), 1, 1],
+            None,
+        );
+        ctx.queue.submit([enc.finish()]);
+        Ok(sites)
+    }
+
+    /// Computes records for `count` sites (a buffer of [`RecordSite`]) and appends them to
+    /// `cache`; `on_batch` is called after each batch with the number done. Returns the
+    /// per-pass GPU times.
+    pub fn compute(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        sites: &wgpu::Buffer,
+        count: u32,
+        cache: &mut RecordCache,
+        mut on_batch: impl FnMut(u32),
+    ) -> Result<Vec<(&'static str, f64)>> {
+        cache.reserve(ctx, count)?;
+        let res = self.settings.plane_resolution;
+        let samples = ctx.storage_buffer_sized(
+            "plane samples",
+            u64::from(self.batch) * u64::from(res * res) * 16,
+        )?;
+        let mut times = Vec::new();
+        let site_bytes = std::mem::size_of::<RecordSite>() as u64;
+        let mut done = 0;
+        while done < count {
+            let n = (count - done).min(self.batch);
+            // The batch's sites, as their own binding (offsets need 256-byte alignment).
+            let batch_sites = ctx.storage_buffer_sized("batch sites", u64::from(n) * site_bytes)?;
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            enc.copy_buffer_to_buffer(
+                sites,
+                u64::from(done) * site_bytes,
+                &batch_sites,
+                0,
+                u64::from(n) * site_bytes,
+            );
+            let plane_params = ctx.uniform_buffer(
+                "plane params",
+                &PlaneParams {
+                    resolution: res,
+                    count: n,
+                    light_samples: self.settings.plane_light_samples,
+                    _pad: 0,
+                },
+            );
+            let reduce_params = ctx.uniform_buffer(
+                "reduce params",
+                &ReduceParams {
+                    resolution: res,
+                    count: n,
+                    first_record: cache.count,
+                    gradients: u32::from(self.settings.gradients),
+                    r_max_factor: self.settings.r_max_factor,
+                    cos_weight_sum: self.cos_weight_sum,
+                    _pad: [0; 2],
+                },
+            );
+            let plane_bind = self.plane.bind(
+                ctx,
+                &[&plane_params, &batch_sites, &self.plane_table, &samples],
+            );
+            let reduce_bind = self.reduce.bind(
+                ctx,
+                &[
+                    &reduce_params,
+                    &batch_sites,
+                    &self.plane_table,
+                    &samples,
+                    &cache.buffer,
+                ],
+            );
+            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 2);
+            self.plane.record(
+                &mut enc,
+                &scene.bind_group,
+                &plane_bind,
+                [res.div_ceil(8), res.div_ceil(8), n],
+                timer.next("hemisphere planes"),
+            );
+            self.reduce.record(
+                &mut enc,
+                &scene.bind_group,
+                &reduce_bind,
+                [n, 1, 1],
+                timer.next("record reduction"),
+            );
+            timer.resolve(&mut enc);
+            ctx.queue.submit([enc.finish()]);
+            times.extend(timer.read(ctx)?);
+            cache.count += n;
+            done += n;
+            on_batch(done);
+        }
+        Ok(times)
+    }
+
+    /// Traces the planes of `count` sites and returns their samples (tests, Table 4.1).
+    pub fn trace_planes(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        sites: &[RecordSite],
+    ) -> Result<Vec<PlaneSample>> {
+        let res = self.settings.plane_resolution;
+        let n = sites.len() as u32;
+        if n > self.batch {
+            return Err(Error::Usage(format!(
+                "trace_planes: {n} sites exceed the batch of {}",
+                self.batch
+            )));
+        }
+        let sites_buf = ctx.storage_buffer("record sites", sites)?;
+        let samples =
+            ctx.storage_buffer_sized("plane samples", u64::from(n) * u64::from(res * res) * 16)?;
+        let params = ctx.uniform_buffer(
+            "plane params",
+            &PlaneParams {
+                resolution: res,
+                count: n,
+                light_samples: self.settings.plane_light_samples,
+                _pad: 0,
+            },
+        );
+        let bind = self
+            .plane
+            .bind(ctx, &[&params, &sites_buf, &self.plane_table, &samples]);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        self.plane.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            [res.div_ceil(8), res.div_ceil(8), n],
+            None,
+        );
+        ctx.queue.submit([enc.finish()]);
+        let mut out: Vec<PlaneSample> = ctx.read_buffer(&samples)?;
+        out.truncate((n * res * res) as usize);
+        Ok(out)
+    }
+}

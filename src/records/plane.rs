@@ -1,0 +1,269 @@
+//! The hemisphere sampling plane (thesis section 4.4, algorithms.md section 3.2): `P x P`
+//! pixels on the plane z = 1 above a record in its tangent frame, half-extent
+//! `s = tan(fov / 2)`. With border stretching (the default, decision 6) the outer edge of
+//! every border pixel is moved to infinity, so the pixels partition the open hemisphere
+//! exactly and their cosine weights sum to pi, their solid angles to 2 pi.
+//!
+//! Every weight is an exact rectangle integral computed here in f64 once per
+//! (resolution, field of view, mode) and uploaded as a table ([`PlanePixel`]); the GPU
+//! reduction and its CPU mirror read the same f32 table.
+
+use bytemuck::{Pod, Zeroable};
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
+
+/// How the plane's finite extent is compensated (thesis Table 4.1 compares the three).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PlaneMode {
+    /// Border pixels stretched to infinity (Gautron; the default).
+    Stretched,
+    /// Plain plane, irradiance divided by its cosine-weighted coverage ([LC04]).
+    CoverageRatio,
+    /// Plain plane, no compensation: grazing directions are lost.
+    Plain,
+}
+
+/// Per-pixel weights of the plane (Rust mirror of WGSL `PlanePixel`, 32 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct PlanePixel {
+    /// Cosine-weighted solid angle of the pixel: `E = sum L * cos_weight`.
+    pub cos_weight: f32,
+    /// Solid angle of the pixel (the stretched plane's sum to 2 pi).
+    pub solid_angle: f32,
+    /// Weight of the edge to the right neighbour (x + 1) in the translational gradient:
+    /// the integral of `1 / (1 + x_b^2 + y^2)^2` along the edge (algorithms.md 3.3); 0 on
+    /// the last column.
+    pub edge_x: f32,
+    /// Same for the edge to the neighbour above (y + 1); 0 on the last row.
+    pub edge_y: f32,
+    /// Rotational gradient weight: the integral of `n x w` over the pixel in the tangent
+    /// frame, i.e. `(-int w_y dw, int w_x dw)` (the continuous form of algorithms.md 1.5).
+    pub rotation: [f32; 2],
+    /// Plane coordinates of the pixel centre: the sample's ray goes through (x, y, 1).
+    pub center: [f32; 2],
+}
+
+/// The sampling plane's pixel table.
+#[derive(Clone, Debug)]
+pub struct HemispherePlane {
+    pub resolution: u32,
+    pub fov_degrees: f32,
+    pub mode: PlaneMode,
+    /// `resolution^2` pixels, row-major, row j at y = -s + (j + 1/2) * 2s / resolution.
+    pub pixels: Vec<PlanePixel>,
+}
+
+/// Cosine-weighted integral over [0,x] x [0,y] of the plane (algorithms.md 3.2, `G`), with
+/// x or y infinite.
+fn cos_integral(x: f64, y: f64) -> f64 {
+    match (x.is_infinite(), y.is_infinite()) {
+        (true, true) => x.signum() * y.signum() * FRAC_PI_4,
+        (true, false) => x.signum() * FRAC_PI_4 * y / (1.0 + y * y).sqrt(),
+        (false, true) => y.signum() * FRAC_PI_4 * x / (1.0 + x * x).sqrt(),
+        (false, false) => {
+            let cx = (1.0 + x * x).sqrt();
+            let cy = (1.0 + y * y).sqrt();
+            0.5 * (x / cx * (y / cx).atan() + y / cy * (x / cy).atan())
+        }
+    }
+}
+
+/// Solid angle of [0,x] x [0,y] (algorithms.md 3.2, `S`).
+fn solid_angle_integral(x: f64, y: f64) -> f64 {
+    match (x.is_infinite(), y.is_infinite()) {
+        (true, true) => x.signum() * y.signum() * FRAC_PI_2,
+        (true, false) => x.signum() * y.atan(),
+        (false, true) => y.signum() * x.atan(),
+        (false, false) => (x * y / (1.0 + x * x + y * y).sqrt()).atan(),
+    }
+}
+
+/// Antiderivative `F(x, y)` with `d2F/dxdy = x / (1 + x^2 + y^2)^2`, i.e. of `w_x dw` on the
+/// plane: `F = -atan(y / sqrt(1 + x^2)) / (2 sqrt(1 + x^2))` (derived here; checked by the
+/// tests against quadrature).
+fn wx_integral(x: f64, y: f64) -> f64 {
+    if x.is_infinite() {
+        return 0.0;
+    }
+    let c = (1.0 + x * x).sqrt();
+    let a = if y.is_infinite() {
+        y.signum() * FRAC_PI_2
+    } else {
+        (y / c).atan()
+    };
+    -a / (2.0 * c)
+}
+
+/// Integral of `1 / (c2 + y^2)^2` from 0 to y, `c2 = 1 + x_b^2`.
+fn edge_integral(c2: f64, y: f64) -> f64 {
+    let c = c2.sqrt();
+    if y.is_infinite() {
+        return y.signum() * FRAC_PI_2 / (2.0 * c2 * c);
+    }
+    y / (2.0 * c2 * (c2 + y * y)) + (y / c).atan() / (2.0 * c2 * c)
+}
+
+/// Integral of `f` over the rectangle [x0,x1] x [y0,y1] from its corner antiderivative.
+fn rect(f: impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1: f64) -> f64 {
+    f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0)
+}
+
+impl HemispherePlane {
+    /// Builds the table for a `resolution x resolution` plane with the given full field of
+    /// view (degrees, in (0, 180)).
+    pub fn new(resolution: u32, fov_degrees: f32, mode: PlaneMode) -> Self {
+        let p = resolution as usize;
+        let s = (f64::from(fov_degrees).to_radians() * 0.5).tan();
+        let delta = 2.0 * s / resolution as f64;
+        // Pixel edges; the outer ones go to infinity when stretched.
+        let mut edges: Vec<f64> = (0..=p).map(|i| -s + i as f64 * delta).collect();
+        if mode == PlaneMode::Stretched {
+            edges[0] = f64::NEG_INFINITY;
+            edges[p] = f64::INFINITY;
+        }
+        let plain_coverage = rect(cos_integral, -s, s, -s, s) / std::f64::consts::PI;
+        let scale = if mode == PlaneMode::CoverageRatio {
+            1.0 / plain_coverage
+        } else {
+            1.0
+        };
+        let mut pixels = Vec::with_capacity(p * p);
+        for j in 0..p {
+            let (y0, y1) = (edges[j], edges[j + 1]);
+            for i in 0..p {
+                let (x0, x1) = (edges[i], edges[i + 1]);
+                let cos_weight = rect(cos_integral, x0, x1, y0, y1) * scale;
+                let solid_angle = rect(solid_angle_integral, x0, x1, y0, y1) * scale;
+                let wx = rect(wx_integral, x0, x1, y0, y1);
+                let wy = rect(|x, y| wx_integral(y, x), x0, x1, y0, y1);
+                let edge_x = if i + 1 < p {
+                    let c2 = 1.0 + x1 * x1;
+                    (edge_integral(c2, y1) - edge_integral(c2, y0)) * scale
+                } else {
+                    0.0
+                };
+                let edge_y = if j + 1 < p {
+                    let c2 = 1.0 + y1 * y1;
+                    (edge_integral(c2, x1) - edge_integral(c2, x0)) * scale
+                } else {
+                    0.0
+                };
+                pixels.push(PlanePixel {
+                    cos_weight: cos_weight as f32,
+                    solid_angle: solid_angle as f32,
+                    edge_x: edge_x as f32,
+                    edge_y: edge_y as f32,
+                    rotation: [(-wy * scale) as f32, (wx * scale) as f32],
+                    center: [
+                        (-s + (i as f64 + 0.5) * delta) as f32,
+                        (-s + (j as f64 + 0.5) * delta) as f32,
+                    ],
+                });
+            }
+        }
+        Self {
+            resolution,
+            fov_degrees,
+            mode,
+            pixels,
+        }
+    }
+
+    /// Fraction of the cosine-weighted hemisphere the unstretched plane covers
+    /// (algorithms.md 3.2 table: 0.787 at 120 degrees).
+    pub fn plain_coverage(fov_degrees: f32) -> f64 {
+        let s = (f64::from(fov_degrees).to_radians() * 0.5).tan();
+        rect(cos_integral, -s, s, -s, s) / std::f64::consts::PI
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    fn sums(p: &HemispherePlane) -> (f64, f64) {
+        p.pixels.iter().fold((0.0, 0.0), |(c, s), px| {
+            (c + f64::from(px.cos_weight), s + f64::from(px.solid_angle))
+        })
+    }
+
+    #[test]
+    fn stretched_weights_partition_the_hemisphere() {
+        for resolution in [4, 16, 64, 128] {
+            for fov in [60.0, 90.0, 120.0, 150.0, 170.0] {
+                let plane = HemispherePlane::new(resolution, fov, PlaneMode::Stretched);
+                let (c, s) = sums(&plane);
+                assert!((c - PI).abs() < 1e-4, "{resolution} {fov}: cos sum {c}");
+                assert!(
+                    (s - 2.0 * PI).abs() < 1e-4,
+                    "{resolution} {fov}: sa sum {s}"
+                );
+                assert!(plane.pixels.iter().all(|p| p.cos_weight > 0.0));
+            }
+        }
+    }
+
+    #[test]
+    fn coverage_matches_the_digest_table() {
+        for (fov, f) in [(90.0, 0.554), (120.0, 0.787), (150.0, 0.945)] {
+            assert!((HemispherePlane::plain_coverage(fov) - f).abs() < 1e-3);
+            let plain = HemispherePlane::new(32, fov, PlaneMode::Plain);
+            assert!((sums(&plain).0 / PI - f).abs() < 1e-3);
+            let ratio = HemispherePlane::new(32, fov, PlaneMode::CoverageRatio);
+            assert!((sums(&ratio).0 - PI).abs() < 1e-4);
+        }
+    }
+
+    /// Midpoint quadrature of a function of the plane coordinates over a finite rectangle.
+    fn quad(f: impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1: f64) -> f64 {
+        let n = 400;
+        let (dx, dy) = ((x1 - x0) / n as f64, (y1 - y0) / n as f64);
+        let mut sum = 0.0;
+        for j in 0..n {
+            for i in 0..n {
+                sum += f(x0 + (i as f64 + 0.5) * dx, y0 + (j as f64 + 0.5) * dy);
+            }
+        }
+        sum * dx * dy
+    }
+
+    #[test]
+    fn closed_forms_match_quadrature() {
+        // Solid angle density on the plane z = 1 is (1 + x^2 + y^2)^(-3/2); w = (x, y, 1) / norm.
+        let (x0, x1, y0, y1) = (0.3, 0.9, -0.7, 0.2);
+        let q = |g: &dyn Fn(f64, f64) -> f64| quad(g, x0, x1, y0, y1);
+        let r2 = |x: f64, y: f64| 1.0 + x * x + y * y;
+        let cos = q(&|x, y| r2(x, y).powi(-2));
+        let sa = q(&|x, y| r2(x, y).powf(-1.5));
+        let wx = q(&|x, y| x * r2(x, y).powi(-2));
+        let wy = q(&|x, y| y * r2(x, y).powi(-2));
+        assert!((rect(cos_integral, x0, x1, y0, y1) - cos).abs() < 1e-6);
+        assert!((rect(solid_angle_integral, x0, x1, y0, y1) - sa).abs() < 1e-6);
+        assert!((rect(wx_integral, x0, x1, y0, y1) - wx).abs() < 1e-6);
+        assert!((rect(|x, y| wx_integral(y, x), x0, x1, y0, y1) - wy).abs() < 1e-6);
+        let c2 = 1.0 + 0.4 * 0.4;
+        let n = 10000;
+        let e: f64 = (0..n)
+            .map(|k| {
+                let y = y0 + (k as f64 + 0.5) * (y1 - y0) / n as f64;
+                (c2 + y * y).powi(-2) * (y1 - y0) / n as f64
+            })
+            .sum();
+        assert!((edge_integral(c2, y1) - edge_integral(c2, y0) - e).abs() < 1e-8);
+    }
+
+    #[test]
+    fn rotation_weights_integrate_to_zero_and_are_antisymmetric() {
+        // Over the whole hemisphere, int (n x w) dw = 0 by symmetry.
+        let plane = HemispherePlane::new(16, 120.0, PlaneMode::Stretched);
+        let (sx, sy) = plane.pixels.iter().fold((0.0f64, 0.0f64), |(a, b), p| {
+            (a + f64::from(p.rotation[0]), b + f64::from(p.rotation[1]))
+        });
+        assert!(sx.abs() < 1e-5 && sy.abs() < 1e-5);
+        // A pixel right of centre (x > 0) has n x w pointing along +y.
+        let right = plane.pixels[8 * 16 + 12];
+        assert!(right.rotation[1] > 0.0 && right.rotation[0].abs() < right.rotation[1]);
+    }
+}

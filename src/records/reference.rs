@@ -1,0 +1,198 @@
+//! Plain-Rust reference of record computation: the same plane rays traced by obvhs on the
+//! CPU, the same shading (bit-identical light sample points), and the reduction of
+//! `record_reduce.wgsl` summed in f64.
+
+use super::{CacheSettings, HemispherePlane, PlaneSample, Record, RecordSite};
+use crate::direct::reference::{DirectReference, offset_ray_origin};
+use crate::sampling::{hash_combine, hash_u32, orthonormal_basis};
+use crate::scene::Scene;
+use crate::visibility::{GpuCamera, VisSample};
+use glam::{DVec3, Vec3};
+use std::f32::consts::PI;
+
+/// CPU record computation for one scene and settings.
+pub struct RecordReference<'a> {
+    pub shading: DirectReference<'a>,
+    pub plane: HemispherePlane,
+    pub settings: CacheSettings,
+}
+
+impl<'a> RecordReference<'a> {
+    pub fn new(scene: &'a Scene, settings: &CacheSettings) -> Self {
+        Self {
+            shading: DirectReference::new(scene, settings.plane_light_samples),
+            plane: HemispherePlane::new(
+                settings.plane_resolution,
+                settings.plane_fov_degrees,
+                settings.plane_mode,
+            ),
+            settings: settings.clone(),
+        }
+    }
+
+    /// The site `record_sites.wgsl` makes from a visibility sample.
+    pub fn site_from_pixel(
+        settings: &CacheSettings,
+        camera: &GpuCamera,
+        v: &VisSample,
+        record_index: u32,
+    ) -> RecordSite {
+        let footprint = 2.0 * Vec3::from(camera.up).length() * v.t / camera.height as f32;
+        RecordSite {
+            position: v.position,
+            r_min: settings.r_min_pixels * footprint / settings.accuracy,
+            normal: v.shading_normal,
+            seed: hash_u32(record_index),
+            geometric_normal: v.geometric_normal,
+            _pad: 0,
+        }
+    }
+
+    /// Traces and shades the plane of `site` (as `hemisphere_plane.wgsl`).
+    pub fn trace_plane(&self, site: &RecordSite) -> Vec<PlaneSample> {
+        let scene = self.shading.scene;
+        let n = Vec3::from(site.normal);
+        let ng = Vec3::from(site.geometric_normal);
+        let frame = orthonormal_basis(n);
+        let origin = offset_ray_origin(site.position.into(), ng);
+        self.plane
+            .pixels
+            .iter()
+            .enumerate()
+            .map(|(k, px)| {
+                let dir = (frame * Vec3::new(px.center[0], px.center[1], 1.0)).normalize();
+                if dir.dot(ng) <= 0.0 {
+                    return PlaneSample {
+                        radiance: [0.0; 3],
+                        depth: -1.0,
+                    };
+                }
+                let Some(hit) = self
+                    .shading
+                    .tracer
+                    .closest_hit(origin, dir, 0.0, f32::INFINITY)
+                else {
+                    return PlaneSample {
+                        radiance: scene.environment.into(),
+                        depth: -1.0,
+                    };
+                };
+                let s = self.shading.surface_at(&hit, dir);
+                let e = self
+                    .shading
+                    .direct_irradiance(&s, hash_combine(site.seed, k as u32));
+                let m = &scene.materials[s.material as usize];
+                let emission = if s.front_face && !m.sampled_light {
+                    m.emission
+                } else {
+                    Vec3::ZERO
+                };
+                let radiance = self.shading.albedo(&s) / PI * e + emission;
+                PlaneSample {
+                    radiance: radiance.into(),
+                    depth: hit.t * dir.dot(n),
+                }
+            })
+            .collect()
+    }
+
+    /// Reduces a traced plane to a record (as `record_reduce.wgsl`, summed in f64).
+    pub fn reduce(&self, site: &RecordSite, samples: &[PlaneSample]) -> Record {
+        reduce_plane(&self.plane, &self.settings, site, samples)
+    }
+
+    /// Computes the record of `site` entirely on the CPU.
+    pub fn record(&self, site: &RecordSite) -> Record {
+        self.reduce(site, &self.trace_plane(site))
+    }
+}
+
+/// The reduction of `record_reduce.wgsl` in f64: E, cosine-weighted harmonic mean distance,
+/// gradients from the plane (algorithms.md 3.3), R clamps and Ward's gradient limit.
+pub fn reduce_plane(
+    plane: &HemispherePlane,
+    settings: &CacheSettings,
+    site: &RecordSite,
+    samples: &[PlaneSample],
+) -> Record {
+    let res = plane.resolution as usize;
+    let l = |s: &PlaneSample| DVec3::from(Vec3::from(s.radiance));
+    let nearer = |a: f32, b: f32| {
+        if a <= 0.0 {
+            b
+        } else if b <= 0.0 {
+            a
+        } else {
+            a.min(b)
+        }
+    };
+    let mut e = DVec3::ZERO;
+    let mut inv_distance = 0.0f64;
+    let mut weight_sum = 0.0f64;
+    let (mut rx, mut ry, mut tx, mut ty) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+    for (k, (s, px)) in samples.iter().zip(&plane.pixels).enumerate() {
+        let w = f64::from(px.cos_weight);
+        weight_sum += w;
+        e += l(s) * w;
+        if s.depth > 0.0 {
+            let c = glam::DVec2::new(px.center[0].into(), px.center[1].into());
+            inv_distance += w / (f64::from(s.depth) * (1.0 + c.dot(c)).sqrt());
+        }
+        rx += l(s) * f64::from(px.rotation[0]);
+        ry += l(s) * f64::from(px.rotation[1]);
+        if k % res + 1 < res {
+            let right = &samples[k + 1];
+            let z = nearer(s.depth, right.depth);
+            if z > 0.0 {
+                tx += (l(right) - l(s)) * (f64::from(px.edge_x) / f64::from(z));
+            }
+        }
+        if k + res < samples.len() {
+            let up = &samples[k + res];
+            let z = nearer(s.depth, up.depth);
+            if z > 0.0 {
+                ty += (l(up) - l(s)) * (f64::from(px.edge_y) / f64::from(z));
+            }
+        }
+    }
+    let r_min = f64::from(site.r_min);
+    let r_max = r_min * f64::from(settings.r_max_factor);
+    let mut radius = if inv_distance > 0.0 {
+        (weight_sum / inv_distance).clamp(r_min, r_max)
+    } else {
+        r_max
+    };
+    let frame = orthonormal_basis(site.normal.into()).as_dmat3();
+    let mut rot = [DVec3::ZERO; 3];
+    let mut tr = [DVec3::ZERO; 3];
+    if settings.gradients {
+        for c in 0..3 {
+            rot[c] = frame * DVec3::new(rx[c], ry[c], 0.0);
+            tr[c] = frame * DVec3::new(tx[c], ty[c], 0.0);
+        }
+        let mut limited = radius;
+        for c in 0..3 {
+            let g = tr[c].length();
+            if g * limited > e[c] {
+                limited = e[c] / g;
+            }
+        }
+        radius = limited.max(r_min);
+        for c in 0..3 {
+            let g = tr[c].length();
+            if g * radius > e[c] {
+                tr[c] *= e[c] / (g * radius);
+            }
+        }
+    }
+    let v4 = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
+    Record {
+        position: site.position,
+        radius: radius as f32,
+        normal: site.normal,
+        r_min: site.r_min,
+        irradiance: v4(e),
+        rotation_gradient: [v4(rot[0]), v4(rot[1]), v4(rot[2])],
+        translation_gradient: [v4(tr[0]), v4(tr[1]), v4(tr[2])],
+    }
+}

@@ -1,0 +1,294 @@
+//! Irradiance records: GPU hemisphere planes and reduction against their CPU reference,
+//! plane irradiance against full-hemisphere Monte Carlo, gradients against finite
+//! differences.
+
+mod common;
+
+use glam::Vec3;
+use radsplat::Renderer;
+use radsplat::records::reference::{RecordReference, reduce_plane};
+use radsplat::records::{CacheSettings, Record, RecordCache, RecordPass, RecordSite};
+use radsplat::sampling::{cosine_hemisphere, orthonormal_basis, sobol_2d};
+use radsplat::scene::Scene;
+use radsplat::visibility::GpuCamera;
+
+/// Sites at a spread of visible pixels of the scene's camera (CPU-made, as the GPU would).
+fn sites(
+    scene: &Scene,
+    renderer: &Renderer,
+    settings: &CacheSettings,
+    n: usize,
+) -> Vec<RecordSite> {
+    let prepared = renderer.prepare(scene).expect("prepare");
+    let frame = renderer
+        .render_frame(&prepared, &scene.camera)
+        .expect("frame");
+    let cam = GpuCamera::new(&scene.camera);
+    let hits: Vec<_> = frame.visibility.iter().filter(|v| v.is_hit()).collect();
+    (0..n)
+        .map(|k| {
+            let v = hits[(k * 7919 + 13) % hits.len()];
+            RecordReference::site_from_pixel(settings, &cam, v, k as u32)
+        })
+        .collect()
+}
+
+fn rgb(v: [f32; 4]) -> Vec3 {
+    Vec3::new(v[0], v[1], v[2])
+}
+
+#[test]
+fn gpu_planes_and_records_match_the_cpu_reference() {
+    let scene = common::load("cornell-box.toml", Some((32, 32)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = CacheSettings::default();
+    let sites = sites(&scene, &renderer, &settings, 12);
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    let reference = RecordReference::new(&scene, &settings);
+
+    // Planes: same rays, same shading.
+    let gpu_samples = pass
+        .trace_planes(&renderer.ctx, &prepared.gpu, &sites)
+        .expect("planes");
+    let per = (settings.plane_resolution * settings.plane_resolution) as usize;
+    let mut compared = 0;
+    let mut differ = 0;
+    for (i, site) in sites.iter().enumerate() {
+        let cpu = reference.trace_plane(site);
+        for (g, c) in gpu_samples[i * per..(i + 1) * per].iter().zip(&cpu) {
+            compared += 1;
+            let (gl, cl) = (Vec3::from(g.radiance), Vec3::from(c.radiance));
+            let err = (gl - cl).abs().max_element() / cl.max_element().max(1e-2);
+            let depth_err = (g.depth - c.depth).abs() / c.depth.abs().max(1e-3);
+            if err > 1e-4 || depth_err > 1e-4 {
+                differ += 1; // a grazing shadow ray or an edge tie
+            }
+        }
+    }
+    eprintln!("plane samples: {compared} compared, {differ} differ");
+    assert!(
+        differ * 1000 <= compared,
+        "{differ} of {compared} plane samples differ"
+    );
+
+    // Reduction: the GPU's records against the CPU reduction of the GPU's own samples.
+    let mut cache = RecordCache::new(&renderer.ctx).expect("cache");
+    let site_buf = renderer.ctx.storage_buffer("sites", &sites).expect("sites");
+    pass.compute(
+        &renderer.ctx,
+        &prepared.gpu,
+        &site_buf,
+        sites.len() as u32,
+        &mut cache,
+        |_| {},
+    )
+    .expect("records");
+    let records = cache.read(&renderer.ctx).expect("read");
+    renderer.ctx.check().expect("no wgpu errors");
+    assert_eq!(records.len(), sites.len());
+    for (i, (site, gpu)) in sites.iter().zip(&records).enumerate() {
+        let cpu = reduce_plane(
+            &reference.plane,
+            &settings,
+            site,
+            &gpu_samples[i * per..(i + 1) * per],
+        );
+        let scale = cpu.irradiance().max_element().max(1e-3);
+        let close = |a: Vec3, b: Vec3, s: f32| (a - b).abs().max_element() <= 1e-4 * s;
+        assert!(
+            close(gpu.irradiance(), cpu.irradiance(), scale),
+            "E {i}: {gpu:?} vs {cpu:?}"
+        );
+        assert!(
+            (gpu.radius - cpu.radius).abs() <= 1e-4 * cpu.radius,
+            "R {i}"
+        );
+        for c in 0..3 {
+            let g_scale = scale / cpu.radius;
+            assert!(close(
+                rgb(gpu.rotation_gradient[c]),
+                rgb(cpu.rotation_gradient[c]),
+                scale
+            ));
+            assert!(close(
+                rgb(gpu.translation_gradient[c]),
+                rgb(cpu.translation_gradient[c]),
+                g_scale
+            ));
+        }
+        assert!(gpu.radius >= gpu.r_min && gpu.radius <= gpu.r_min * settings.r_max_factor);
+    }
+}
+
+/// Full-hemisphere Monte Carlo irradiance at a site, shading hits as the plane does.
+fn monte_carlo_irradiance(reference: &RecordReference, site: &RecordSite, samples: u32) -> Vec3 {
+    let scene = reference.shading.scene;
+    let n = Vec3::from(site.normal);
+    let ng = Vec3::from(site.geometric_normal);
+    let frame = orthonormal_basis(n);
+    let origin = radsplat::direct::reference::offset_ray_origin(site.position.into(), ng);
+    let mut sum = Vec3::ZERO;
+    for k in 0..samples {
+        let dir = frame * cosine_hemisphere(sobol_2d(k, 0x5eed ^ site.seed));
+        if dir.dot(ng) <= 0.0 {
+            continue;
+        }
+        let Some(hit) = reference
+            .shading
+            .tracer
+            .closest_hit(origin, dir, 0.0, f32::INFINITY)
+        else {
+            sum += scene.environment;
+            continue;
+        };
+        let s = reference.shading.surface_at(&hit, dir);
+        let m = &scene.materials[s.material as usize];
+        let emission = if s.front_face && !m.sampled_light {
+            m.emission
+        } else {
+            Vec3::ZERO
+        };
+        let e = reference.shading.direct_irradiance(&s, k);
+        sum += reference.shading.albedo(&s) / std::f32::consts::PI * e + emission;
+    }
+    // Cosine-weighted estimator: E = pi / N * sum L.
+    sum * (std::f32::consts::PI / samples as f32)
+}
+
+#[test]
+fn plane_irradiance_matches_full_hemisphere_monte_carlo() {
+    let scene = common::load("cornell-box.toml", Some((32, 32)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = CacheSettings {
+        plane_light_samples: 4,
+        ..CacheSettings::default()
+    };
+    let sites = sites(&scene, &renderer, &settings, 8);
+    let reference = RecordReference::new(&scene, &settings);
+    let mut errors = Vec::new();
+    for site in &sites {
+        let plane = reference.record(site).irradiance();
+        let mc = monte_carlo_irradiance(&reference, site, 16384);
+        let err = (plane - mc).length() / mc.length();
+        eprintln!("plane {plane:?} vs MC {mc:?}: {:.2} %", err * 100.0);
+        errors.push(err);
+    }
+    let rms = (errors.iter().map(|e| e * e).sum::<f32>() / errors.len() as f32).sqrt();
+    eprintln!("RMS relative error of plane E vs MC: {:.2} %", rms * 100.0);
+    // Stated tolerance: 64x64 stretched plane at the default FOV vs 16k-sample MC.
+    assert!(rms < 0.05, "RMS error {rms}");
+}
+
+/// A floor under a 1 x 1 emitting square (MTL `Ke`, not a sampled light) and nothing else:
+/// irradiance on the floor is a smooth form factor, free of shadows and light sampling.
+fn emitter_over_floor() -> Scene {
+    let dir = std::env::temp_dir().join(format!("radsplat-gradients-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    std::fs::write(
+        dir.join("scene.obj"),
+        "mtllib scene.mtl\n\
+         v -20 0 -20\nv 20 0 -20\nv 20 0 20\nv -20 0 20\n\
+         v 0.5 1 -0.5\nv 1.5 1 -0.5\nv 1.5 1 0.5\nv 0.5 1 0.5\n\
+         usemtl floor\nf 1 4 3\nf 1 3 2\n\
+         usemtl emitter\nf 5 6 7\nf 5 7 8\n",
+    )
+    .expect("obj");
+    std::fs::write(
+        dir.join("scene.mtl"),
+        "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl emitter\nKd 0 0 0\nKe 1 2 3\n",
+    )
+    .expect("mtl");
+    std::fs::write(
+        dir.join("scene.toml"),
+        "[camera]\nposition = [0, 3, 3]\ntarget = [0, 0, 0]\nfov_y = 60\nresolution = [16, 16]\n\
+         [[mesh]]\nfile = \"scene.obj\"\n",
+    )
+    .expect("toml");
+    let scene = radsplat::scene::load_scene(&dir.join("scene.toml")).expect("scene");
+    let _ = std::fs::remove_dir_all(&dir);
+    scene
+}
+
+/// Exact irradiance from the emitter of [`emitter_over_floor`] at (p, n) by Lambert's
+/// polygon formula, in f64 (the emitter is entirely above the tangent plane here).
+fn exact_irradiance(p: Vec3, n: Vec3) -> Vec3 {
+    let p = p.as_dvec3();
+    let n = n.as_dvec3();
+    let corners = [
+        [0.5, 1.0, -0.5],
+        [1.5, 1.0, -0.5],
+        [1.5, 1.0, 0.5],
+        [0.5, 1.0, 0.5],
+    ]
+    .map(|c| (glam::DVec3::from(c) - p).normalize());
+    let mut sum = 0.0;
+    for j in 0..4 {
+        let (a, b) = (corners[j], corners[(j + 1) % 4]);
+        sum += a.dot(b).clamp(-1.0, 1.0).acos() * n.dot(a.cross(b).normalize());
+    }
+    (glam::DVec3::new(1.0, 2.0, 3.0) * (sum.abs() / 2.0)).as_vec3()
+}
+
+/// The record's gradients against central finite differences of the exact irradiance at
+/// displaced / rotated points, where E is smooth; and the record's E against the exact one.
+#[test]
+fn gradients_match_finite_differences() {
+    let scene = emitter_over_floor();
+    let settings = CacheSettings {
+        plane_resolution: 256,
+        ..CacheSettings::default()
+    };
+    let reference = RecordReference::new(&scene, &settings);
+    let site = RecordSite {
+        position: [0.0, 0.0, 0.2],
+        r_min: 1e-3,
+        normal: [0.0, 1.0, 0.0],
+        seed: 7,
+        geometric_normal: [0.0, 1.0, 0.0],
+        _pad: 0,
+    };
+    let record: Record = reference.record(&site);
+    let exact = exact_irradiance(site.position.into(), Vec3::Y);
+    eprintln!("E: record {:?}, exact {exact:?}", record.irradiance());
+    assert!((record.irradiance() - exact).abs().max_element() <= 0.01 * exact.max_element());
+    let e = |s: &RecordSite| exact_irradiance(s.position.into(), s.normal.into());
+    let h = 1e-3;
+    for axis in [Vec3::X, Vec3::Z] {
+        let mut plus = site;
+        let mut minus = site;
+        plus.position = (Vec3::from(site.position) + axis * h).into();
+        minus.position = (Vec3::from(site.position) - axis * h).into();
+        let fd = (e(&plus) - e(&minus)) / (2.0 * h);
+        let grad = Vec3::new(
+            rgb(record.translation_gradient[0]).dot(axis),
+            rgb(record.translation_gradient[1]).dot(axis),
+            rgb(record.translation_gradient[2]).dot(axis),
+        );
+        eprintln!("translation along {axis:?}: gradient {grad:?}, finite difference {fd:?}");
+        let err = (grad - fd).abs().max_element() / fd.abs().max_element();
+        assert!(err <= 0.05, "translation {axis:?}: {grad:?} vs {fd:?}");
+    }
+    // Rotation about the tangent axes: E(n rotated by +-angle) vs (n_k x n).grad_r.
+    let angle = 1e-3f32;
+    for axis in [Vec3::X, Vec3::Z] {
+        let rotated = |a: f32| {
+            let n = glam::Quat::from_axis_angle(axis, a) * Vec3::Y;
+            RecordSite {
+                normal: n.into(),
+                geometric_normal: n.into(),
+                ..site
+            }
+        };
+        let fd = (e(&rotated(angle)) - e(&rotated(-angle))) / (2.0 * angle);
+        // d/da of (n_k x n(a)).grad_r at a = 0 is (n_k x (axis x n_k)).grad_r = axis.grad_r.
+        let grad = Vec3::new(
+            rgb(record.rotation_gradient[0]).dot(axis),
+            rgb(record.rotation_gradient[1]).dot(axis),
+            rgb(record.rotation_gradient[2]).dot(axis),
+        );
+        eprintln!("rotation about {axis:?}: gradient {grad:?}, finite difference {fd:?}");
+        let err = (grad - fd).abs().max_element() / fd.abs().max_element();
+        assert!(err <= 0.05, "rotation {axis:?}: {grad:?} vs {fd:?}");
+    }
+}

@@ -1,0 +1,154 @@
+// Record reduction: one workgroup per record sums its plane in a fixed order (each thread a
+// fixed strided subset, then a tree), giving E, the harmonic mean distance R and both
+// gradients straight from the plane (algorithms.md 3.3), then clamps R (decision 5).
+//!include shared/records.wgsl
+//!include shared/sampling.wgsl
+
+const THREADS: u32 = 128u;
+
+struct ReduceParams {
+    resolution: u32,
+    count: u32,
+    first_record: u32,
+    gradients: u32,         // 0: store zero gradients
+    r_max_factor: f32,      // R_max = r_max_factor * R_min (Ward: 64)
+    cos_weight_sum: f32,    // sum of the plane's cosine weights (pi when stretched)
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(1) @binding(0) var<uniform> params: ReduceParams;
+@group(1) @binding(1) var<storage, read> sites: array<RecordSite>;
+@group(1) @binding(2) var<storage, read> plane: array<PlanePixel>;
+@group(1) @binding(3) var<storage, read> samples: array<PlaneSample>;
+@group(1) @binding(4) var<storage, read_write> records: array<Record>;
+
+struct Partial {
+    irradiance: vec3f,
+    inv_distance: f32,      // sum of cos_weight / r over hits
+    rotation_x: vec3f,      // tangent-frame components, per channel
+    rotation_y: vec3f,
+    translation_x: vec3f,
+    translation_y: vec3f,
+}
+
+var<workgroup> partials: array<Partial, THREADS>;
+
+fn add(a: Partial, b: Partial) -> Partial {
+    return Partial(
+        a.irradiance + b.irradiance,
+        a.inv_distance + b.inv_distance,
+        a.rotation_x + b.rotation_x,
+        a.rotation_y + b.rotation_y,
+        a.translation_x + b.translation_x,
+        a.translation_y + b.translation_y,
+    );
+}
+
+// Depth of the nearer of two samples (Ward's min rule); <= 0 when both are misses.
+fn nearer_depth(a: f32, b: f32) -> f32 {
+    if a <= 0.0 {
+        return b;
+    }
+    if b <= 0.0 {
+        return a;
+    }
+    return min(a, b);
+}
+
+@compute @workgroup_size(128)
+fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) lane: u32) {
+    let record = group.x;
+    let res = params.resolution;
+    let count = res * res;
+    let base = record * count;
+    var acc = Partial(vec3f(0.0), 0.0, vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0));
+    if record < params.count {
+        for (var k = lane; k < count; k += THREADS) {
+            let s = samples[base + k];
+            let px = plane[k];
+            let w = px.weights;
+            acc.irradiance += s.radiance * w.x;
+            if s.depth > 0.0 {
+                let c = px.rot_center.zw;
+                // r = Z / cos(theta) at the pixel centre.
+                acc.inv_distance += w.x / (s.depth * sqrt(1.0 + dot(c, c)));
+            }
+            // Rotational gradient: sum L (n x w) dw (algorithms.md 3.3).
+            acc.rotation_x += s.radiance * px.rot_center.x;
+            acc.rotation_y += s.radiance * px.rot_center.y;
+            // Translational gradient: each pixel edge sweeps with the nearer depth.
+            let i = k % res;
+            if i + 1u < res {
+                let right = samples[base + k + 1u];
+                let z = nearer_depth(s.depth, right.depth);
+                if z > 0.0 {
+                    acc.translation_x += (right.radiance - s.radiance) * (w.z / z);
+                }
+            }
+            if k + res < count {
+                let up = samples[base + k + res];
+                let z = nearer_depth(s.depth, up.depth);
+                if z > 0.0 {
+                    acc.translation_y += (up.radiance - s.radiance) * (w.w / z);
+                }
+            }
+        }
+    }
+    partials[lane] = acc;
+    workgroupBarrier();
+    for (var stride = THREADS / 2u; stride > 0u; stride /= 2u) {
+        if lane < stride {
+            partials[lane] = add(partials[lane], partials[lane + stride]);
+        }
+        workgroupBarrier();
+    }
+    if lane != 0u || record >= params.count {
+        return;
+    }
+    let sum = partials[0];
+    let site = sites[record];
+    var out: Record;
+    out.position = site.position;
+    out.normal = site.normal;
+    out.r_min = site.r_min;
+    out.irradiance = vec4f(sum.irradiance, 0.0);
+    let r_max = site.r_min * params.r_max_factor;
+    // Harmonic mean distance, cosine-weighted (misses add 0 to the sum of 1/r).
+    var radius = r_max;
+    if sum.inv_distance > 0.0 {
+        radius = clamp(params.cos_weight_sum / sum.inv_distance, site.r_min, r_max);
+    }
+    let frame = orthonormal_basis(site.normal);
+    let e = sum.irradiance;
+    var rot = array<vec3f, 3>(vec3f(0.0), vec3f(0.0), vec3f(0.0));
+    var tr = array<vec3f, 3>(vec3f(0.0), vec3f(0.0), vec3f(0.0));
+    if params.gradients != 0u {
+        for (var c = 0u; c < 3u; c++) {
+            rot[c] = frame * vec3f(sum.rotation_x[c], sum.rotation_y[c], 0.0);
+            tr[c] = frame * vec3f(sum.translation_x[c], sum.translation_y[c], 0.0);
+        }
+        // Ward's gradient limit: where |grad_t| R would exceed E, shrink R (not below
+        // R_min), then scale down what still exceeds.
+        var limited = radius;
+        for (var c = 0u; c < 3u; c++) {
+            let g = length(tr[c]);
+            if g * limited > e[c] {
+                limited = e[c] / g;
+            }
+        }
+        radius = max(limited, site.r_min);
+        for (var c = 0u; c < 3u; c++) {
+            let g = length(tr[c]);
+            if g * radius > e[c] {
+                tr[c] *= e[c] / (g * radius);
+            }
+        }
+    }
+    out.radius = radius;
+    for (var c = 0u; c < 3u; c++) {
+        out.rotation_gradient[c] = vec4f(rot[c], 0.0);
+        out.translation_gradient[c] = vec4f(tr[c], 0.0);
+    }
+    records[params.first_record + record] = out;
+}

@@ -1,0 +1,60 @@
+// Irradiance records, the hemisphere plane's tables and Ward's weighting, shared by the
+// record, splat and placement passes (Rust mirrors: src/records/mod.rs, plane.rs).
+
+// One irradiance record (144 bytes; Rust: records::Record). Gradients are per colour
+// channel and additive (algorithms.md decision 3), stored as world-space vectors.
+struct Record {
+    position: vec3f,
+    radius: f32,                   // R_k, harmonic mean distance clamped to [R_min, R_max]
+    normal: vec3f,
+    r_min: f32,
+    irradiance: vec4f,             // E_k (rgb)
+    rotation_gradient: array<vec4f, 3>,     // per channel: grad_r (xyz)
+    translation_gradient: array<vec4f, 3>,  // per channel: grad_t (xyz)
+}
+
+// Rust: records::plane::PlanePixel.
+struct PlanePixel {
+    weights: vec4f,   // cos_weight, solid_angle, edge_x, edge_y
+    rot_center: vec4f,// rotation gradient weight (xy), pixel centre on the plane (zw)
+}
+
+// One traced plane pixel (Rust: records::PlaneSample).
+struct PlaneSample {
+    radiance: vec3f,
+    depth: f32,       // hit depth along the record normal, Z = r cos(theta); < 0 on a miss
+}
+
+// Ward's weight denominator |p - p_k| / R_k + sqrt(1 - n.n_k) (thesis eq. 4.2): the record
+// contributes iff it is <= a (w >= 1/a, eq. 4.3) and p is not behind p_k.
+fn record_error(r: Record, p: vec3f, n: vec3f) -> f32 {
+    return length(p - r.position) / r.radius + sqrt(max(0.0, 1.0 - dot(n, r.normal)));
+}
+
+// "Behind" test (Ward, algorithms.md 1.4): (p - p_k).(n + n_k)/2 >= -eps, eps relative to
+// the record's validity radius so it does not depend on the scene's scale.
+fn record_in_front(r: Record, p: vec3f, n: vec3f, accuracy: f32) -> bool {
+    return dot(p - r.position, n + r.normal) * 0.5 >= -1.0e-2 * accuracy * r.radius;
+}
+
+// Irradiance of record k extrapolated to (p, n) with its gradients (decision 3), each
+// channel clamped at 0.
+fn record_irradiance_at(r: Record, p: vec3f, n: vec3f) -> vec3f {
+    let axis = cross(r.normal, n);
+    let d = p - r.position;
+    var e = r.irradiance.xyz;
+    e.x += dot(axis, r.rotation_gradient[0].xyz) + dot(d, r.translation_gradient[0].xyz);
+    e.y += dot(axis, r.rotation_gradient[1].xyz) + dot(d, r.translation_gradient[1].xyz);
+    e.z += dot(axis, r.rotation_gradient[2].xyz) + dot(d, r.translation_gradient[2].xyz);
+    return max(e, vec3f(0.0));
+}
+
+// Where a new record goes (48 bytes; Rust: records::RecordSite).
+struct RecordSite {
+    position: vec3f,
+    r_min: f32,                // smallest allowed R (tied to the pixel footprint)
+    normal: vec3f,             // shading normal: the record's hemisphere
+    seed: u32,                 // scrambles the plane's light samples
+    geometric_normal: vec3f,   // offsets ray origins off the surface
+    _pad: u32,
+}
