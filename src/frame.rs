@@ -1,12 +1,18 @@
-//! Running a frame: scene → BVH → visibility → direct light → images.
+//! Running a frame: scene → BVH → visibility → direct light → records (placement,
+//! hemisphere planes) → splat → resolve → images. [`Renderer::render_gi_frame`] is the
+//! whole data flow of a global-illumination frame in one function.
 
-use crate::Result;
 use crate::bvh::SceneBvh;
 use crate::direct::DirectLightPass;
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, GpuScene};
+use crate::placement::{PlacementPass, PlacementStats};
+use crate::records::{CacheSettings, Record, RecordCache, RecordPass};
+use crate::resolve::ResolvePass;
 use crate::scene::{Camera, Scene};
+use crate::splat::{SplatBuffer, SplatPass};
 use crate::visibility::{VisSample, VisibilityPass};
+use crate::{Error, Result};
 use std::time::Instant;
 
 /// A scene made ready for the GPU: its BVH built and its tables uploaded.
@@ -35,6 +41,24 @@ pub struct FrameStats {
     /// Wall time of the frame on the CPU side, submit to readback, in ms.
     pub wall_ms: f64,
     pub camera_rays: u64,
+    /// Irradiance cache statistics (GI frames only).
+    pub cache: Option<CacheFrameStats>,
+}
+
+/// What the irradiance cache did in one frame.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct CacheFrameStats {
+    /// Records in the cache after the frame.
+    pub records: u32,
+    /// Records reused from earlier frames.
+    pub reused_records: u32,
+    #[serde(flatten)]
+    pub placement: PlacementStats,
+    /// Hemisphere-plane rays traced this frame (one per plane pixel; shadow rays of the
+    /// plane hits not counted).
+    pub plane_rays: u64,
+    /// Visible pixels no record covers after placement.
+    pub uncovered_pixels: u64,
 }
 
 /// The images of one frame, row-major, top row first.
@@ -47,6 +71,8 @@ pub struct Frame {
     pub albedo: Vec<[f32; 4]>,
     /// Reflected direct light.
     pub direct: Vec<[f32; 4]>,
+    /// Reflected first-bounce indirect light (GI frames only).
+    pub indirect: Option<Vec<[f32; 4]>>,
     /// The visibility buffer (positions, normals, ids) as rendered.
     pub visibility: Vec<VisSample>,
     pub stats: FrameStats,
@@ -81,6 +107,28 @@ pub struct Renderer {
     pub ctx: GpuContext,
     visibility: VisibilityPass,
     direct: DirectLightPass,
+    splat: SplatPass,
+    placement: PlacementPass,
+    resolve: ResolvePass,
+}
+
+/// An irradiance cache: its records on the GPU and the pass that computes new ones with
+/// the cache's settings. Records are view-independent, so one cache serves any number of
+/// cameras over the same static scene (thesis section 4.7.2).
+pub struct IrradianceCache {
+    pub records: RecordCache,
+    pub pass: RecordPass,
+}
+
+impl IrradianceCache {
+    pub fn settings(&self) -> &CacheSettings {
+        &self.pass.settings
+    }
+
+    /// Reads the records back.
+    pub fn read(&self, ctx: &GpuContext) -> Result<Vec<Record>> {
+        self.records.read(ctx)
+    }
 }
 
 impl Renderer {
@@ -88,10 +136,151 @@ impl Renderer {
     pub fn new(ctx: GpuContext) -> Result<Self> {
         let visibility = VisibilityPass::new(&ctx)?;
         let direct = DirectLightPass::new(&ctx)?;
+        let splat = SplatPass::new(&ctx)?;
+        let placement = PlacementPass::new(&ctx)?;
+        let resolve = ResolvePass::new(&ctx)?;
         Ok(Self {
             ctx,
             visibility,
             direct,
+            splat,
+            placement,
+            resolve,
+        })
+    }
+
+    /// An empty irradiance cache with `settings`.
+    pub fn new_cache(&self, settings: &CacheSettings) -> Result<IrradianceCache> {
+        Ok(IrradianceCache {
+            records: RecordCache::new(&self.ctx)?,
+            pass: RecordPass::new(&self.ctx, settings)?,
+        })
+    }
+
+    /// Renders one global-illumination frame from `camera` over `cache`: visibility and
+    /// direct light, the cache's records splatted, new records placed where no record
+    /// covers a visible pixel (at most `max_new_records` when given), then the resolve.
+    /// `progress` gets the number of records added so far.
+    pub fn render_gi_frame(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        cache: &mut IrradianceCache,
+        max_new_records: Option<u32>,
+        progress: impl FnMut(u32),
+    ) -> Result<Frame> {
+        let ctx = &self.ctx;
+        let t0 = Instant::now();
+        let mut times: Vec<(&'static str, f64)> = Vec::new();
+
+        // Visibility buffer and direct light.
+        let mut timer = PassTimer::new(ctx, 2);
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        let vis = self.visibility.record(
+            ctx,
+            &mut encoder,
+            &scene.gpu,
+            camera,
+            timer.next("visibility"),
+        )?;
+        let direct =
+            self.direct
+                .record(ctx, &mut encoder, &scene.gpu, &vis, timer.next("direct"))?;
+        timer.resolve(&mut encoder);
+        ctx.queue.submit([encoder.finish()]);
+        times.extend(timer.read(ctx)?);
+
+        // Splat the records the cache already holds, then place new ones.
+        let reused_records = cache.records.count;
+        let accuracy = cache.settings().accuracy;
+        let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
+        self.splat.splat(
+            ctx,
+            &scene.gpu,
+            &vis,
+            &cache.records,
+            0,
+            accuracy,
+            &splat,
+            false,
+            &mut times,
+        )?;
+        let placement = self.placement.place(
+            ctx,
+            &scene.gpu,
+            &vis,
+            &mut cache.records,
+            &cache.pass,
+            &self.splat,
+            &splat,
+            max_new_records,
+            &mut times,
+            progress,
+        )?;
+
+        // Resolve: direct + albedo / pi * interpolated irradiance.
+        let mut timer = PassTimer::new(ctx, 1);
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        let indirect = self.resolve.record(
+            ctx,
+            &mut encoder,
+            &scene.gpu,
+            &splat,
+            &direct.albedo,
+            &direct.beauty,
+            timer.next("resolve"),
+        )?;
+        timer.resolve(&mut encoder);
+        ctx.queue.submit([encoder.finish()]);
+        times.extend(timer.read(ctx)?);
+
+        let mut images = ctx
+            .read_buffers::<[f32; 4]>(&[
+                &direct.beauty,
+                &direct.albedo,
+                &direct.direct,
+                &indirect,
+                &splat.sums,
+            ])?
+            .into_iter();
+        let mut next = || {
+            images
+                .next()
+                .ok_or_else(|| Error::Gpu("internal: image readback incomplete".into()))
+        };
+        let (beauty, albedo, direct_img, indirect_img, sums) =
+            (next()?, next()?, next()?, next()?, next()?);
+        let visibility = vis.read(ctx)?;
+        let uncovered_pixels = visibility
+            .iter()
+            .zip(&sums)
+            .filter(|(v, s)| v.is_hit() && s[3] <= 0.0)
+            .count() as u64;
+        ctx.check()?;
+        let res = u64::from(cache.settings().plane_resolution);
+        let (width, height) = (camera.width, camera.height);
+        Ok(Frame {
+            width,
+            height,
+            beauty,
+            albedo,
+            direct: direct_img,
+            indirect: Some(indirect_img),
+            visibility,
+            stats: FrameStats {
+                width,
+                height,
+                pass_ms: sum_by_pass(&times),
+                wall_ms: t0.elapsed().as_secs_f64() * 1e3,
+                camera_rays: u64::from(width) * u64::from(height),
+                cache: Some(CacheFrameStats {
+                    records: cache.records.count,
+                    reused_records,
+                    plane_rays: u64::from(placement.new_records) * res * res,
+                    placement,
+                    uncovered_pixels,
+                }),
+            },
         })
     }
 
@@ -158,6 +347,7 @@ impl Renderer {
             beauty,
             albedo,
             direct: direct_img,
+            indirect: None,
             visibility,
             stats: FrameStats {
                 width,
@@ -165,7 +355,20 @@ impl Renderer {
                 pass_ms,
                 wall_ms: t0.elapsed().as_secs_f64() * 1e3,
                 camera_rays: u64::from(width) * u64::from(height),
+                cache: None,
             },
         })
     }
+}
+
+/// Total GPU time per pass name, in first-seen order (passes run once per round).
+fn sum_by_pass(times: &[(&'static str, f64)]) -> Vec<(String, f64)> {
+    let mut out: Vec<(String, f64)> = Vec::new();
+    for (name, ms) in times {
+        match out.iter_mut().find(|(n, _)| n == name) {
+            Some((_, total)) => *total += ms,
+            None => out.push((name.to_string(), *ms)),
+        }
+    }
+    out
 }

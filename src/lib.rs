@@ -3,8 +3,8 @@
 //!
 //! The data flow of a frame is readable from the module names and from
 //! [`frame::Renderer::render_frame`]:
-//! [`scene`] → [`bvh`] → [`visibility`] → [`direct`] → [`output`].
-//! (Irradiance records, splatting and resolve join between visibility and output.)
+//! [`scene`] → [`bvh`] → [`visibility`] → [`direct`] → [`placement`] + [`records`] →
+//! [`splat`] → [`resolve`] → [`output`] ([`frame::Renderer::render_gi_frame`]).
 //!
 //! Embedding: build a [`gpu::GpuContext`] from your own `wgpu::Device` and `Queue` with
 //! [`gpu::GpuContext::from_device`]; [`gpu::required_limits`] says what the device needs.
@@ -16,10 +16,13 @@ pub mod error;
 pub mod frame;
 pub mod gpu;
 pub mod output;
+pub mod placement;
 pub mod records;
+pub mod resolve;
 pub mod sampling;
 pub mod scene;
+pub mod splat;
 pub mod visibility;
 
 pub use error::{Error, Result};
-pub use frame::{Frame, FrameStats, PreparedScene, Renderer};
+pub use frame::{Frame, FrameStats, IrradianceCache, PreparedScene, Renderer};

@@ -4,6 +4,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use radsplat::gpu::GpuContext;
 use radsplat::output::{tonemap_to_srgb8, write_atomically, write_exr, write_png};
+use radsplat::records::CacheSettings;
 use radsplat::scene::load_scene;
 use radsplat::{Error, Renderer, Result};
 use std::path::{Path, PathBuf};
@@ -41,6 +42,14 @@ enum Command {
         /// Write frame statistics as JSON here.
         #[arg(long)]
         stats: Option<PathBuf>,
+        /// Direct light only (no irradiance cache).
+        #[arg(long)]
+        direct_only: bool,
+        #[command(flatten)]
+        cache: CacheArgs,
+        /// Also write the record map (record sites over the image) as a PNG here.
+        #[arg(long)]
+        record_map: Option<PathBuf>,
         /// No progress bar or summary.
         #[arg(short, long)]
         quiet: bool,
@@ -65,6 +74,51 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+}
+
+/// Irradiance cache settings (defaults: `radsplat::records::CacheSettings::default()`).
+#[derive(clap::Args, Clone, Debug)]
+struct CacheArgs {
+    /// Accuracy a: a record contributes where Ward's weight w >= 1/a.
+    #[arg(short, long, default_value_t = CacheSettings::default().accuracy)]
+    accuracy: f32,
+    /// Hemisphere plane resolution P (P x P rays per record).
+    #[arg(long, default_value_t = CacheSettings::default().plane_resolution)]
+    plane_resolution: u32,
+    /// Hemisphere plane field of view in degrees.
+    #[arg(long, default_value_t = CacheSettings::default().plane_fov_degrees)]
+    plane_fov: f32,
+    /// Light samples per area light at each plane hit.
+    #[arg(long, default_value_t = CacheSettings::default().plane_light_samples)]
+    plane_light_samples: u32,
+    /// R_min as the validity radius a R_min in pixels at creation.
+    #[arg(long, default_value_t = CacheSettings::default().r_min_pixels)]
+    r_min_pixels: f32,
+    /// R_max / R_min.
+    #[arg(long, default_value_t = CacheSettings::default().r_max_factor)]
+    r_max_factor: f32,
+    /// Most records the cache may hold.
+    #[arg(long, default_value_t = CacheSettings::default().record_budget)]
+    record_budget: u32,
+    /// Do not compute or use irradiance gradients.
+    #[arg(long)]
+    no_gradients: bool,
+}
+
+impl CacheArgs {
+    fn settings(&self) -> CacheSettings {
+        CacheSettings {
+            accuracy: self.accuracy,
+            plane_resolution: self.plane_resolution,
+            plane_fov_degrees: self.plane_fov,
+            plane_light_samples: self.plane_light_samples,
+            r_min_pixels: self.r_min_pixels,
+            r_max_factor: self.r_max_factor,
+            record_budget: self.record_budget,
+            gradients: !self.no_gradients,
+            ..CacheSettings::default()
+        }
+    }
 }
 
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
@@ -92,8 +146,21 @@ fn main() -> ExitCode {
             size,
             light_samples,
             stats,
+            direct_only,
+            cache,
+            record_map,
             quiet,
-        } => render(&scene, output, png, size, light_samples, stats, quiet),
+        } => render(RenderArgs {
+            scene_path: &scene,
+            output,
+            png,
+            size,
+            light_samples,
+            stats,
+            cache: (!direct_only).then(|| cache.settings()),
+            record_map,
+            quiet,
+        }),
         Command::Info => info(),
         Command::Bench {
             scene,
@@ -127,15 +194,39 @@ fn progress(quiet: bool, steps: u64) -> ProgressBar {
     bar
 }
 
-fn render(
-    scene_path: &Path,
+struct RenderArgs<'a> {
+    scene_path: &'a Path,
     output: Option<PathBuf>,
     png: Option<PathBuf>,
     size: Option<(u32, u32)>,
     light_samples: Option<u32>,
     stats: Option<PathBuf>,
+    /// None: direct light only.
+    cache: Option<CacheSettings>,
+    record_map: Option<PathBuf>,
     quiet: bool,
-) -> Result<()> {
+}
+
+fn render(args: RenderArgs) -> Result<()> {
+    let RenderArgs {
+        scene_path,
+        output,
+        png,
+        size,
+        light_samples,
+        stats,
+        cache,
+        record_map,
+        quiet,
+    } = args;
+    if let Some(c) = &cache {
+        c.validate()?;
+    }
+    if record_map.is_some() && cache.is_none() {
+        return Err(Error::Usage(
+            "--record-map needs GI (drop --direct-only)".into(),
+        ));
+    }
     let bar = progress(quiet, 5);
     bar.set_message("loading scene");
     let mut scene = load_scene(scene_path)?;
@@ -162,10 +253,29 @@ fn render(
     let prepared = renderer.prepare(&scene)?;
     bar.inc(1);
     bar.set_message("rendering");
-    let frame = renderer.render_frame(&prepared, &scene.camera)?;
+    let mut records = Vec::new();
+    let frame = match &cache {
+        None => renderer.render_frame(&prepared, &scene.camera)?,
+        Some(settings) => {
+            let mut cache = renderer.new_cache(settings)?;
+            let frame =
+                renderer.render_gi_frame(&prepared, &scene.camera, &mut cache, None, |n| {
+                    bar.set_message(format!("rendering: {n} records"));
+                })?;
+            if record_map.is_some() {
+                records = cache.read(&renderer.ctx)?;
+            }
+            frame
+        }
+    };
     bar.inc(1);
     bar.set_message("writing");
     write_exr(&output, &frame)?;
+    if let Some(path) = &record_map {
+        let camera = radsplat::visibility::GpuCamera::new(&scene.camera);
+        let rgb = radsplat::output::record_map(&frame, &camera, &records, scene.settings.exposure);
+        write_png(path, frame.width, frame.height, &rgb)?;
+    }
     if let Some(png) = &png {
         let rgb = tonemap_to_srgb8(&frame.beauty, scene.settings.exposure);
         write_png(png, frame.width, frame.height, &rgb)?;
@@ -183,6 +293,22 @@ fn render(
             .iter()
             .map(|(n, ms)| format!("{n} {ms:.1} ms"))
             .collect();
+        if let Some(c) = &frame.stats.cache {
+            eprintln!(
+                "records: {} ({} new in {} rounds{}), {} plane rays, {} visible pixels uncovered, wall {:.0} ms",
+                c.records,
+                c.placement.new_records,
+                c.placement.rounds,
+                if c.placement.limit_reached {
+                    ", LIMIT REACHED"
+                } else {
+                    ""
+                },
+                c.plane_rays,
+                c.uncovered_pixels,
+                frame.stats.wall_ms
+            );
+        }
         eprintln!(
             "{}x{}, {} triangles, BVH {:.1} ms, GPU: {}; wrote {}{}",
             frame.width,

@@ -57,6 +57,35 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/record_reduce.wgsl"),
     ),
     (
+        "shared/splat.wgsl",
+        include_str!("../../wgsl/shared/splat.wgsl"),
+    ),
+    (
+        "splat_bin_count.wgsl",
+        include_str!("../../wgsl/splat_bin_count.wgsl"),
+    ),
+    (
+        "splat_bin_scan.wgsl",
+        include_str!("../../wgsl/splat_bin_scan.wgsl"),
+    ),
+    (
+        "splat_bin_scatter.wgsl",
+        include_str!("../../wgsl/splat_bin_scatter.wgsl"),
+    ),
+    (
+        "splat_bin_sort.wgsl",
+        include_str!("../../wgsl/splat_bin_sort.wgsl"),
+    ),
+    (
+        "splat_gather.wgsl",
+        include_str!("../../wgsl/splat_gather.wgsl"),
+    ),
+    ("resolve.wgsl", include_str!("../../wgsl/resolve.wgsl")),
+    (
+        "placement_select.wgsl",
+        include_str!("../../wgsl/placement_select.wgsl"),
+    ),
+    (
         "trace_rays.wgsl",
         include_str!("../../wgsl/trace_rays.wgsl"),
     ),

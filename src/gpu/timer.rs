@@ -58,6 +58,9 @@ impl PassTimer {
 
     /// Records the query resolve; call before finishing the encoder.
     pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
+        if self.names.is_empty() {
+            return;
+        }
         if let (Some(set), Some(buf)) = (&self.set, &self.resolve) {
             encoder.resolve_query_set(set, 0..self.names.len() as u32 * 2, buf, 0);
         }
@@ -68,6 +71,9 @@ impl PassTimer {
         let Some(buf) = &self.resolve else {
             return Ok(Vec::new());
         };
+        if self.names.is_empty() {
+            return Ok(Vec::new());
+        }
         let ticks: Vec<u64> = ctx.read_buffer(buf)?;
         let period = f64::from(ctx.queue.get_timestamp_period());
         Ok(self

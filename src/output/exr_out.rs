@@ -28,6 +28,9 @@ pub fn frame_channels(frame: &Frame) -> Channels {
     }
     ch.push(("depth.Z".into(), frame.depth()));
     ch.extend(split4(&frame.direct, ["direct.R", "direct.G", "direct.B"]));
+    if let Some(indirect) = &frame.indirect {
+        ch.extend(split4(indirect, ["indirect.R", "indirect.G", "indirect.B"]));
+    }
     ch
 }
 

@@ -4,9 +4,11 @@
 
 pub mod exr_out;
 pub mod png_out;
+pub mod record_map;
 
 pub use exr_out::{read_exr_channels, write_exr};
 pub use png_out::{tonemap_to_srgb8, write_png};
+pub use record_map::record_map;
 
 use crate::{Error, Result};
 use std::io::Write;

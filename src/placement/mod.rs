@@ -1,0 +1,196 @@
+//! Record placement (cache-miss detection) on the GPU, parallel and deterministic: rounds
+//! of "find uncovered visible pixels, pick sites that do not crowd each other, compute
+//! their records, splat them" until every visible pixel is covered (no record with
+//! w >= 1/a, algorithms.md decision 2) or the record budget is reached.
+//!
+//! Sites: the screen is cut into cells, coarse to fine (64 px halving to 4 px); each round
+//! activates one of the four 2 x 2 parity classes of cells, and each active cell proposes
+//! its uncovered pixel nearest its centre. New records of a round are thus at least a cell
+//! apart, and later rounds see their coverage, much like the thesis's sequential scan
+//! (Algorithm 4, kept as [`sequential`]) but with thousands of records per round.
+
+pub mod sequential;
+
+use crate::Result;
+use crate::gpu::GpuContext;
+use crate::gpu::pipeline::{Binding, ComputePass};
+use crate::gpu::scene_buffers::GpuScene;
+use crate::records::{RecordCache, RecordPass};
+use crate::splat::{SplatBuffer, SplatPass};
+use crate::visibility::VisibilityBuffer;
+use bytemuck::{Pod, Zeroable};
+
+/// `NO_CANDIDATE` in `wgsl/placement_select.wgsl`.
+const NO_CANDIDATE: u32 = u32::MAX;
+/// Coarsest and finest cell edge in pixels.
+const FIRST_CELL: u32 = 64;
+const LAST_CELL: u32 = 4;
+/// Full parity cycles at the finest cell size before placement gives up (each cycle covers
+/// every candidate pixel it picks, so this only stops pathological cases).
+const MAX_FINE_CYCLES: u32 = 256;
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct SelectParams {
+    width: u32,
+    height: u32,
+    cell_size: u32,
+    cells_x: u32,
+    cells_y: u32,
+    parity: u32,
+    _pad: [u32; 2],
+}
+
+/// What placement did in one frame.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct PlacementStats {
+    /// Records added this frame.
+    pub new_records: u32,
+    /// Rounds that added records.
+    pub rounds: u32,
+    /// Placement stopped at the record budget or the per-frame limit with pixels still
+    /// uncovered.
+    pub limit_reached: bool,
+}
+
+/// The placement pass (`wgsl/placement_select.wgsl`) and its round loop.
+pub struct PlacementPass {
+    select: ComputePass,
+}
+
+impl PlacementPass {
+    pub fn new(ctx: &GpuContext) -> Result<Self> {
+        use Binding::*;
+        Ok(Self {
+            select: ComputePass::new(
+                ctx,
+                "placement_select.wgsl",
+                &[Uniform, StorageRead, StorageRead, StorageReadWrite],
+            )?,
+        })
+    }
+
+    /// Candidate pixels of one round, in cell order.
+    fn candidates(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
+        splat: &SplatBuffer,
+        cell_size: u32,
+        parity: u32,
+    ) -> Result<Vec<u32>> {
+        let cells_x = vis.width.div_ceil(cell_size);
+        let cells_y = vis.height.div_ceil(cell_size);
+        // Cells of this parity class; the shader writes one slot for each.
+        let half_x = (cells_x + 1 - parity % 2) / 2;
+        let half_y = (cells_y + 1 - parity / 2) / 2;
+        let active = half_x * half_y;
+        if active == 0 {
+            return Ok(Vec::new());
+        }
+        let params = ctx.uniform_buffer(
+            "select params",
+            &SelectParams {
+                width: vis.width,
+                height: vis.height,
+                cell_size,
+                cells_x,
+                cells_y,
+                parity,
+                _pad: [0; 2],
+            },
+        );
+        let out = ctx.storage_buffer_sized("candidates", u64::from(active) * 4)?;
+        let bind = self
+            .select
+            .bind(ctx, &[&params, &vis.samples, &splat.sums, &out]);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        self.select.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            [active.div_ceil(64), 1, 1],
+            None,
+        );
+        ctx.queue.submit([enc.finish()]);
+        let mut all: Vec<u32> = ctx.read_buffer(&out)?;
+        all.truncate(active as usize);
+        Ok(all.into_iter().filter(|&p| p != NO_CANDIDATE).collect())
+    }
+
+    /// Adds records until every visible pixel is covered, `limit` records were added, or
+    /// the cache reaches `budget`. The splat buffer must hold the sums of every record
+    /// already in the cache; it is kept up to date. `progress` gets the records added.
+    #[allow(clippy::too_many_arguments)]
+    pub fn place(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
+        cache: &mut RecordCache,
+        records: &RecordPass,
+        splat_pass: &SplatPass,
+        splat: &SplatBuffer,
+        limit: Option<u32>,
+        times: &mut Vec<(&'static str, f64)>,
+        mut progress: impl FnMut(u32),
+    ) -> Result<PlacementStats> {
+        let settings = &records.settings;
+        let mut stats = PlacementStats::default();
+        let mut cell = FIRST_CELL;
+        let mut fine_cycles = 0;
+        loop {
+            let mut placed = 0;
+            for parity in 0..4 {
+                let mut pixels = self.candidates(ctx, scene, vis, splat, cell, parity)?;
+                if pixels.is_empty() {
+                    continue;
+                }
+                let room_budget = settings.record_budget.saturating_sub(cache.count);
+                let room_limit = limit.map_or(u32::MAX, |l| l.saturating_sub(stats.new_records));
+                let room = room_budget.min(room_limit) as usize;
+                if pixels.len() > room {
+                    pixels.truncate(room);
+                    stats.limit_reached = true;
+                }
+                if !pixels.is_empty() {
+                    let n = pixels.len() as u32;
+                    let first = cache.count;
+                    let sites = records.sites_from_pixels(ctx, scene, vis, &pixels, first)?;
+                    times.extend(records.compute(ctx, scene, &sites, n, cache, |_| {})?);
+                    splat_pass.splat(
+                        ctx,
+                        scene,
+                        vis,
+                        cache,
+                        first,
+                        settings.accuracy,
+                        splat,
+                        true,
+                        times,
+                    )?;
+                    stats.new_records += n;
+                    stats.rounds += 1;
+                    placed += n;
+                    progress(stats.new_records);
+                }
+                if stats.limit_reached {
+                    return Ok(stats);
+                }
+            }
+            if placed == 0 {
+                return Ok(stats);
+            }
+            if cell > LAST_CELL {
+                cell /= 2;
+            } else {
+                fine_cycles += 1;
+                if fine_cycles >= MAX_FINE_CYCLES {
+                    stats.limit_reached = true;
+                    return Ok(stats);
+                }
+            }
+        }
+    }
+}

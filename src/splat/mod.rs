@@ -1,0 +1,273 @@
+//! Tile-binned record splatting (thesis section 4.5, algorithms.md decision 8): records
+//! are binned into 16 x 16-pixel tiles by the screen bound of their footprint (atomic
+//! counts, a prefix sum, a scatter, a rank sort by record id), then each pixel gathers its
+//! tile's records in id order. [`reference`] is the same sum on the CPU.
+
+pub mod reference;
+
+use crate::Result;
+use crate::gpu::GpuContext;
+use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
+use crate::gpu::scene_buffers::GpuScene;
+use crate::gpu::timer::PassTimer;
+use crate::records::RecordCache;
+use crate::visibility::VisibilityBuffer;
+use bytemuck::{Pod, Zeroable};
+
+/// Tile edge in pixels (`TILE_SIZE` in `wgsl/shared/splat.wgsl`).
+pub const TILE_SIZE: u32 = 16;
+
+/// Mirror of WGSL `SplatParams`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct SplatParams {
+    width: u32,
+    height: u32,
+    tiles_x: u32,
+    tiles_y: u32,
+    first_record: u32,
+    record_end: u32,
+    accuracy: f32,
+    accumulate: u32,
+}
+
+/// Per-pixel splat sums `(sum w E'_k (rgb), sum w)`, resident on the GPU.
+pub struct SplatBuffer {
+    pub width: u32,
+    pub height: u32,
+    pub sums: wgpu::Buffer,
+}
+
+impl SplatBuffer {
+    pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self> {
+        Ok(Self {
+            width,
+            height,
+            sums: ctx
+                .storage_buffer_sized("splat sums", u64::from(width) * u64::from(height) * 16)?,
+        })
+    }
+}
+
+/// Statistics of one splat.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct SplatStats {
+    pub records: u32,
+    /// (record, tile) pairs binned.
+    pub tile_entries: u32,
+}
+
+/// The splat passes (`splat_bin_count`, `splat_bin_scan`, `splat_bin_scatter`,
+/// `splat_bin_sort`, `splat_gather`).
+pub struct SplatPass {
+    count: ComputePass,
+    scan: ComputePass,
+    scatter: ComputePass,
+    sort: ComputePass,
+    gather: ComputePass,
+}
+
+/// Workgroups for `n` invocations of 256, split over y past the per-dimension limit
+/// (`flat_index` in WGSL).
+fn linear_groups(ctx: &GpuContext, n: u32) -> [u32; 3] {
+    let groups = n.div_ceil(256).max(1);
+    let max = ctx.device.limits().max_compute_workgroups_per_dimension;
+    if groups <= max {
+        [groups, 1, 1]
+    } else {
+        [max, groups.div_ceil(max), 1]
+    }
+}
+
+impl SplatPass {
+    pub fn new(ctx: &GpuContext) -> Result<Self> {
+        use Binding::*;
+        Ok(Self {
+            count: ComputePass::new(
+                ctx,
+                "splat_bin_count.wgsl",
+                &[
+                    Uniform,
+                    Uniform,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
+            )?,
+            scan: ComputePass::new(
+                ctx,
+                "splat_bin_scan.wgsl",
+                &[Uniform, StorageRead, StorageReadWrite],
+            )?,
+            scatter: ComputePass::new(
+                ctx,
+                "splat_bin_scatter.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
+            )?,
+            sort: ComputePass::new(
+                ctx,
+                "splat_bin_sort.wgsl",
+                &[Uniform, StorageRead, StorageRead, StorageReadWrite],
+            )?,
+            gather: ComputePass::new(
+                ctx,
+                "splat_gather.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                ],
+            )?,
+        })
+    }
+
+    /// Splats records `first..cache.count` into `out`: onto its previous sums when
+    /// `accumulate`, else from zero. Appends per-pass GPU times to `times`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn splat(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
+        cache: &RecordCache,
+        first: u32,
+        accuracy: f32,
+        out: &SplatBuffer,
+        accumulate: bool,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<SplatStats> {
+        let (width, height) = (vis.width, vis.height);
+        let tiles_x = width.div_ceil(TILE_SIZE);
+        let tiles_y = height.div_ceil(TILE_SIZE);
+        let tiles = tiles_x * tiles_y;
+        let records = cache.count.saturating_sub(first);
+        let params = ctx.uniform_buffer(
+            "splat params",
+            &SplatParams {
+                width,
+                height,
+                tiles_x,
+                tiles_y,
+                first_record: first,
+                record_end: cache.count,
+                accuracy,
+                accumulate: u32::from(accumulate),
+            },
+        );
+        let record_tiles = ctx.storage_buffer_sized("record tiles", u64::from(records) * 16)?;
+        let tile_counts = ctx.storage_buffer_sized("tile counts", u64::from(tiles) * 4)?;
+        let tile_offsets = ctx.storage_buffer_sized("tile offsets", u64::from(tiles + 1) * 4)?;
+
+        // Count and scan, then read the total to size the lists.
+        let mut timer = PassTimer::new(ctx, 2);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        if records > 0 {
+            let bind = self.count.bind(
+                ctx,
+                &[
+                    &params,
+                    &vis.camera_buffer,
+                    &cache.buffer,
+                    &record_tiles,
+                    &tile_counts,
+                ],
+            );
+            self.count.record(
+                &mut enc,
+                &scene.bind_group,
+                &bind,
+                linear_groups(ctx, records),
+                timer.next("splat: bin count"),
+            );
+        }
+        let bind = self.scan.bind(ctx, &[&params, &tile_counts, &tile_offsets]);
+        self.scan.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            [1, 1, 1],
+            timer.next("splat: bin scan"),
+        );
+        timer.resolve(&mut enc);
+        let total_buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("splat total"),
+            size: 4,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        enc.copy_buffer_to_buffer(&tile_offsets, u64::from(tiles) * 4, &total_buf, 0, 4);
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        let total = ctx
+            .read_buffer::<u32>(&total_buf)?
+            .first()
+            .copied()
+            .unwrap_or(0);
+
+        // Scatter, sort, gather.
+        let entries = ctx.storage_buffer_sized("tile entries", u64::from(total) * 8)?;
+        let sorted = ctx.storage_buffer_sized("sorted tile entries", u64::from(total) * 4)?;
+        let cursors = ctx.storage_buffer_sized("tile cursors", u64::from(tiles) * 4)?;
+        let mut timer = PassTimer::new(ctx, 3);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        if total > 0 {
+            let bind = self.scatter.bind(
+                ctx,
+                &[&params, &record_tiles, &tile_offsets, &cursors, &entries],
+            );
+            self.scatter.record(
+                &mut enc,
+                &scene.bind_group,
+                &bind,
+                linear_groups(ctx, records),
+                timer.next("splat: bin scatter"),
+            );
+            let bind = self
+                .sort
+                .bind(ctx, &[&params, &tile_offsets, &entries, &sorted]);
+            self.sort.record(
+                &mut enc,
+                &scene.bind_group,
+                &bind,
+                linear_groups(ctx, total),
+                timer.next("splat: bin sort"),
+            );
+        }
+        if total > 0 || !accumulate {
+            let bind = self.gather.bind(
+                ctx,
+                &[
+                    &params,
+                    &vis.samples,
+                    &cache.buffer,
+                    &tile_offsets,
+                    &sorted,
+                    &out.sums,
+                ],
+            );
+            self.gather.record(
+                &mut enc,
+                &scene.bind_group,
+                &bind,
+                image_groups(width, height),
+                timer.next("splat: gather"),
+            );
+        }
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        Ok(SplatStats {
+            records,
+            tile_entries: total,
+        })
+    }
+}

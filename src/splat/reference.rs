@@ -1,0 +1,35 @@
+//! Plain-Rust splat: every record against every pixel, in record order, with the same
+//! weight, "behind" test and extrapolation as `splat_gather.wgsl`.
+
+use crate::records::Record;
+use crate::visibility::VisSample;
+use glam::Vec3;
+
+/// Adds records `records[first..]` to per-pixel sums `(sum w E', sum w)` (`sums` holds the
+/// previous sums, or zeros).
+pub fn splat_records(
+    records: &[Record],
+    first: usize,
+    vis: &[VisSample],
+    accuracy: f32,
+    sums: &mut [[f32; 4]],
+) {
+    for (v, sum) in vis.iter().zip(sums.iter_mut()) {
+        if !v.is_hit() {
+            continue;
+        }
+        let p = Vec3::from(v.position);
+        let n = Vec3::from(v.shading_normal);
+        for r in &records[first.min(records.len())..] {
+            let err = r.error_at(p, n);
+            if err <= accuracy && r.in_front_of(p, n, accuracy) {
+                let w = 1.0 / err.max(1e-6);
+                let e = r.irradiance_at(p, n);
+                sum[0] += w * e.x;
+                sum[1] += w * e.y;
+                sum[2] += w * e.z;
+                sum[3] += w;
+            }
+        }
+    }
+}

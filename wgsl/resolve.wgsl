@@ -1,0 +1,31 @@
+// Resolve: indirect = albedo / pi * sum(w E'_k) / sum(w) (thesis Algorithm 3's
+// normalisation, Lambertian reflection), final = emission + direct + indirect.
+//!include shared/ray.wgsl
+
+struct ResolveParams {
+    width: u32,
+    height: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(1) @binding(0) var<uniform> params: ResolveParams;
+@group(1) @binding(1) var<storage, read> splat: array<vec4f>;
+@group(1) @binding(2) var<storage, read> albedo: array<vec4f>;
+@group(1) @binding(3) var<storage, read_write> beauty: array<vec4f>;   // in: direct; out: + indirect
+@group(1) @binding(4) var<storage, read_write> indirect: array<vec4f>;
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    if id.x >= params.width || id.y >= params.height {
+        return;
+    }
+    let pixel = id.y * params.width + id.x;
+    let s = splat[pixel];
+    var l = vec3f(0.0);
+    if s.w > 0.0 {
+        l = albedo[pixel].xyz * (1.0 / PI) * (s.xyz / s.w);
+    }
+    indirect[pixel] = vec4f(l, 1.0);
+    beauty[pixel] = vec4f(beauty[pixel].xyz + l, 1.0);
+}

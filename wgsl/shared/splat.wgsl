@@ -1,0 +1,56 @@
+// Tile binning of record footprints shared by the splat passes (algorithms.md decision 8):
+// a record reaches at most the sphere of radius a R_k around p_k (thesis eq. 4.4); its
+// bound on screen, in 16 x 16-pixel tiles, is where it is splatted.
+//!include shared/ray.wgsl
+//!include shared/camera.wgsl
+
+const TILE_SIZE: u32 = 16u;
+const NO_TILES: vec4u = vec4u(1u, 1u, 0u, 0u);   // empty: min > max
+
+struct SplatParams {
+    width: u32,
+    height: u32,
+    tiles_x: u32,
+    tiles_y: u32,
+    first_record: u32,   // records [first_record, record_end) are splatted
+    record_end: u32,
+    accuracy: f32,
+    accumulate: u32,     // 1: add onto the splat buffer's previous sums
+}
+
+// Index of a 1-D invocation in a dispatch that may be split over y (groups of 256).
+fn flat_index(id: vec3u, groups: vec3u) -> u32 {
+    return id.y * groups.x * 256u + id.x;
+}
+
+// Screen-space tile rectangle (inclusive min.xy, max.zw) covered by a sphere, from the
+// projections of its bounding cube's corners; the whole screen when the cube reaches
+// behind the camera, NO_TILES when it is off screen.
+fn sphere_tiles(cam: Camera, params: SplatParams, center: vec3f, radius: f32) -> vec4u {
+    let right2 = dot(cam.right, cam.right);
+    let up2 = dot(cam.up, cam.up);
+    var lo = vec2f(1.0e30);
+    var hi = vec2f(-1.0e30);
+    for (var k = 0u; k < 8u; k++) {
+        let corner = center + radius * vec3f(
+            select(-1.0, 1.0, (k & 1u) != 0u),
+            select(-1.0, 1.0, (k & 2u) != 0u),
+            select(-1.0, 1.0, (k & 4u) != 0u),
+        );
+        let d = corner - cam.origin;
+        let z = dot(d, cam.forward);
+        if z <= 1.0e-6 * length(d) {
+            return vec4u(0u, 0u, params.tiles_x - 1u, params.tiles_y - 1u);
+        }
+        let ndc = vec2f(dot(d, cam.right) / (right2 * z), dot(d, cam.up) / (up2 * z));
+        let px = vec2f((ndc.x + 1.0) * 0.5 * f32(cam.width), (1.0 - ndc.y) * 0.5 * f32(cam.height));
+        lo = min(lo, px);
+        hi = max(hi, px);
+    }
+    if hi.x < 0.0 || hi.y < 0.0 || lo.x >= f32(cam.width) || lo.y >= f32(cam.height) {
+        return NO_TILES;
+    }
+    let lo_px = vec2u(max(lo, vec2f(0.0)));
+    let hi_px = vec2u(min(hi, vec2f(f32(cam.width) - 1.0, f32(cam.height) - 1.0)));
+    return vec4u(lo_px / TILE_SIZE, hi_px / TILE_SIZE);
+}

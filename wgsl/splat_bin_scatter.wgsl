@@ -1,0 +1,25 @@
+// Splat binning, step 3: each record writes (record, tile) into its tiles' lists. The slot
+// order inside a list depends on thread timing; step 4 makes it deterministic.
+//!include shared/splat.wgsl
+
+@group(1) @binding(0) var<uniform> params: SplatParams;
+@group(1) @binding(1) var<storage, read> record_tiles: array<vec4u>;
+@group(1) @binding(2) var<storage, read> tile_offsets: array<u32>;
+@group(1) @binding(3) var<storage, read_write> tile_cursors: array<atomic<u32>>;
+@group(1) @binding(4) var<storage, read_write> entries: array<vec2u>;
+
+@compute @workgroup_size(256)
+fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
+    let i = flat_index(id, groups);
+    if params.first_record + i >= params.record_end {
+        return;
+    }
+    let tiles = record_tiles[i];
+    for (var ty = tiles.y; ty <= tiles.w; ty++) {
+        for (var tx = tiles.x; tx <= tiles.z; tx++) {
+            let tile = ty * params.tiles_x + tx;
+            let slot = atomicAdd(&tile_cursors[tile], 1u);
+            entries[tile_offsets[tile] + slot] = vec2u(params.first_record + i, tile);
+        }
+    }
+}

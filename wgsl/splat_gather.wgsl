@@ -1,0 +1,42 @@
+// Splat gather (thesis Algorithm 3 as a gather): each pixel sums its tile's records in
+// record order: Ward's weight with w >= 1/a (eq. 4.2-4.3), the "behind" test, gradient
+// extrapolation clamped at 0. Output per pixel: (sum w E'_k, sum w); with `accumulate`
+// the sums continue the previous ones, so adding records round by round gives the same
+// bits as splatting them all at once.
+//!include shared/records.wgsl
+//!include shared/splat.wgsl
+
+@group(1) @binding(0) var<uniform> params: SplatParams;
+@group(1) @binding(1) var<storage, read> vis: array<VisSample>;
+@group(1) @binding(2) var<storage, read> records: array<Record>;
+@group(1) @binding(3) var<storage, read> tile_offsets: array<u32>;
+@group(1) @binding(4) var<storage, read> sorted: array<u32>;
+@group(1) @binding(5) var<storage, read_write> splat: array<vec4f>;
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    if id.x >= params.width || id.y >= params.height {
+        return;
+    }
+    let pixel = id.y * params.width + id.x;
+    var sum = vec4f(0.0);
+    if params.accumulate != 0u {
+        sum = splat[pixel];
+    }
+    let v = vis[pixel];
+    if v.instance != NO_HIT {
+        let tile = (id.y / TILE_SIZE) * params.tiles_x + id.x / TILE_SIZE;
+        let p = v.position;
+        let n = v.shading_normal;
+        for (var j = tile_offsets[tile]; j < tile_offsets[tile + 1u]; j++) {
+            let r = records[sorted[j]];
+            let err = record_error(r, p, n);
+            if err <= params.accuracy && record_in_front(r, p, n, params.accuracy) {
+                // w = 1 / err, capped where p is the record's own point.
+                let w = 1.0 / max(err, 1.0e-6);
+                sum += vec4f(w * record_irradiance_at(r, p, n), w);
+            }
+        }
+    }
+    splat[pixel] = sum;
+}
