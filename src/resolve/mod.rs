@@ -40,6 +40,7 @@ impl ResolvePass {
     }
 
     /// Adds `albedo / pi * E` to `beauty` in place and writes the indirect image.
+    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         ctx: &GpuContext,
