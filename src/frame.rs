@@ -157,6 +157,39 @@ impl Renderer {
         })
     }
 
+    /// The visibility buffer of `camera` and the splat sums `(sum w E', sum w)` of every
+    /// record in `cache` (no placement, no resolve): for tests and tools.
+    pub fn splat_cache(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        cache: &IrradianceCache,
+    ) -> Result<(Vec<VisSample>, Vec<[f32; 4]>)> {
+        let ctx = &self.ctx;
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        let vis = self
+            .visibility
+            .record(ctx, &mut encoder, &scene.gpu, camera, None)?;
+        ctx.queue.submit([encoder.finish()]);
+        let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
+        let mut times = Vec::new();
+        self.splat.splat(
+            ctx,
+            &scene.gpu,
+            &vis,
+            &cache.records,
+            0,
+            cache.settings().accuracy,
+            &splat,
+            false,
+            &mut times,
+        )?;
+        let sums = ctx.read_buffer(&splat.sums)?;
+        let visibility = vis.read(ctx)?;
+        ctx.check()?;
+        Ok((visibility, sums))
+    }
+
     /// Renders one global-illumination frame from `camera` over `cache`: visibility and
     /// direct light, the cache's records splatted, new records placed where no record
     /// covers a visible pixel (at most `max_new_records` when given), then the resolve.

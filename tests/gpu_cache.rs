@@ -1,0 +1,200 @@
+//! Irradiance cache splatting end to end: GPU splat against the CPU splat, placement
+//! coverage and record counts against the sequential scan (thesis Algorithm 4),
+//! determinism, the static walkthrough, and the golden hash of the Cornell box GI render.
+
+mod common;
+
+use radsplat::output::{exr_out, sha256_hex};
+use radsplat::placement::sequential::sequential_placement;
+use radsplat::records::CacheSettings;
+use radsplat::scene::Scene;
+use radsplat::splat::reference::splat_records;
+use radsplat::visibility::GpuCamera;
+use radsplat::{Frame, IrradianceCache, Renderer};
+
+/// Test settings: the defaults with a 32 x 32 plane (4x fewer rays than the default 64 x 64)
+/// so debug test runs stay short on a CPU device.
+fn settings() -> CacheSettings {
+    CacheSettings {
+        plane_resolution: 32,
+        ..CacheSettings::default()
+    }
+}
+
+fn render(renderer: &Renderer, scene: &Scene, cache: &mut IrradianceCache) -> Frame {
+    let prepared = renderer.prepare(scene).expect("prepare");
+    let frame = renderer
+        .render_gi_frame(&prepared, &scene.camera, cache, None, |_| {})
+        .expect("GI frame");
+    renderer.ctx.check().expect("no wgpu errors");
+    frame
+}
+
+#[test]
+fn gpu_splat_matches_cpu_splat() {
+    let scene = common::load("cornell-box.toml", Some((48, 40)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let mut cache = renderer.new_cache(&settings()).expect("cache");
+    render(&renderer, &scene, &mut cache);
+    let records = cache.read(&renderer.ctx).expect("records");
+    // Splat the records again from another camera, on the GPU and on the CPU.
+    let mut camera = scene.camera.clone();
+    camera.position.x += 0.05;
+    camera.position.z += 0.1;
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let (vis, gpu) = renderer
+        .splat_cache(&prepared, &camera, &cache)
+        .expect("splat");
+    let mut cpu = vec![[0.0f32; 4]; vis.len()];
+    splat_records(&records, 0, &vis, cache.settings().accuracy, &mut cpu);
+    let mut covered = 0;
+    for (i, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
+        assert_eq!(g[3] > 0.0, c[3] > 0.0, "coverage differs at pixel {i}");
+        if c[3] > 0.0 {
+            covered += 1;
+            for k in 0..4 {
+                let tol = 1e-4 * c[k].abs().max(1e-3 * c[3]);
+                assert!(
+                    (g[k] - c[k]).abs() <= tol,
+                    "pixel {i} channel {k}: {g:?} vs {c:?}"
+                );
+            }
+        }
+    }
+    let visible = vis.iter().filter(|v| v.is_hit()).count();
+    eprintln!(
+        "{} records; {covered} of {visible} visible pixels covered",
+        records.len()
+    );
+    assert!(covered > visible / 2);
+}
+
+/// Runs GPU placement and the sequential scan on one view; returns (GPU, sequential) counts.
+fn placement_counts(scene: &Scene, renderer: &Renderer) -> (usize, usize) {
+    let settings = settings();
+    let mut cache = renderer.new_cache(&settings).expect("cache");
+    let frame = render(renderer, scene, &mut cache);
+    let stats = frame.stats.cache.clone().expect("cache stats");
+    assert!(!stats.placement.limit_reached);
+    // Every visible pixel is covered.
+    assert_eq!(stats.uncovered_pixels, 0, "uncovered pixels");
+    let camera = GpuCamera::new(&scene.camera);
+    let sequential = sequential_placement(scene, &camera, &frame.visibility, &settings);
+    let gpu = stats.records as usize;
+    eprintln!(
+        "{}: GPU placement {gpu} records in {} rounds, sequential scan {}: ratio {:.3}",
+        scene.source.display(),
+        stats.placement.rounds,
+        sequential.len(),
+        gpu as f64 / sequential.len() as f64
+    );
+    (gpu, sequential.len())
+}
+
+#[test]
+fn placement_covers_every_pixel_with_few_records_cornell() {
+    let scene = common::load("cornell-box.toml", Some((64, 64)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let (gpu, sequential) = placement_counts(&scene, &renderer);
+    assert!(
+        gpu as f64 <= 1.25 * sequential as f64,
+        "{gpu} vs {sequential}"
+    );
+}
+
+#[test]
+fn placement_covers_every_pixel_with_few_records_sponza() {
+    if !common::shared_scenes_enabled() {
+        return;
+    }
+    let scene = common::load("sponza.toml", Some((64, 64)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let (gpu, sequential) = placement_counts(&scene, &renderer);
+    assert!(
+        gpu as f64 <= 1.25 * sequential as f64,
+        "{gpu} vs {sequential}"
+    );
+}
+
+#[test]
+fn placement_is_deterministic_and_the_gi_render_matches_its_golden_hash() {
+    let scene = common::load("cornell-box.toml", Some((64, 64)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let mut hashes = Vec::new();
+    let mut record_bytes = Vec::new();
+    for _ in 0..2 {
+        let mut cache = renderer.new_cache(&settings()).expect("cache");
+        let frame = render(&renderer, &scene, &mut cache);
+        let records = cache.read(&renderer.ctx).expect("records");
+        record_bytes.push(bytemuck::cast_slice::<_, u8>(&records).to_vec());
+        let bytes = exr_out::encode_exr(64, 64, &exr_out::frame_channels(&frame)).expect("exr");
+        hashes.push(sha256_hex(&bytes));
+    }
+    assert!(
+        record_bytes[0] == record_bytes[1],
+        "records differ between runs"
+    );
+    assert_eq!(hashes[0], hashes[1], "GI renders differ between runs");
+    let driver = renderer
+        .ctx
+        .adapter_info
+        .as_ref()
+        .map(|a| a.driver_info.clone())
+        .unwrap_or_default();
+    eprintln!(
+        "Cornell GI 64x64 EXR SHA-256 {} (driver {driver})",
+        hashes[0]
+    );
+    if driver.contains("Mesa 22.3.6") {
+        assert_eq!(hashes[0], GOLDEN_CORNELL_GI);
+    } else {
+        panic!("the golden hash is tied to lavapipe of Mesa 22.3.6; this driver is '{driver}'");
+    }
+}
+
+/// SHA-256 of the 64x64 Cornell box GI EXR (test settings) on lavapipe, Mesa 22.3.6.
+const GOLDEN_CORNELL_GI: &str = "c280061e8d90825cc36276e7d9477a9f5022833bd5531e900a7e7f84b3fffa64";
+
+#[test]
+fn static_walkthrough_reuses_records() {
+    let scene = common::load("cornell-box.toml", Some((64, 64)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let mut view_b = scene.clone();
+    view_b.camera.position = glam::Vec3::new(0.15, 0.3, -0.6);
+    view_b.camera.target = glam::Vec3::new(0.35, 0.2, 0.3);
+    // Cold: view B alone.
+    let mut cold = renderer.new_cache(&settings()).expect("cache");
+    let cold_b = render(&renderer, &view_b, &mut cold)
+        .stats
+        .cache
+        .expect("stats");
+    // Warm: view A, then view B over the same cache.
+    let mut warm = renderer.new_cache(&settings()).expect("cache");
+    let a = render(&renderer, &scene, &mut warm)
+        .stats
+        .cache
+        .expect("stats");
+    let warm_b = render(&renderer, &view_b, &mut warm)
+        .stats
+        .cache
+        .expect("stats");
+    eprintln!(
+        "view B cold: {} new records; after view A ({} records): {} new, {} reused",
+        cold_b.placement.new_records,
+        a.records,
+        warm_b.placement.new_records,
+        warm_b.reused_records
+    );
+    assert_eq!(warm_b.uncovered_pixels, 0);
+    assert_eq!(warm_b.reused_records, a.records);
+    assert!(warm_b.placement.new_records * 2 < cold_b.placement.new_records);
+    // At most N new records per frame when asked.
+    let mut limited = renderer.new_cache(&settings()).expect("cache");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let frame = renderer
+        .render_gi_frame(&prepared, &scene.camera, &mut limited, Some(25), |_| {})
+        .expect("frame");
+    let stats = frame.stats.cache.expect("stats");
+    assert_eq!(stats.placement.new_records, 25);
+    assert!(stats.placement.limit_reached && stats.uncovered_pixels > 0);
+}
