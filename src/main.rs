@@ -54,6 +54,34 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Thesis Table 4.1: RMS error of plane irradiance against full-hemisphere Monte Carlo
+    /// at random visible points, per field of view and border compensation (CPU).
+    PlaneError {
+        scene: PathBuf,
+        /// Random visible points.
+        #[arg(long, default_value_t = 1000)]
+        points: usize,
+        /// Monte Carlo samples per point.
+        #[arg(long, default_value_t = 16384)]
+        mc_samples: u32,
+        /// Fields of view in degrees, comma-separated.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "90,110,120,130,140,150,160"
+        )]
+        fovs: Vec<f32>,
+        #[arg(long, default_value_t = 64)]
+        plane_resolution: u32,
+        /// Light samples per area light at each hit (planes and Monte Carlo alike).
+        #[arg(long, default_value_t = 1)]
+        light_samples: u32,
+        /// Write the table as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        #[arg(short, long)]
+        quiet: bool,
+    },
     /// Print the adapter, driver, limits and features radsplat would use.
     Info,
     /// Benchmark BVH build and ray kernels on a scene; prints a table of medians.
@@ -162,6 +190,25 @@ fn main() -> ExitCode {
             quiet,
         }),
         Command::Info => info(),
+        Command::PlaneError {
+            scene,
+            points,
+            mc_samples,
+            fovs,
+            plane_resolution,
+            light_samples,
+            json,
+            quiet,
+        } => plane_error(
+            &scene,
+            points,
+            mc_samples,
+            &fovs,
+            plane_resolution,
+            light_samples,
+            json,
+            quiet,
+        ),
         Command::Bench {
             scene,
             runs,
@@ -335,6 +382,56 @@ fn serde_json_string(bvh: &radsplat::frame::BvhStats, frame: &radsplat::FrameSta
         frame: &'a radsplat::FrameStats,
     }
     serde_json::to_string_pretty(&Stats { bvh, frame }).unwrap_or_default()
+}
+
+#[allow(clippy::too_many_arguments)]
+fn plane_error(
+    scene_path: &Path,
+    points: usize,
+    mc_samples: u32,
+    fovs: &[f32],
+    plane_resolution: u32,
+    light_samples: u32,
+    json: Option<PathBuf>,
+    quiet: bool,
+) -> Result<()> {
+    let scene = load_scene(scene_path)?;
+    let settings = CacheSettings {
+        plane_resolution,
+        plane_light_samples: light_samples,
+        ..CacheSettings::default()
+    };
+    for &fov in fovs {
+        CacheSettings {
+            plane_fov_degrees: fov,
+            ..settings.clone()
+        }
+        .validate()?;
+    }
+    if points == 0 || mc_samples == 0 {
+        return Err(Error::Usage(
+            "--points and --mc-samples must be positive".into(),
+        ));
+    }
+    let bar = progress(quiet, points as u64);
+    let table = radsplat::records::plane_error::plane_error_table(
+        &scene,
+        &settings,
+        points,
+        mc_samples,
+        fovs,
+        |done| bar.set_position(done as u64),
+    );
+    bar.finish_and_clear();
+    print!("{}", radsplat::records::plane_error::format_table(&table));
+    if let Some(path) = json {
+        let text = serde_json::to_string_pretty(&table).map_err(|e| Error::Output {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        write_atomically(&path, text.as_bytes())?;
+    }
+    Ok(())
 }
 
 fn info() -> Result<()> {

@@ -5,6 +5,7 @@
 //! the CPU.
 
 pub mod plane;
+pub mod plane_error;
 pub mod reference;
 
 use crate::gpu::GpuContext;

@@ -1,0 +1,214 @@
+//! Thesis Table 4.1 reproduced: RMS error of plane irradiance against full-hemisphere Monte
+//! Carlo at random visible points, for the plain plane, the plane divided by its coverage
+//! ratio ([LC04]) and the stretched border (Gautron), at several fields of view. Runs on the
+//! CPU reference (same rays and shading as the GPU passes).
+
+use super::reference::RecordReference;
+use super::{CacheSettings, HemispherePlane, PlaneMode, PlaneSample, RecordSite};
+use crate::direct::reference::offset_ray_origin;
+use crate::sampling::{cosine_hemisphere, hash_combine, hash_u32, orthonormal_basis, sobol_2d};
+use crate::scene::Scene;
+use crate::visibility::GpuCamera;
+use glam::{DVec3, Vec3};
+use std::f32::consts::PI;
+
+/// One row of the table.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PlaneErrorRow {
+    pub fov_degrees: f32,
+    /// RMS relative error (fractions) of the three estimators.
+    pub plain: f64,
+    pub coverage_ratio: f64,
+    pub stretched: f64,
+}
+
+/// The table and what it was computed from.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PlaneErrorTable {
+    pub points: usize,
+    pub mc_samples: u32,
+    pub plane_resolution: u32,
+    pub rows: Vec<PlaneErrorRow>,
+}
+
+/// Random visible points of the scene's camera (deterministic).
+fn visible_sites(
+    reference: &RecordReference,
+    camera: &GpuCamera,
+    points: usize,
+) -> Vec<RecordSite> {
+    let mut sites = Vec::with_capacity(points);
+    let mut k = 0u32;
+    while sites.len() < points && k < 100 * points as u32 + 1000 {
+        let h = hash_u32(k);
+        k += 1;
+        let x = h % camera.width;
+        let y = hash_combine(h, 1) % camera.height;
+        let dir = camera.ray_dir(x, y);
+        let Some(hit) =
+            reference
+                .shading
+                .tracer
+                .closest_hit(camera.origin.into(), dir, 0.0, f32::INFINITY)
+        else {
+            continue;
+        };
+        let s = reference.shading.surface_at(&hit, dir);
+        sites.push(RecordSite {
+            position: s.position.into(),
+            r_min: 1.0,
+            normal: s.shading_normal.into(),
+            seed: hash_u32(sites.len() as u32),
+            geometric_normal: s.geometric_normal.into(),
+            _pad: 0,
+        });
+    }
+    sites
+}
+
+/// Full-hemisphere Monte Carlo irradiance (cosine-distributed Sobol directions), hits shaded
+/// as plane hits are.
+pub fn monte_carlo_irradiance(
+    reference: &RecordReference,
+    site: &RecordSite,
+    samples: u32,
+) -> Vec3 {
+    let scene = reference.shading.scene;
+    let n = Vec3::from(site.normal);
+    let ng = Vec3::from(site.geometric_normal);
+    let frame = orthonormal_basis(n);
+    let origin = offset_ray_origin(site.position.into(), ng);
+    let mut sum = DVec3::ZERO;
+    for k in 0..samples {
+        let dir = frame * cosine_hemisphere(sobol_2d(k, hash_combine(site.seed, 0x3c)));
+        if dir.dot(ng) <= 0.0 {
+            continue;
+        }
+        let l = match reference
+            .shading
+            .tracer
+            .closest_hit(origin, dir, 0.0, f32::INFINITY)
+        {
+            None => scene.environment,
+            Some(hit) => {
+                let s = reference.shading.surface_at(&hit, dir);
+                let m = &scene.materials[s.material as usize];
+                let emission = if s.front_face && !m.sampled_light {
+                    m.emission
+                } else {
+                    Vec3::ZERO
+                };
+                let e = reference
+                    .shading
+                    .direct_irradiance(&s, hash_combine(site.seed, k));
+                reference.shading.albedo(&s) / PI * e + emission
+            }
+        };
+        sum += l.as_dvec3();
+    }
+    (sum * (std::f64::consts::PI / f64::from(samples))).as_vec3()
+}
+
+fn plane_irradiance(plane: &HemispherePlane, samples: &[PlaneSample]) -> DVec3 {
+    samples
+        .iter()
+        .zip(&plane.pixels)
+        .map(|(s, p)| Vec3::from(s.radiance).as_dvec3() * f64::from(p.cos_weight))
+        .sum()
+}
+
+/// Computes the table; `progress` gets the number of points done.
+pub fn plane_error_table(
+    scene: &Scene,
+    settings: &CacheSettings,
+    points: usize,
+    mc_samples: u32,
+    fovs: &[f32],
+    mut progress: impl FnMut(usize),
+) -> PlaneErrorTable {
+    let camera = GpuCamera::new(&scene.camera);
+    let base = RecordReference::new(scene, settings);
+    let sites = visible_sites(&base, &camera, points);
+    let references: Vec<Vec3> = sites
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            progress(i / 2);
+            monte_carlo_irradiance(&base, s, mc_samples)
+        })
+        .collect();
+    let mut squared = vec![[0.0f64; 3]; fovs.len()];
+    let mut counted = 0usize;
+    for (i, (site, mc)) in sites.iter().zip(&references).enumerate() {
+        progress(sites.len() / 2 + i / 2);
+        let mc = mc.as_dvec3();
+        if mc.length() <= 1e-6 {
+            continue; // a point in full darkness has no relative error
+        }
+        counted += 1;
+        for (f, &fov) in fovs.iter().enumerate() {
+            let traced = RecordReference::new(
+                scene,
+                &CacheSettings {
+                    plane_fov_degrees: fov,
+                    ..settings.clone()
+                },
+            );
+            let samples = traced.trace_plane(site);
+            for (m, mode) in [
+                PlaneMode::Plain,
+                PlaneMode::CoverageRatio,
+                PlaneMode::Stretched,
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let plane = HemispherePlane::new(settings.plane_resolution, fov, mode);
+                let e = plane_irradiance(&plane, &samples);
+                squared[f][m] += ((e - mc).length() / mc.length()).powi(2);
+            }
+        }
+    }
+    let rms = |s: f64| (s / counted.max(1) as f64).sqrt();
+    PlaneErrorTable {
+        points: counted,
+        mc_samples,
+        plane_resolution: settings.plane_resolution,
+        rows: fovs
+            .iter()
+            .zip(&squared)
+            .map(|(&fov_degrees, s)| PlaneErrorRow {
+                fov_degrees,
+                plain: rms(s[0]),
+                coverage_ratio: rms(s[1]),
+                stretched: rms(s[2]),
+            })
+            .collect(),
+    }
+}
+
+/// The table as text.
+pub fn format_table(t: &PlaneErrorTable) -> String {
+    let mut out = format!(
+        "RMS error of plane irradiance vs {}-sample Monte Carlo, {} points, {}x{} plane\n\
+         {:>8} {:>10} {:>16} {:>10}\n",
+        t.mc_samples,
+        t.points,
+        t.plane_resolution,
+        t.plane_resolution,
+        "FOV",
+        "plain",
+        "coverage ratio",
+        "stretched"
+    );
+    for r in &t.rows {
+        out += &format!(
+            "{:>7.0}° {:>9.1}% {:>15.1}% {:>9.1}%\n",
+            r.fov_degrees,
+            100.0 * r.plain,
+            100.0 * r.coverage_ratio,
+            100.0 * r.stretched
+        );
+    }
+    out
+}
