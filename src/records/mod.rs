@@ -124,7 +124,7 @@ impl Default for CacheSettings {
         Self {
             accuracy: 0.2,
             plane_resolution: 64,
-            plane_fov_degrees: 120.0,
+            plane_fov_degrees: 130.0,
             plane_mode: PlaneMode::Stretched,
             plane_light_samples: 1,
             r_min_pixels: 3.0,
