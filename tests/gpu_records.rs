@@ -139,8 +139,7 @@ fn monte_carlo_irradiance(reference: &RecordReference, site: &RecordSite, sample
             .tracer
             .closest_hit(origin, dir, 0.0, f32::INFINITY)
         else {
-            sum += scene.environment;
-            continue;
+            continue; // the environment is a sampled light: misses add nothing
         };
         let s = reference.shading.surface_at(&hit, dir);
         let m = &scene.materials[s.material as usize];

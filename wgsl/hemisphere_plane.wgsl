@@ -1,7 +1,11 @@
 // Hemisphere planes (thesis section 4.4, algorithms.md 3.2): for each record of a batch,
 // one ray per plane pixel through (x, y, 1) in the record's tangent frame. Each hit is
-// shaded with direct light (shadow rays) plus emission not already sampled as a light;
-// misses see the environment (decision 7). One invocation per (pixel, record).
+// shaded with direct light (shadow rays) plus emission not already sampled as a light.
+// Misses add nothing: the constant environment is sampled as a light by direct lighting
+// (at the pixel and at every plane hit), so counting it again here would double it (Ward's
+// "count as zero any samples that intersect a light source"; decision 7's "misses see the
+// environment" holds for an environment that is not a light). One invocation per
+// (pixel, record).
 //!include shared/shading.wgsl
 //!include shared/records.wgsl
 
@@ -35,9 +39,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     if dot(dir, site.geometric_normal) > 0.0 {
         let origin = offset_ray_origin(site.position, site.geometric_normal);
         let hit = trace_closest(Ray(origin, 0.0, dir, INF));
-        if hit.instance == NO_HIT {
-            out.radiance = scene_info.environment;
-        } else {
+        if hit.instance != NO_HIT {
             let s = surface_at(hit, dir);
             let e = direct_irradiance_samples(s, hash_combine(site.seed, pixel), params.light_samples);
             out.radiance = surface_albedo(s) * (1.0 / PI) * e + indirect_emission(s);

@@ -89,7 +89,8 @@ pub fn monte_carlo_irradiance(
             .tracer
             .closest_hit(origin, dir, 0.0, f32::INFINITY)
         {
-            None => scene.environment,
+            // The environment is sampled as a light (direct): misses add nothing.
+            None => Vec3::ZERO,
             Some(hit) => {
                 let s = reference.shading.surface_at(&hit, dir);
                 let m = &scene.materials[s.material as usize];

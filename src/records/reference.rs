@@ -72,8 +72,9 @@ impl<'a> RecordReference<'a> {
                     .tracer
                     .closest_hit(origin, dir, 0.0, f32::INFINITY)
                 else {
+                    // The environment is sampled as a light: misses add nothing.
                     return PlaneSample {
-                        radiance: scene.environment.into(),
+                        radiance: [0.0; 3],
                         depth: -1.0,
                     };
                 };
