@@ -5,17 +5,22 @@
 //! [`frame::Renderer::render_frame`]:
 //! [`scene`] → [`bvh`] → [`visibility`] → [`direct`] → [`output`].
 //! (Irradiance records, splatting and resolve join between visibility and output.)
+//! [`reference`] renders the brute-force direct + first-bounce reference and [`compare`]
+//! measures images against it.
 //!
 //! Embedding: build a [`gpu::GpuContext`] from your own `wgpu::Device` and `Queue` with
 //! [`gpu::GpuContext::from_device`]; [`gpu::required_limits`] says what the device needs.
 
 pub mod bench;
 pub mod bvh;
+pub mod compare;
 pub mod direct;
 pub mod error;
 pub mod frame;
 pub mod gpu;
 pub mod output;
+pub mod radiance_export;
+pub mod reference;
 pub mod sampling;
 pub mod scene;
 pub mod visibility;
