@@ -9,7 +9,8 @@
 //! relative RMSE = RMSE / RMS(B)
 //! ```
 //!
-//! Sums are taken in f64. Inputs are linear-radiance OpenEXR files (`R`, `G`, `B`, and
+//! Sums are taken in f64. Emitters seen by the camera can dominate RMS(B), so when B has an
+//! `albedo.*` AOV the beauty is also measured over reflecting surfaces only (albedo > 0). Inputs are linear-radiance OpenEXR files (`R`, `G`, `B`, and
 //! optionally `indirect.R/G/B`, as `radsplat render` / `reference` write them) or Radiance
 //! RGBE pictures (`.hdr`/`.pic`, as `rpict` writes them; beauty only), told apart by their
 //! magic bytes. A Radiance picture's `EXPOSURE` and `COLORCORR` header values are divided
@@ -29,6 +30,8 @@ pub struct RgbImage {
     pub beauty: Vec<[f32; 3]>,
     /// `indirect.R/G/B`, when the file has all three.
     pub indirect: Option<Vec<[f32; 3]>>,
+    /// `albedo.R/G/B`, when the file has all three.
+    pub albedo: Option<Vec<[f32; 3]>>,
 }
 
 /// RMSE of one image pair (module docs).
@@ -51,6 +54,10 @@ pub struct Comparison {
     pub beauty: ErrorStats,
     /// Present when both images have `indirect.*`.
     pub indirect: Option<ErrorStats>,
+    /// Beauty over the reflecting surfaces only: pixels where the reference B has a non-zero
+    /// `albedo.*` (emitters, whose radiance can dominate RMS(B), and background excluded).
+    /// Present when B has `albedo.*`.
+    pub surfaces: Option<ErrorStats>,
 }
 
 const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
@@ -90,12 +97,14 @@ fn load_exr(path: &Path) -> Result<RgbImage> {
         )
     })?;
     let indirect = rgb(["indirect.R", "indirect.G", "indirect.B"]);
+    let albedo = rgb(["albedo.R", "albedo.G", "albedo.B"]);
     Ok(RgbImage {
         path: path.to_path_buf(),
         width,
         height,
         beauty,
         indirect,
+        albedo,
     })
 }
 
@@ -152,6 +161,7 @@ fn load_radiance(path: &Path, bytes: &[u8]) -> Result<RgbImage> {
         height,
         beauty,
         indirect: None,
+        albedo: None,
     })
 }
 
@@ -218,6 +228,17 @@ pub fn compare(a: &RgbImage, b: &RgbImage) -> Result<Comparison> {
         }
         _ => None,
     };
+    let surfaces = b.albedo.as_ref().map(|albedo| {
+        let (sa, sb): (Vec<[f32; 3]>, Vec<[f32; 3]>) = a
+            .beauty
+            .iter()
+            .zip(&b.beauty)
+            .zip(albedo)
+            .filter(|(_, al)| al.iter().any(|&c| c > 0.0))
+            .map(|(pair, _)| pair)
+            .unzip();
+        error_stats(&sa, &sb)
+    });
     Ok(Comparison {
         a: a.path.clone(),
         b: b.path.clone(),
@@ -225,6 +246,7 @@ pub fn compare(a: &RgbImage, b: &RgbImage) -> Result<Comparison> {
         height: a.height,
         beauty: error_stats(&a.beauty, &b.beauty),
         indirect,
+        surfaces,
     })
 }
 

@@ -99,6 +99,7 @@ enum Command {
         /// The reference.
         b: PathBuf,
         /// Write a false-colour PNG of |Y(A) - Y(B)| / mean Y(B) here (viridis, legend below).
+        /// (`surfaces` in the output: beauty over pixels where B's albedo.* is non-zero.)
         #[arg(long)]
         diff: Option<PathBuf>,
         /// The relative difference shown as full yellow in `--diff`.
@@ -452,6 +453,9 @@ fn compare(a: &Path, b: &Path, diff: Option<&Path>, scale: f32, json: Option<&Pa
         );
     };
     line("beauty", &c.beauty);
+    if let Some(s) = &c.surfaces {
+        line("surfaces", s);
+    }
     match &c.indirect {
         Some(s) => line("indirect", s),
         None => println!("indirect  (not in both files)"),

@@ -161,10 +161,11 @@ pub fn view_options(scene: &Scene) -> String {
     let aspect = f64::from(c.width) / f64::from(c.height);
     let vh = 2.0 * ((vv.to_radians() * 0.5).tan() * aspect).atan().to_degrees();
     format!(
-        "-vtv -vp {} -vd {} -vu {} -vv {vv} -vh {vh}",
+        "-vtv -vp {} -vd {} -vu {} -vv {} -vh {vh:.6}",
         v3(c.position),
         v3(c.target - c.position),
-        v3(c.up)
+        v3(c.up),
+        c.fov_y_degrees
     )
 }
 

@@ -199,3 +199,28 @@ fn bad_inputs_give_clear_errors() {
     assert_ne!(code, 0);
     assert!(err.contains("--diff-scale"), "{err}");
 }
+
+#[test]
+fn surfaces_exclude_pixels_where_the_reference_has_no_albedo() {
+    // Pixel 0 is an emitter (albedo 0, radiance 10) that A gets badly wrong; pixel 1 is a
+    // surface where A is 10 % too bright.
+    let b = radsplat::compare::RgbImage {
+        path: "b.exr".into(),
+        width: 2,
+        height: 1,
+        beauty: vec![[10.0; 3], [1.0; 3]],
+        indirect: None,
+        albedo: Some(vec![[0.0; 3], [0.5; 3]]),
+    };
+    let a = radsplat::compare::RgbImage {
+        path: "a.exr".into(),
+        beauty: vec![[20.0; 3], [1.1; 3]],
+        albedo: None,
+        ..b.clone()
+    };
+    let c = compare(&a, &b).expect("compare");
+    let s = c.surfaces.expect("B has albedo.*");
+    assert!((s.relative_rmse - 0.1).abs() < 1e-6, "{s:?}");
+    assert!(c.beauty.relative_rmse > 0.5);
+    assert!(compare(&b, &a).expect("compare").surfaces.is_none());
+}

@@ -119,8 +119,9 @@ fn cornell_box_indirect_is_a_plausible_fraction_of_direct() {
     let scene = cornell(32, 8);
     let r = render(&scene, &ReferenceOptions::new(32));
     let (mut direct, mut indirect) = (0.0f64, 0.0f64);
-    for i in 0..r.indirect.len() {
-        let ind = v(r.indirect[i]);
+    let rgb = |p: [f32; 4]| [p[0], p[1], p[2]];
+    for (i, &indirect_px) in r.indirect.iter().enumerate() {
+        let ind = v(indirect_px);
         assert!(
             ind.min_element() >= 0.0 && ind.is_finite(),
             "pixel {i}: {ind}"
@@ -135,10 +136,8 @@ fn cornell_box_indirect_is_a_plausible_fraction_of_direct() {
             sum.min_element() > -1e-4,
             "pixel {i}: beauty < direct + indirect"
         );
-        direct += f64::from(luminance(
-            r.frame.direct[i][..3].try_into().unwrap_or([0.0; 3]),
-        ));
-        indirect += f64::from(luminance(r.indirect[i][..3].try_into().unwrap_or([0.0; 3])));
+        direct += f64::from(luminance(rgb(r.frame.direct[i])));
+        indirect += f64::from(luminance(rgb(indirect_px)));
     }
     let ratio = indirect / direct;
     eprintln!("Cornell box: indirect / direct luminance = {ratio:.3}");
@@ -146,4 +145,105 @@ fn cornell_box_indirect_is_a_plausible_fraction_of_direct() {
     // of the direct light (the ceiling, lit only indirectly, makes it more than the albedo
     // alone would suggest) but not more than the direct light itself.
     assert!((0.15..0.8).contains(&ratio), "indirect / direct = {ratio}");
+}
+
+fn radsplat(args: &[&str]) -> (i32, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_radsplat"))
+        .args(args)
+        .output()
+        .expect("run radsplat");
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!stderr.contains("panicked"), "radsplat panicked: {stderr}");
+    (out.status.code().unwrap_or(-1), stderr)
+}
+
+fn tmp_dir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("radsplat-ref-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+#[test]
+fn reference_command_writes_indirect_aov_and_refuses_zero_spp() {
+    let dir = tmp_dir("cli");
+    let scene = common::bundled("cornell-box.toml");
+    let exr = dir.join("r.exr");
+    let args = |spp: &'static str| {
+        vec![
+            "reference".to_string(),
+            scene.display().to_string(),
+            "--spp".into(),
+            spp.into(),
+            "--size".into(),
+            "8x8".into(),
+            "-o".into(),
+            exr.display().to_string(),
+            "--quiet".into(),
+        ]
+    };
+    let zero = args("0");
+    let (code, err) = radsplat(&zero.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_ne!(code, 0);
+    assert!(err.contains("--spp must be at least 1"), "{err}");
+    assert!(!exr.exists());
+    let ok = args("4");
+    let (code, err) = radsplat(&ok.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(code, 0, "{err}");
+    let (w, h, channels) = radsplat::output::read_exr_channels(&exr).expect("exr");
+    assert_eq!((w, h), (8, 8));
+    for name in ["R", "direct.G", "indirect.R", "indirect.G", "indirect.B"] {
+        assert!(channels.iter().any(|(n, _)| n == name), "no channel {name}");
+    }
+}
+
+#[test]
+fn export_rad_writes_radiance_scene_and_textureless_variant() {
+    let dir = tmp_dir("export");
+    let scene = common::bundled("cornell-box.toml");
+    let (code, err) = radsplat(&[
+        "export-rad",
+        scene.to_str().unwrap_or_default(),
+        dir.to_str().unwrap_or_default(),
+        "--size",
+        "32x24",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let rad = std::fs::read_to_string(dir.join("scene.rad")).expect("scene.rad");
+    assert!(
+        rad.contains("void light m3___rect_light_0 0 0 3 17 12 4"),
+        "{rad}"
+    );
+    assert!(rad.contains("void plastic m0_white 0 0 5 0.725 0.71 0.68 0 0"));
+    assert_eq!(
+        rad.matches(" polygon ").count(),
+        32,
+        "30 box triangles + the light's 2"
+    );
+    let view = std::fs::read_to_string(dir.join("view.vf")).expect("view.vf");
+    // -vh = 2 atan(tan(39.3° / 2) · 32/24)
+    let vh = 2.0
+        * ((39.3f64.to_radians() / 2.0).tan() * 32.0 / 24.0)
+            .atan()
+            .to_degrees();
+    assert!(view.contains(&format!("-vv 39.3 -vh {vh:.6}")), "{view}");
+    let notex = radsplat::scene::load_scene(&dir.join("notex.toml")).expect("notex.toml loads");
+    let original = common::load("cornell-box.toml", None);
+    assert_eq!(notex.triangle_count(), original.triangle_count());
+    assert_eq!(notex.lights, original.lights);
+
+    if common::shared_scenes_enabled() {
+        let sponza = common::bundled("sponza.toml");
+        let out = dir.join("sponza");
+        let (code, err) = radsplat(&[
+            "export-rad",
+            sponza.to_str().unwrap_or_default(),
+            out.to_str().unwrap_or_default(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let s = radsplat::scene::load_scene(&out.join("notex.toml")).expect("loads");
+        assert!(s.textures.is_empty() || s.materials.iter().all(|m| m.albedo_texture.is_none()));
+        let rad = std::fs::read_to_string(out.join("scene.rad")).expect("scene.rad");
+        assert!(rad.contains("source sun0 0 0 4") && rad.contains("sky_mat source sky"));
+    }
 }

@@ -152,22 +152,28 @@ def main():
 
     results = []
     print()
-    print(f"{'renderer':<32} {'wall s':>8} {'records':>8} {'RMSE':>10} {'rel RMSE':>9}")
+    print(f"{'renderer':<32} {'wall s':>8} {'records':>8} {'RMSE':>10} {'rel RMSE':>9} "
+          f"{'rel RMSE surfaces':>17}")
     for name, t, records, img in rows:
         c = compare(radsplat, img, ref, out, env)
         b = c["beauty"]
+        surf = c.get("surfaces") or {}
         results.append({"renderer": name, "wall_s": t, "records": records,
-                        "image": str(img), "beauty": b, "indirect": c.get("indirect")})
+                        "image": str(img), "beauty": b, "surfaces": surf or None,
+                        "indirect": c.get("indirect")})
         rec = "-" if records is None else str(records)
-        print(f"{name:<32} {t:>8.2f} {rec:>8} {b['rmse']:>10.4g} {b['relative_rmse']:>9.4f}")
+        print(f"{name:<32} {t:>8.2f} {rec:>8} {b['rmse']:>10.4g} {b['relative_rmse']:>9.4f} "
+              f"{surf.get('relative_rmse', float('nan')):>17.4f}")
     if gi_pending:
-        print(f"{'radsplat GI -a ' + str(args.accuracy):<32} {'pending: this build has no '
-              'render -a/--accuracy':>38}")
+        name = f"radsplat GI -a {args.accuracy}"
+        print(f"{name:<32} pending: this build's render has no -a/--accuracy")
 
     # Conversion check: direct-only rpict vs direct-only radsplat.
-    v = compare(radsplat, rp_direct, direct, out, env)["beauty"]
+    vc = compare(radsplat, rp_direct, direct, out, env)
+    v, vs = vc["beauty"], vc.get("surfaces") or {}
     print(f"\nconversion check, rpict -ab 0 vs radsplat direct only: relative RMSE "
-          f"{100 * v['relative_rmse']:.2f} %")
+          f"{100 * v['relative_rmse']:.2f} % (surfaces only: "
+          f"{100 * vs.get('relative_rmse', float('nan')):.2f} %)")
     if info.get("has_environment"):
         print("note: the scene has an environment; radsplat samples it as direct light, "
               "Radiance's glow sky is ambient-only, so -ab 0 and -ab 1 lack sky terms")
@@ -175,7 +181,8 @@ def main():
                "rpict": {"ad": args.ad, "as": args.as_, "ar": args.ar, "ds": args.ds},
                "spp": args.spp, "light_samples": args.light_samples,
                "gi_pending": gi_pending, "results": results,
-               "conversion_check_relative_rmse": v["relative_rmse"]}
+               "conversion_check_relative_rmse": v["relative_rmse"],
+               "conversion_check_relative_rmse_surfaces": vs.get("relative_rmse")}
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     print(f"wrote {out / 'summary.json'}")
 

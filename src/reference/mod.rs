@@ -251,8 +251,8 @@ impl ReferencePass {
         let sums: Vec<[f32; 4]> = ctx.read_buffer(&sums)?;
         let indirect = finish_indirect(&frame.albedo, &sums, options.spp);
         for (b, ind) in frame.beauty.iter_mut().zip(&indirect) {
-            for c in 0..3 {
-                b[c] += ind[c];
+            for (bc, ic) in b.iter_mut().zip(&ind[..3]) {
+                *bc += ic;
             }
         }
         let visible = frame.visibility.iter().filter(|v| v.is_hit()).count() as u64;
