@@ -5,12 +5,15 @@
 //! [`frame::Renderer::render_frame`]:
 //! [`scene`] → [`bvh`] → [`visibility`] → [`direct`] → [`placement`] + [`records`] →
 //! [`splat`] → [`resolve`] → [`output`] ([`frame::Renderer::render_gi_frame`]).
+//! [`reference`] renders the brute-force direct + first-bounce reference and [`compare`]
+//! measures images against it.
 //!
 //! Embedding: build a [`gpu::GpuContext`] from your own `wgpu::Device` and `Queue` with
 //! [`gpu::GpuContext::from_device`]; [`gpu::required_limits`] says what the device needs.
 
 pub mod bench;
 pub mod bvh;
+pub mod compare;
 pub mod direct;
 pub mod error;
 pub mod frame;
@@ -19,6 +22,8 @@ pub mod output;
 pub mod placement;
 pub mod records;
 pub mod resolve;
+pub mod radiance_export;
+pub mod reference;
 pub mod sampling;
 pub mod scene;
 pub mod splat;

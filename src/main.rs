@@ -102,6 +102,59 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Brute-force reference: direct light + first-bounce indirect light by Monte Carlo,
+    /// `--spp` bounce directions per pixel. The EXR adds the AOV `indirect.*`.
+    Reference {
+        /// Scene file (TOML, see docs/scene-format.md).
+        scene: PathBuf,
+        /// Bounce directions per pixel (powers of two suit the Sobol points).
+        #[arg(long)]
+        spp: u32,
+        /// Output EXR (default: <scene name>-reference.exr in the current directory).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Also write a tone-mapped sRGB PNG here.
+        #[arg(long)]
+        png: Option<PathBuf>,
+        /// Override the scene's resolution, e.g. 128x128.
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        /// Override the scene's light samples (per light, at the pixel and at every bounce hit).
+        #[arg(long)]
+        light_samples: Option<u32>,
+        /// Write timings as JSON here.
+        #[arg(long)]
+        stats: Option<PathBuf>,
+        /// No progress bar or summary.
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// Compare image A against reference B (EXR or Radiance .hdr): RMSE and relative RMSE
+    /// of the beauty, and of `indirect.*` when both EXRs have it.
+    Compare {
+        a: PathBuf,
+        /// The reference.
+        b: PathBuf,
+        /// Write a false-colour PNG of |Y(A) - Y(B)| / mean Y(B) here (viridis, legend below).
+        /// (`surfaces` in the output: beauty over pixels where B's albedo.* is non-zero.)
+        #[arg(long)]
+        diff: Option<PathBuf>,
+        /// The relative difference shown as full yellow in `--diff`.
+        #[arg(long, default_value_t = 0.25)]
+        diff_scale: f32,
+        /// Write the numbers as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Export a scene to Radiance for rpict: OUT_DIR/scene.rad, OUT_DIR/view.vf,
+    /// OUT_DIR/notex.toml (the scene without textures) and OUT_DIR/export.json.
+    ExportRad {
+        scene: PathBuf,
+        out_dir: PathBuf,
+        /// Override the scene's resolution, e.g. 128x128 (written to export.json).
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+    },
 }
 
 /// Irradiance cache settings (defaults: `radsplat::records::CacheSettings::default()`).
@@ -217,6 +270,28 @@ fn main() -> ExitCode {
             json,
             quiet,
         } => radsplat::bench::run_cli(&scene, runs, size, bvh_preset, json.as_deref(), quiet),
+        Command::Reference {
+            scene,
+            spp,
+            output,
+            png,
+            size,
+            light_samples,
+            stats,
+            quiet,
+        } => reference(&scene, spp, output, png, size, light_samples, stats, quiet),
+        Command::Compare {
+            a,
+            b,
+            diff,
+            diff_scale,
+            json,
+        } => compare(&a, &b, diff.as_deref(), diff_scale, json.as_deref()),
+        Command::ExportRad {
+            scene,
+            out_dir,
+            size,
+        } => export_rad(&scene, &out_dir, size),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -479,6 +554,200 @@ fn info() -> Result<()> {
     println!(
         "required by radsplat: {:?}",
         radsplat::gpu::required_limits().max_storage_buffers_per_shader_stage
+    );
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn reference(
+    scene_path: &Path,
+    spp: u32,
+    output: Option<PathBuf>,
+    png: Option<PathBuf>,
+    size: Option<(u32, u32)>,
+    light_samples: Option<u32>,
+    stats: Option<PathBuf>,
+    quiet: bool,
+) -> Result<()> {
+    use radsplat::reference::{ReferenceOptions, ReferencePass};
+    if spp == 0 {
+        return Err(Error::Usage("--spp must be at least 1".into()));
+    }
+    let mut scene = load_scene(scene_path)?;
+    if let Some((w, h)) = size {
+        scene.camera.width = w;
+        scene.camera.height = h;
+    }
+    if let Some(n) = light_samples {
+        if n == 0 {
+            return Err(Error::Usage("--light-samples must be at least 1".into()));
+        }
+        scene.settings.light_samples = n;
+    }
+    let output = output.unwrap_or_else(|| {
+        let stem = scene_path.file_stem().unwrap_or_default().to_string_lossy();
+        PathBuf::from(format!("{stem}-reference.exr"))
+    });
+    let t0 = std::time::Instant::now();
+    let renderer = Renderer::new(GpuContext::new()?)?;
+    radsplat::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
+    let pass = ReferencePass::new(&renderer.ctx)?;
+    let prepared = renderer.prepare(&scene)?;
+    let options = ReferenceOptions::new(spp);
+    let bar = progress(quiet, 1);
+    bar.set_message(format!("reference, {spp} spp"));
+    let result = pass.render(
+        &renderer,
+        &prepared,
+        &scene.camera,
+        &options,
+        &mut |done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        },
+    )?;
+    bar.finish_and_clear();
+    result.write_exr(&output)?;
+    if let Some(png) = &png {
+        let rgb = tonemap_to_srgb8(&result.frame.beauty, scene.settings.exposure);
+        write_png(png, result.frame.width, result.frame.height, &rgb)?;
+    }
+    let wall_ms = t0.elapsed().as_secs_f64() * 1e3;
+    if let Some(stats_path) = &stats {
+        #[derive(serde::Serialize)]
+        struct Stats<'a> {
+            bvh: &'a radsplat::frame::BvhStats,
+            frame: &'a radsplat::FrameStats,
+            reference: &'a radsplat::reference::ReferenceStats,
+            wall_ms: f64,
+        }
+        let json = serde_json::to_string_pretty(&Stats {
+            bvh: &prepared.bvh_stats,
+            frame: &result.frame.stats,
+            reference: &result.stats,
+            wall_ms,
+        })
+        .unwrap_or_default();
+        write_atomically(stats_path, json.as_bytes())?;
+    }
+    if !quiet {
+        eprintln!(
+            "{}x{}, {spp} spp, {} light samples: direct {:.0} ms, indirect {:.0} ms in {} \
+             dispatches ({} bounce rays); wrote {}{}",
+            result.frame.width,
+            result.frame.height,
+            scene.settings.light_samples,
+            result.stats.direct_ms,
+            result.stats.indirect_ms,
+            result.stats.dispatches,
+            result.stats.bounce_rays,
+            output.display(),
+            png.map(|p| format!(" and {}", p.display()))
+                .unwrap_or_default()
+        );
+    }
+    Ok(())
+}
+
+fn compare(a: &Path, b: &Path, diff: Option<&Path>, scale: f32, json: Option<&Path>) -> Result<()> {
+    use radsplat::compare::{compare, load_image, write_diff_png};
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(Error::Usage(
+            "--diff-scale must be a positive number".into(),
+        ));
+    }
+    let ia = load_image(a)?;
+    let ib = load_image(b)?;
+    let c = compare(&ia, &ib)?;
+    println!(
+        "{} vs reference {} ({}x{})",
+        a.display(),
+        b.display(),
+        c.width,
+        c.height
+    );
+    let line = |name: &str, s: &radsplat::compare::ErrorStats| {
+        println!(
+            "{name:<9} RMSE {:.6e}  RMS(ref) {:.6e}  relative RMSE {:.4} ({:.2} %)",
+            s.rmse,
+            s.rms_reference,
+            s.relative_rmse,
+            100.0 * s.relative_rmse
+        );
+    };
+    line("beauty", &c.beauty);
+    if let Some(s) = &c.surfaces {
+        line("surfaces", s);
+    }
+    match &c.indirect {
+        Some(s) => line("indirect", s),
+        None => println!("indirect  (not in both files)"),
+    }
+    if let Some(path) = diff {
+        write_diff_png(path, &ia, &ib, scale)?;
+        println!(
+            "wrote {}: |Y(A)-Y(B)| / mean Y(B), viridis from 0 to {scale} (legend strip below)",
+            path.display()
+        );
+    }
+    if let Some(path) = json {
+        #[derive(serde::Serialize)]
+        struct Out<'a> {
+            #[serde(flatten)]
+            comparison: &'a radsplat::compare::Comparison,
+            diff_scale: f32,
+        }
+        let text = serde_json::to_string_pretty(&Out {
+            comparison: &c,
+            diff_scale: scale,
+        })
+        .map_err(|e| Error::Output {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        write_atomically(path, text.as_bytes())?;
+    }
+    Ok(())
+}
+
+fn export_rad(scene_path: &Path, out_dir: &Path, size: Option<(u32, u32)>) -> Result<()> {
+    use radsplat::radiance_export::{notex_scene_toml, scene_rad, view_options};
+    let mut scene = load_scene(scene_path)?;
+    if let Some((w, h)) = size {
+        scene.camera.width = w;
+        scene.camera.height = h;
+    }
+    std::fs::create_dir_all(out_dir).map_err(|e| Error::Output {
+        path: out_dir.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let view = view_options(&scene);
+    write_atomically(&out_dir.join("scene.rad"), scene_rad(&scene).as_bytes())?;
+    write_atomically(
+        &out_dir.join("view.vf"),
+        format!("rview {view}\n").as_bytes(),
+    )?;
+    let notex = out_dir.join("notex.toml");
+    write_atomically(&notex, notex_scene_toml(scene_path, &scene)?.as_bytes())?;
+    let info = serde_json::json!({
+        "scene": scene_path,
+        "width": scene.camera.width,
+        "height": scene.camera.height,
+        "view": view,
+        "triangles": scene.triangle_count(),
+        "textured_materials": scene.materials.iter().filter(|m| m.albedo_texture.is_some()).count(),
+        "has_environment": scene.environment.max_element() > 0.0,
+        "exposure": scene.settings.exposure,
+    });
+    write_atomically(
+        &out_dir.join("export.json"),
+        serde_json::to_string_pretty(&info)
+            .unwrap_or_default()
+            .as_bytes(),
+    )?;
+    println!(
+        "wrote {}/{{scene.rad, view.vf, notex.toml, export.json}}",
+        out_dir.display()
     );
     Ok(())
 }

@@ -86,6 +86,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/placement_select.wgsl"),
     ),
     (
+        "reference_indirect.wgsl",
+        include_str!("../../wgsl/reference_indirect.wgsl"),
+    ),
+    (
         "trace_rays.wgsl",
         include_str!("../../wgsl/trace_rays.wgsl"),
     ),

@@ -1,0 +1,361 @@
+//! Comparing an image A against a reference B: RMSE and relative RMSE of the beauty RGB
+//! (and of the `indirect.*` AOV when both have it), and a false-colour difference image.
+//!
+//! Definitions, over all pixels p and the three channels c of an image with P pixels:
+//!
+//! ```text
+//! RMSE          = sqrt( 1/(3P) Σ_p Σ_c (A_pc − B_pc)² )
+//! RMS(B)        = sqrt( 1/(3P) Σ_p Σ_c B_pc² )
+//! relative RMSE = RMSE / RMS(B)
+//! ```
+//!
+//! Sums are taken in f64. Emitters seen by the camera can dominate RMS(B), so when B has an
+//! `albedo.*` AOV the beauty is also measured over reflecting surfaces only (albedo > 0). Inputs are linear-radiance OpenEXR files (`R`, `G`, `B`, and
+//! optionally `indirect.R/G/B`, as `radsplat render` / `reference` write them) or Radiance
+//! RGBE pictures (`.hdr`/`.pic`, as `rpict` writes them; beauty only), told apart by their
+//! magic bytes. A Radiance picture's `EXPOSURE` and `COLORCORR` header values are divided
+//! out, so its pixels are radiance in W/(sr m²) per channel, the unit radsplat uses.
+
+use crate::output::png_out::encode_png_rgb8;
+use crate::output::{read_exr_channels, write_atomically};
+use crate::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// A linear RGB image with an optional indirect AOV, row-major, top row first.
+#[derive(Clone, Debug)]
+pub struct RgbImage {
+    pub path: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    pub beauty: Vec<[f32; 3]>,
+    /// `indirect.R/G/B`, when the file has all three.
+    pub indirect: Option<Vec<[f32; 3]>>,
+    /// `albedo.R/G/B`, when the file has all three.
+    pub albedo: Option<Vec<[f32; 3]>>,
+}
+
+/// RMSE of one image pair (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ErrorStats {
+    pub rmse: f64,
+    /// RMS of the reference B.
+    pub rms_reference: f64,
+    /// `rmse / rms_reference` (infinite if the reference is black and A is not, 0 if both are).
+    pub relative_rmse: f64,
+}
+
+/// The result of [`compare`].
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Comparison {
+    pub a: PathBuf,
+    pub b: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    pub beauty: ErrorStats,
+    /// Present when both images have `indirect.*`.
+    pub indirect: Option<ErrorStats>,
+    /// Beauty over the reflecting surfaces only: pixels where the reference B has a non-zero
+    /// `albedo.*` (emitters, whose radiance can dominate RMS(B), and background excluded).
+    /// Present when B has `albedo.*`.
+    pub surfaces: Option<ErrorStats>,
+}
+
+const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
+/// Loads an OpenEXR or Radiance RGBE image (format from the file's first bytes).
+pub fn load_image(path: &Path) -> Result<RgbImage> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    if bytes.starts_with(&EXR_MAGIC) {
+        load_exr(path)
+    } else if bytes.starts_with(b"#?") {
+        load_radiance(path, &bytes)
+    } else {
+        Err(Error::invalid(
+            path,
+            "header",
+            "neither an OpenEXR file nor a Radiance picture (#?RADIANCE)",
+        ))
+    }
+}
+
+fn load_exr(path: &Path) -> Result<RgbImage> {
+    let (width, height, channels) = read_exr_channels(path)?;
+    let find = |name: &str| channels.iter().find(|(n, _)| n == name).map(|(_, d)| d);
+    let rgb = |names: [&str; 3]| -> Option<Vec<[f32; 3]>> {
+        let (r, g, b) = (find(names[0])?, find(names[1])?, find(names[2])?);
+        Some((0..r.len()).map(|i| [r[i], g[i], b[i]]).collect())
+    };
+    let beauty = rgb(["R", "G", "B"]).ok_or_else(|| {
+        let names: Vec<&str> = channels.iter().map(|(n, _)| n.as_str()).collect();
+        Error::invalid(
+            path,
+            "channels",
+            format!(
+                "needs the channels R, G and B; the file has: {}",
+                names.join(", ")
+            ),
+        )
+    })?;
+    let indirect = rgb(["indirect.R", "indirect.G", "indirect.B"]);
+    let albedo = rgb(["albedo.R", "albedo.G", "albedo.B"]);
+    Ok(RgbImage {
+        path: path.to_path_buf(),
+        width,
+        height,
+        beauty,
+        indirect,
+        albedo,
+    })
+}
+
+fn load_radiance(path: &Path, bytes: &[u8]) -> Result<RgbImage> {
+    use image::ImageDecoder;
+    use image::codecs::hdr::HdrDecoder;
+    let bad = |m: String| Error::invalid(path, "Radiance picture", m);
+    let decoder =
+        HdrDecoder::new_nonstrict(std::io::Cursor::new(bytes)).map_err(|e| bad(e.to_string()))?;
+    let meta = decoder.metadata();
+    if meta.orientation != ((1, 0), (0, 1)) {
+        return Err(bad(format!(
+            "only the standard orientation (-Y h +X w) is supported, not {:?}",
+            meta.orientation
+        )));
+    }
+    let format = meta
+        .custom_attributes
+        .iter()
+        .find(|(k, _)| k.eq_ignore_ascii_case("FORMAT"))
+        .map(|(_, f)| f.trim());
+    if let Some(f) = format.filter(|f| !f.eq_ignore_ascii_case("32-bit_rle_rgbe")) {
+        return Err(bad(format!("FORMAT={f} is not 32-bit_rle_rgbe")));
+    }
+    let (width, height) = decoder.dimensions();
+    let len = usize::try_from(decoder.total_bytes()).map_err(|e| bad(e.to_string()))?;
+    let mut buf = vec![0u8; len];
+    decoder
+        .read_image(&mut buf)
+        .map_err(|e| bad(e.to_string()))?;
+    let exposure = meta.exposure.unwrap_or(1.0);
+    let cc = meta.color_correction.unwrap_or((1.0, 1.0, 1.0));
+    if !(exposure > 0.0 && cc.0 > 0.0 && cc.1 > 0.0 && cc.2 > 0.0) {
+        return Err(bad(format!(
+            "EXPOSURE {exposure} or COLORCORR {cc:?} is not positive"
+        )));
+    }
+    // Radiance stores value × EXPOSURE × COLORCORR: divide them out to get radiance.
+    let scale = [
+        1.0 / (exposure * cc.0),
+        1.0 / (exposure * cc.1),
+        1.0 / (exposure * cc.2),
+    ];
+    let beauty = buf
+        .chunks_exact(12)
+        .map(|p| {
+            let f = |i: usize| f32::from_ne_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
+            [f(0) * scale[0], f(4) * scale[1], f(8) * scale[2]]
+        })
+        .collect();
+    Ok(RgbImage {
+        path: path.to_path_buf(),
+        width,
+        height,
+        beauty,
+        indirect: None,
+        albedo: None,
+    })
+}
+
+/// RMSE, RMS of the reference and relative RMSE of `a` against `b` (same length).
+pub fn error_stats(a: &[[f32; 3]], b: &[[f32; 3]]) -> ErrorStats {
+    let (mut se, mut sb) = (0.0f64, 0.0f64);
+    for (pa, pb) in a.iter().zip(b) {
+        for c in 0..3 {
+            let d = f64::from(pa[c]) - f64::from(pb[c]);
+            se += d * d;
+            sb += f64::from(pb[c]) * f64::from(pb[c]);
+        }
+    }
+    let n = (3 * a.len().min(b.len())).max(1) as f64;
+    let rmse = (se / n).sqrt();
+    let rms_reference = (sb / n).sqrt();
+    let relative_rmse = if rms_reference > 0.0 {
+        rmse / rms_reference
+    } else if rmse == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY
+    };
+    ErrorStats {
+        rmse,
+        rms_reference,
+        relative_rmse,
+    }
+}
+
+fn check_finite(img: &RgbImage, what: &str, pixels: &[[f32; 3]]) -> Result<()> {
+    if let Some(i) = pixels.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+        let w = img.width.max(1) as usize;
+        return Err(Error::invalid(
+            &img.path,
+            format!("{what} pixel ({}, {})", i % w, i / w),
+            "is not finite (NaN or infinity)",
+        ));
+    }
+    Ok(())
+}
+
+/// Compares image `a` against the reference `b`. Errors when the sizes differ or a
+/// pixel is not finite.
+pub fn compare(a: &RgbImage, b: &RgbImage) -> Result<Comparison> {
+    if (a.width, a.height) != (b.width, b.height) {
+        return Err(Error::Usage(format!(
+            "image sizes differ: {} is {}x{}, {} is {}x{}",
+            a.path.display(),
+            a.width,
+            a.height,
+            b.path.display(),
+            b.width,
+            b.height
+        )));
+    }
+    check_finite(a, "beauty", &a.beauty)?;
+    check_finite(b, "beauty", &b.beauty)?;
+    let indirect = match (&a.indirect, &b.indirect) {
+        (Some(ia), Some(ib)) => {
+            check_finite(a, "indirect", ia)?;
+            check_finite(b, "indirect", ib)?;
+            Some(error_stats(ia, ib))
+        }
+        _ => None,
+    };
+    let surfaces = b.albedo.as_ref().map(|albedo| {
+        let (sa, sb): (Vec<[f32; 3]>, Vec<[f32; 3]>) = a
+            .beauty
+            .iter()
+            .zip(&b.beauty)
+            .zip(albedo)
+            .filter(|(_, al)| al.iter().any(|&c| c > 0.0))
+            .map(|(pair, _)| pair)
+            .unzip();
+        error_stats(&sa, &sb)
+    });
+    Ok(Comparison {
+        a: a.path.clone(),
+        b: b.path.clone(),
+        width: a.width,
+        height: a.height,
+        beauty: error_stats(&a.beauty, &b.beauty),
+        indirect,
+        surfaces,
+    })
+}
+
+/// Rec. 709 luminance of linear RGB.
+pub fn luminance(p: [f32; 3]) -> f32 {
+    0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]
+}
+
+/// Viridis (matplotlib's perceptually uniform map) at 9 stops, linearly interpolated.
+const VIRIDIS: [[f32; 3]; 9] = [
+    [68.0, 1.0, 84.0],
+    [71.0, 44.0, 122.0],
+    [59.0, 81.0, 139.0],
+    [44.0, 113.0, 142.0],
+    [33.0, 144.0, 141.0],
+    [39.0, 173.0, 129.0],
+    [92.0, 200.0, 99.0],
+    [170.0, 220.0, 50.0],
+    [253.0, 231.0, 37.0],
+];
+
+/// Viridis colour of `t` in [0, 1] (clamped), 8-bit sRGB.
+pub fn viridis(t: f32) -> [u8; 3] {
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    let x = t * (VIRIDIS.len() - 1) as f32;
+    let i = (x.floor() as usize).min(VIRIDIS.len() - 2);
+    let f = x - i as f32;
+    let c = |k: usize| (VIRIDIS[i][k] + f * (VIRIDIS[i + 1][k] - VIRIDIS[i][k]) + 0.5) as u8;
+    [c(0), c(1), c(2)]
+}
+
+/// Height in pixels of the legend strip under the difference image.
+pub const LEGEND_ROWS: u32 = 12;
+
+/// False-colour difference image, 8-bit RGB, `width x (height + LEGEND_ROWS)`.
+///
+/// Each pixel shows `e = |Y(A) − Y(B)| / mean_p Y(B)` (luminance difference relative to the
+/// reference's mean luminance, so dark pixels do not blow up) through [`viridis`], from
+/// 0 (dark purple) to `scale` and above (yellow). The legend strip below the image runs
+/// from 0 at the left to `scale` at the right, with ticks at quarters.
+pub fn diff_image(a: &RgbImage, b: &RgbImage, scale: f32) -> Vec<u8> {
+    let (w, h) = (a.width as usize, a.height as usize);
+    let mean_b = b
+        .beauty
+        .iter()
+        .map(|&p| f64::from(luminance(p)))
+        .sum::<f64>()
+        / b.beauty.len().max(1) as f64;
+    let norm = if mean_b > 0.0 { mean_b as f32 } else { 1.0 };
+    let scale = if scale > 0.0 { scale } else { 1.0 };
+    let mut rgb = Vec::with_capacity(w * (h + LEGEND_ROWS as usize) * 3);
+    for (pa, pb) in a.beauty.iter().zip(&b.beauty) {
+        let e = (luminance(*pa) - luminance(*pb)).abs() / norm;
+        rgb.extend_from_slice(&viridis(e / scale));
+    }
+    for row in 0..LEGEND_ROWS {
+        for x in 0..w {
+            let t = (x as f32 + 0.5) / w as f32;
+            let tick = row < 3 && (0..=4).any(|q| (q * (w - 1)) / 4 == x);
+            if row < 2 || tick {
+                rgb.extend_from_slice(&if tick { [255, 255, 255] } else { [0, 0, 0] });
+            } else {
+                rgb.extend_from_slice(&viridis(t));
+            }
+        }
+    }
+    rgb
+}
+
+/// Writes [`diff_image`] as a PNG, atomically.
+pub fn write_diff_png(path: &Path, a: &RgbImage, b: &RgbImage, scale: f32) -> Result<()> {
+    let rgb = diff_image(a, b, scale);
+    let bytes = encode_png_rgb8(a.width, a.height + LEGEND_ROWS, &rgb).map_err(|message| {
+        Error::Output {
+            path: path.to_path_buf(),
+            message,
+        }
+    })?;
+    write_atomically(path, &bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rmse_of_known_images() {
+        let b = vec![[1.0, 1.0, 1.0]; 4];
+        let mut a = b.clone();
+        a[0] = [3.0, 1.0, 1.0]; // one difference of 2 among 12 values
+        let s = error_stats(&a, &b);
+        assert!((s.rmse - (4.0f64 / 12.0).sqrt()).abs() < 1e-12);
+        assert!((s.rms_reference - 1.0).abs() < 1e-12);
+        assert!((s.relative_rmse - s.rmse).abs() < 1e-12);
+        assert_eq!(error_stats(&b, &b).relative_rmse, 0.0);
+        let black = vec![[0.0; 3]; 4];
+        assert_eq!(error_stats(&black, &black).relative_rmse, 0.0);
+        assert!(error_stats(&b, &black).relative_rmse.is_infinite());
+    }
+
+    #[test]
+    fn viridis_ends() {
+        assert_eq!(viridis(0.0), [68, 1, 84]);
+        assert_eq!(viridis(1.0), [253, 231, 37]);
+        assert_eq!(viridis(7.0), [253, 231, 37]);
+        assert_eq!(viridis(f32::NAN), [253, 231, 37]);
+    }
+}

@@ -1,0 +1,111 @@
+//! Plain-Rust mirror of the reference pass (`wgsl/reference_indirect.wgsl`): the same
+//! bounce directions (bit-identical Sobol points and seeds), the same sum order, with rays
+//! traced by obvhs on the CPU ([`crate::bvh::cpu_trace`]) and direct light at the bounce
+//! hits from [`DirectReference`].
+
+use crate::direct::reference::{DirectReference, ReferencePixel, Surface, offset_ray_origin};
+use crate::sampling::{cosine_hemisphere, hash_combine, hash_u32, orthonormal_basis, sobol_2d};
+use crate::scene::Scene;
+use crate::visibility::GpuCamera;
+use glam::Vec3;
+use std::f32::consts::PI;
+
+/// One pixel of the CPU reference.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct IndirectPixel {
+    /// Visibility, emission + direct (beauty without indirect), albedo, direct.
+    pub direct: ReferencePixel,
+    /// Reflected first-bounce indirect radiance ρ / N · Σ L_k.
+    pub indirect: Vec3,
+    /// emission + direct + indirect.
+    pub beauty: Vec3,
+}
+
+/// CPU reference of direct + first-bounce indirect light.
+pub struct IndirectReference<'a> {
+    pub direct: DirectReference<'a>,
+    pub spp: u32,
+}
+
+/// Scramble seed of a pixel's hemisphere directions, as WGSL `indirect_seed`.
+pub fn indirect_seed(pixel: u32) -> u32 {
+    hash_combine(hash_u32(pixel), 0x1d1)
+}
+
+impl<'a> IndirectReference<'a> {
+    /// `spp` bounce directions per pixel; `light_samples` as in the scene settings.
+    pub fn new(scene: &'a Scene, light_samples: u32, spp: u32) -> Self {
+        Self {
+            direct: DirectReference::new(scene, light_samples),
+            spp: spp.max(1),
+        }
+    }
+
+    /// Emission seen by a bounce ray: zero for emitters sampled as lights, as WGSL
+    /// `indirect_emission`.
+    pub fn indirect_emission(&self, s: &Surface) -> Vec3 {
+        let m = &self.direct.scene.materials[s.material as usize];
+        if m.sampled_light || !s.front_face {
+            Vec3::ZERO
+        } else {
+            m.emission
+        }
+    }
+
+    /// Outgoing radiance of the closest hit along bounce direction `k`, as WGSL
+    /// `bounce_radiance`: ρ(hit) / π · E_direct(hit) + L_e,indirect(hit); zero on a miss.
+    pub fn bounce_radiance(&self, s: &Surface, seed: u32, k: u32) -> Vec3 {
+        let dir = orthonormal_basis(s.shading_normal) * cosine_hemisphere(sobol_2d(k, seed));
+        if dir.dot(s.geometric_normal) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let origin = offset_ray_origin(s.position, s.geometric_normal);
+        let Some(hit) = self
+            .direct
+            .tracer
+            .closest_hit(origin, dir, 0.0, f32::INFINITY)
+        else {
+            return Vec3::ZERO;
+        };
+        let h = self.direct.surface_at(&hit, dir);
+        let e = self.direct.direct_irradiance(&h, hash_combine(seed, k));
+        self.direct.albedo(&h) * (1.0 / PI) * e + self.indirect_emission(&h)
+    }
+
+    /// Renders one pixel (its own camera ray, traced on the CPU).
+    pub fn pixel(&self, camera: &GpuCamera, x: u32, y: u32) -> IndirectPixel {
+        let direct = self.direct.pixel(camera, x, y);
+        if direct.hit.is_none() {
+            return IndirectPixel {
+                direct,
+                indirect: Vec3::ZERO,
+                beauty: direct.beauty,
+            };
+        }
+        let dir = camera.ray_dir(x, y);
+        let Some(hit) =
+            self.direct
+                .tracer
+                .closest_hit(camera.origin.into(), dir, 0.0, f32::INFINITY)
+        else {
+            return IndirectPixel {
+                direct,
+                ..Default::default()
+            };
+        };
+        let s = self.direct.surface_at(&hit, dir);
+        let pixel = y * camera.width + x;
+        let seed = indirect_seed(pixel);
+        // Same sum order as the GPU: sample 0 first.
+        let mut sum = Vec3::ZERO;
+        for k in 0..self.spp {
+            sum += self.bounce_radiance(&s, seed, k);
+        }
+        let indirect = direct.albedo * (sum * (1.0 / self.spp as f32));
+        IndirectPixel {
+            direct,
+            indirect,
+            beauty: direct.beauty + indirect,
+        }
+    }
+}

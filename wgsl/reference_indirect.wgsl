@@ -1,0 +1,67 @@
+// Reference first-bounce indirect light: brute-force Monte Carlo per pixel, deterministic.
+// For every visible pixel, samples [sample_begin, sample_end) of N cosine-distributed
+// directions around the shading normal (Owen-scrambled Sobol, scramble seeded per pixel)
+// are traced to their closest hit, whose outgoing radiance is
+//   L = albedo(hit) / pi * E_direct(hit) + indirect_emission(hit)         (Lambertian)
+// and added, in sample order, to the pixel's running sum. With the cosine pdf
+// p(w) = cos(w) / pi, the irradiance estimate is E = pi / N * sum(L) and the reflected
+// radiance albedo / pi * E = albedo / N * sum(L); the host does that last step.
+// Rays that miss add nothing: the environment is already a light of `direct_irradiance`
+// (it would otherwise be counted twice, like sampled emitters: Ward's rule).
+// CPU mirror: src/reference/cpu.rs.
+//!include shared/shading.wgsl
+//!include shared/camera.wgsl
+
+struct ReferenceParams {
+    sample_begin: u32,
+    sample_end: u32,
+    row_begin: u32,
+    row_end: u32,
+}
+
+@group(1) @binding(0) var<uniform> camera: Camera;
+@group(1) @binding(1) var<storage, read> vis: array<VisSample>;
+@group(1) @binding(2) var<uniform> params: ReferenceParams;
+@group(1) @binding(3) var<storage, read_write> radiance_sum: array<vec4f>;
+
+// Scramble seed of a pixel's hemisphere directions (the direct pass uses hash_u32(pixel)).
+fn indirect_seed(pixel: u32) -> u32 {
+    return hash_combine(hash_u32(pixel), 0x1d1u);
+}
+
+// Outgoing radiance towards the pixel of the closest hit along direction sample `k`.
+fn bounce_radiance(s: Surface, seed: u32, k: u32) -> vec3f {
+    let dir = orthonormal_basis(s.shading_normal) * cosine_hemisphere(sobol_2d(k, seed));
+    if dot(dir, s.geometric_normal) <= 0.0 {
+        return vec3f(0.0); // below the geometric surface: the ray cannot leave it
+    }
+    let origin = offset_ray_origin(s.position, s.geometric_normal);
+    let hit = trace_closest(Ray(origin, 0.0, dir, INF));
+    if hit.instance == NO_HIT {
+        return vec3f(0.0);
+    }
+    let h = surface_at(hit, dir);
+    let e = direct_irradiance(h, hash_combine(seed, k));
+    return surface_albedo(h) * (1.0 / PI) * e + indirect_emission(h);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    let y = params.row_begin + id.y;
+    if id.x >= camera.width || y >= params.row_end || y >= camera.height {
+        return;
+    }
+    let pixel = y * camera.width + id.x;
+    let v = vis[pixel];
+    if v.instance == NO_HIT {
+        return;
+    }
+    let s = surface_at(Hit(v.t, v.instance, v.triangle, v.bary.x, v.bary.y),
+                       camera_ray_dir(camera, vec2u(id.x, y)));
+    let seed = indirect_seed(pixel);
+    var sum = radiance_sum[pixel].xyz;
+    for (var k = params.sample_begin; k < params.sample_end; k++) {
+        sum += bounce_radiance(s, seed, k);
+    }
+    radiance_sum[pixel] = vec4f(sum, 1.0);
+}
