@@ -159,3 +159,59 @@ pub fn quantise(lo: f32, hi: f32, origin: f32, scale: f32) -> (u32, u32) {
     debug_assert!(plane(origin, qlo, scale) <= lo && plane(origin, qhi, scale) >= hi);
     (qlo, qhi)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::gpu_layout::GpuNode;
+    use super::*;
+    use glam::Vec3A;
+
+    /// Every dequantised child box contains the exact box, and the entries survive.
+    #[test]
+    fn quantised_boxes_are_conservative() {
+        let mut state = 12345u32;
+        let mut rnd = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        for scale in [1e-3f32, 1.0, 37.5, 1e5] {
+            for _ in 0..200 {
+                let base = Vec3A::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * scale * 10.0;
+                let bounds: Vec<Aabb> = (0..4)
+                    .map(|_| {
+                        let a = base + Vec3A::new(rnd(), rnd(), rnd()) * scale;
+                        let b = a + Vec3A::new(rnd(), rnd(), rnd()) * scale * rnd();
+                        Aabb { min: a, max: b }
+                    })
+                    .collect();
+                let node = WideNode {
+                    bounds: bounds.clone(),
+                    children: (0..4).map(|i| Child::Inner(i * 7)).collect(),
+                };
+                let gpu = GpuNode::new(&node, 100);
+                for (s, b) in bounds.iter().enumerate() {
+                    let (lo, hi) = gpu.child_bounds(s);
+                    assert!(lo.cmple(b.min.into()).all() && hi.cmpge(b.max.into()).all());
+                    assert_eq!(gpu.words[12 + s], 100 + s as u32 * 7);
+                }
+            }
+        }
+    }
+
+    /// A BVH2 leaf root still gets a wide root node; empty slots are marked.
+    #[test]
+    fn single_leaf_collapses_to_one_node() {
+        let aabbs = [Aabb {
+            min: Vec3A::ZERO,
+            max: Vec3A::ONE,
+        }];
+        let mut core = std::time::Duration::ZERO;
+        let bvh = obvhs::bvh2::builder::build_bvh2(&aabbs, super::super::tlas_params(), &mut core);
+        let nodes = collapse(&bvh, 4, &|f, c| (f, c));
+        assert_eq!(nodes.len(), 1);
+        assert_eq!(nodes[0].children.len(), 1);
+        let gpu = GpuNode::new(&nodes[0], 0);
+        assert_eq!(gpu.words[12], LEAF_BIT);
+        assert_eq!(&gpu.words[13..16], &[EMPTY; 3]);
+    }
+}
