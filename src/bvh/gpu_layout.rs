@@ -1,57 +1,94 @@
 //! Plain-Rust mirrors of the structs in `wgsl/shared/bvh.wgsl` and `wgsl/shared/scene.wgsl`.
 //! Field order and padding match WGSL's std430 layout; sizes are checked by tests.
 
+use super::wide::{self, Child, WideNode};
 use crate::scene::Mesh;
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec3};
-use obvhs::{bvh2::node::Bvh2Node, triangle::Triangle};
+use glam::{Mat4, Vec3, Vec3A};
+use obvhs::{aabb::Aabb, triangle::Triangle};
 
-/// Most primitives a leaf may hold: the traversal packs `count - 1` into 4 bits of a stack
-/// entry (`wgsl/shared/bvh.wgsl`).
+/// Most primitives a leaf may hold: the traversal packs `count - 1` into 4 bits of a
+/// traversal entry (`wgsl/shared/bvh.wgsl`).
 pub const MAX_LEAF_PRIMS: u32 = 16;
 
-/// A BVH node, 32 bytes: bounds plus two words (WGSL reads it as two vec4s).
-/// Inner node: `count == 0`, children at `index` and `index + 1` (siblings are always
-/// adjacent: the traversal tests a pair of siblings per step).
-/// Leaf: `count > 0` primitives starting at `index` (BLAS: triangles; TLAS: the instance id).
+/// A 4-wide BVH node with quantised child boxes, 64 bytes: four `rgba32uint` texels of
+/// the node texture, so one node costs four texel fetches (`wgsl/shared/bvh.wgsl`).
+/// - words 0-2: the node's min corner (f32 bits), the origin of the quantisation grid;
+///   word 3: biased exponents (bytes 0-2) of the x, y, z grid steps (powers of two);
+/// - words 4-9: child boxes in grid steps, one byte per child (child `i` in byte `i`):
+///   lo.x, hi.x, lo.y, hi.y, lo.z, hi.z. A plane is `origin + q * step`, rounded
+///   outwards when built, so every dequantised box contains the exact one;
+/// - words 10-11: unused;
+/// - words 12-15: the children's traversal entries: a node index, or `LEAF_BIT |
+///   first << 4 | (count - 1)` for a leaf (BLAS: triangles; TLAS: the instance), or
+///   `EMPTY` for an unused slot.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuNode {
-    pub min: [f32; 3],
-    pub index: u32,
-    pub max: [f32; 3],
-    pub count: u32,
+    pub words: [u32; 16],
 }
 
 impl GpuNode {
-    /// Converts an obvhs node, adding the BLAS's base offsets so indices are absolute.
-    pub fn from_obvhs(n: &Bvh2Node, node_base: u32, tri_base: u32) -> Self {
+    /// Encodes a collapsed node; inner children's indices are offset by `node_base`.
+    pub fn new(n: &WideNode, node_base: u32) -> Self {
         assert!(
-            n.prim_count <= MAX_LEAF_PRIMS,
-            "BVH leaf of {} primitives exceeds {MAX_LEAF_PRIMS}",
-            n.prim_count
+            n.children.len() <= 4,
+            "a GPU BVH node has at most 4 children"
         );
-        let index = if n.prim_count > 0 {
-            n.first_index + tri_base
-        } else {
-            n.first_index + node_base
-        };
-        GpuNode {
-            min: n.aabb.min.into(),
-            index,
-            max: n.aabb.max.into(),
-            count: n.prim_count,
+        let mut w = [0u32; 16];
+        let mut node = Aabb::empty();
+        for b in &n.bounds {
+            node = node.union(b);
         }
+        if n.bounds.is_empty() {
+            node = Aabb {
+                min: Vec3A::ZERO,
+                max: Vec3A::ZERO,
+            };
+        }
+        let mut step = [0f32; 3];
+        for a in 0..3 {
+            let (origin, eb) = wide::frame(node.min[a], node.max[a]);
+            step[a] = f32::from_bits(eb << 23);
+            w[a] = origin.to_bits();
+            w[3] |= eb << (8 * a);
+        }
+        for s in 0..4 {
+            match (n.bounds.get(s), n.children.get(s)) {
+                (Some(b), Some(c)) => {
+                    if let Child::Leaf { count, .. } = c {
+                        assert!(
+                            (1..=MAX_LEAF_PRIMS).contains(count),
+                            "BVH leaf of {count} primitives exceeds {MAX_LEAF_PRIMS}"
+                        );
+                    }
+                    for a in 0..3 {
+                        let origin = f32::from_bits(w[a]);
+                        let (lo, hi) = wide::quantise(b.min[a], b.max[a], origin, step[a]);
+                        w[4 + 2 * a] |= lo << (8 * s);
+                        w[5 + 2 * a] |= hi << (8 * s);
+                    }
+                    w[12 + s] = wide::entry(c, node_base);
+                }
+                _ => w[12 + s] = wide::EMPTY,
+            }
+        }
+        GpuNode { words: w }
     }
 
-    /// A leaf node.
-    pub fn leaf(min: Vec3, max: Vec3, index: u32, count: u32) -> Self {
-        GpuNode {
-            min: min.into(),
-            index,
-            max: max.into(),
-            count,
+    /// Dequantised bounds of child `slot` (as the shader computes them), for tests.
+    pub fn child_bounds(&self, slot: usize) -> (Vec3, Vec3) {
+        let w = &self.words;
+        let q = |word: u32| (word >> (8 * slot)) & 255;
+        let mut lo = [0f32; 3];
+        let mut hi = [0f32; 3];
+        for a in 0..3 {
+            let origin = f32::from_bits(w[a]);
+            let step = f32::from_bits(((w[3] >> (8 * a)) & 255) << 23);
+            lo[a] = wide::plane(origin, q(w[4 + 2 * a]), step);
+            hi[a] = wide::plane(origin, q(w[5 + 2 * a]), step);
         }
+        (lo.into(), hi.into())
     }
 }
 
@@ -162,7 +199,7 @@ mod tests {
     use super::*;
     #[test]
     fn sizes_match_wgsl() {
-        assert_eq!(std::mem::size_of::<GpuNode>(), 32);
+        assert_eq!(std::mem::size_of::<GpuNode>(), 64);
         assert_eq!(std::mem::size_of::<GpuTriangle>(), 48);
         assert_eq!(std::mem::size_of::<GpuTriangleShading>(), 80);
         assert_eq!(std::mem::size_of::<GpuInstance>(), 160);

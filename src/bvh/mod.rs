@@ -3,12 +3,14 @@
 //! instances move. Every hit is reported as (instance, mesh-local primitive, barycentrics),
 //! which maps it to the same surface point in any later frame (`docs/architecture.md`).
 //!
-//! Both levels are built on the CPU with obvhs (PLOC + reinsertion, `medium_build` preset)
-//! and uploaded in the [`gpu_layout`] formats that `wgsl/shared/bvh.wgsl` traverses.
+//! Both levels are built on the CPU with obvhs (PLOC + reinsertion, `medium_build` preset),
+//! collapsed into 4-wide nodes with quantised child boxes ([`wide`]) and uploaded in the
+//! [`gpu_layout`] formats that `wgsl/shared/bvh.wgsl` traverses.
 
 pub mod cpu_trace;
 pub mod gpu_layout;
 pub mod trace_pass;
+pub mod wide;
 
 use crate::scene::{Mesh, Scene};
 use glam::{Mat4, Vec3, Vec3A};
@@ -66,6 +68,11 @@ pub struct Blas {
 impl Blas {
     /// Builds the BLAS of a mesh.
     pub fn build(mesh: &Mesh, preset: BvhPreset) -> Blas {
+        Self::build_params(mesh, preset.params())
+    }
+
+    /// Builds the BLAS of a mesh with explicit obvhs parameters.
+    pub fn build_params(mesh: &Mesh, params: BvhBuildParams) -> Blas {
         let tris: Vec<Triangle> = mesh
             .indices
             .iter()
@@ -76,7 +83,7 @@ impl Blas {
             })
             .collect();
         let mut core = Duration::ZERO;
-        let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, preset.params(), &mut core);
+        let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, params, &mut core);
         let mesh_triangle = bvh.primitive_indices.clone();
         let triangles = mesh_triangle.iter().map(|&i| tris[i as usize]).collect();
         Blas {
@@ -96,10 +103,12 @@ pub struct BuildTimes {
 
 /// The whole scene's acceleration structure, in GPU layout (ready for upload).
 pub struct SceneBvh {
-    /// TLAS nodes; inner nodes' child indices point into [`SceneBvh::gpu_nodes`], i.e. are
-    /// offset by `blas_nodes.len()`. Leaves hold one instance id each.
+    /// TLAS nodes (4-wide, root first); inner children's indices point into
+    /// [`SceneBvh::gpu_nodes`], i.e. are offset by `blas_nodes.len()`. Leaf entries hold
+    /// one instance id each.
     pub tlas_nodes: Vec<GpuNode>,
-    /// Every mesh's BLAS nodes, indices absolute in this array.
+    /// Every mesh's BLAS nodes (4-wide, each BLAS root first), indices absolute in this
+    /// array.
     pub blas_nodes: Vec<GpuNode>,
     pub triangles: Vec<GpuTriangle>,
     pub shading: Vec<GpuTriangleShading>,
@@ -107,7 +116,8 @@ pub struct SceneBvh {
     /// Per mesh: first node of its BLAS in `blas_nodes`, first triangle in `triangles`.
     pub mesh_offsets: Vec<(u32, u32)>,
     pub times: BuildTimes,
-    /// Deepest BLAS and the TLAS depth, for stack sizing.
+    /// Traversal stack entries needed at most: the worst BLAS plus the TLAS (each level
+    /// of a path pushes up to three children; see [`wide::stack_need`]).
     pub max_depth: u32,
 }
 
@@ -137,13 +147,9 @@ impl SceneBvh {
             let node_base = blas_nodes.len() as u32;
             let tri_base = triangles.len() as u32;
             mesh_offsets.push((node_base, tri_base));
-            max_depth = max_depth.max(tree_depth(&blas.bvh));
-            blas_nodes.extend(
-                blas.bvh
-                    .nodes
-                    .iter()
-                    .map(|n| GpuNode::from_obvhs(n, node_base, tri_base)),
-            );
+            let wide = wide::collapse(&blas.bvh, 4, &|first, count| (first + tri_base, count));
+            max_depth = max_depth.max(wide::stack_need(&wide));
+            blas_nodes.extend(wide.iter().map(|n| GpuNode::new(n, node_base)));
             for (tri, &mesh_tri) in blas.triangles.iter().zip(&blas.mesh_triangle) {
                 triangles.push(GpuTriangle::new(tri));
                 shading.push(GpuTriangleShading::new(mesh, mesh_tri));
@@ -151,7 +157,7 @@ impl SceneBvh {
         }
 
         let t1 = Instant::now();
-        let (tlas_nodes, tlas_depth) = build_tlas(scene, blas_nodes.len() as u32);
+        let (tlas_nodes, tlas_stack) = build_tlas(scene, blas_nodes.len() as u32);
         let tlas_ms = t1.elapsed().as_secs_f64() * 1e3;
         let instances = scene
             .instances
@@ -169,7 +175,7 @@ impl SceneBvh {
             instances,
             mesh_offsets,
             times: BuildTimes { blas_ms, tlas_ms },
-            max_depth: max_depth + tlas_depth,
+            max_depth: max_depth + tlas_stack,
         }
     }
 
@@ -207,28 +213,17 @@ pub fn instance_bounds(scene: &Scene) -> Vec<Aabb> {
 
 /// Builds the TLAS over instance bounds; leaves hold exactly one instance. Inner nodes'
 /// child indices are offset by `node_base`, where the TLAS starts in the GPU node array.
+/// Also returns the TLAS's stack need.
 fn build_tlas(scene: &Scene, node_base: u32) -> (Vec<GpuNode>, u32) {
     let bounds = instance_bounds(scene);
     let mut core = Duration::ZERO;
     let bvh = obvhs::bvh2::builder::build_bvh2(&bounds, tlas_params(), &mut core);
-    let nodes = bvh
-        .nodes
-        .iter()
-        .map(|n| {
-            if n.prim_count > 0 {
-                // One instance per leaf (tlas_params): store the instance id itself.
-                GpuNode::leaf(
-                    n.aabb.min.into(),
-                    n.aabb.max.into(),
-                    bvh.primitive_indices[n.first_index as usize],
-                    1,
-                )
-            } else {
-                GpuNode::from_obvhs(n, node_base, 0)
-            }
-        })
-        .collect();
-    (nodes, tree_depth(&bvh))
+    // One instance per leaf (tlas_params): a leaf entry names the instance itself.
+    let wide = wide::collapse(&bvh, 4, &|first, _| {
+        (bvh.primitive_indices[first as usize], 1)
+    });
+    let nodes = wide.iter().map(|n| GpuNode::new(n, node_base)).collect();
+    (nodes, wide::stack_need(&wide))
 }
 
 /// Object-space transform helpers shared by the CPU reference and the GPU layout.

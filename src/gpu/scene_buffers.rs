@@ -1,5 +1,5 @@
-//! The scene tables on the GPU (bind group 0 of every pass): BVH levels, triangles,
-//! shading data, instances, materials, textures, lights and a small info block.
+//! The scene tables on the GPU (bind group 0 of every pass): BVH nodes (a texture),
+//! triangles, shading data, instances, materials, textures, lights and a small info block.
 
 use super::GpuContext;
 use crate::bvh::SceneBvh;
@@ -9,6 +9,48 @@ use bytemuck::{Pod, Zeroable};
 
 /// Must match `BVH_STACK_SIZE` in `wgsl/shared/bvh.wgsl`.
 pub const BVH_STACK_SIZE: u32 = 64;
+
+/// Width in texels of the BVH node texture (binding 0): 512 nodes of four texels per row.
+/// Must match `bvh_texel` in `wgsl/shared/scene.wgsl`; within WebGPU's default 2D limit.
+pub const BVH_TEXTURE_WIDTH: u32 = 2048;
+
+/// Nodes are read through a texture, not a storage buffer: lavapipe (Mesa 22.3) turns each
+/// storage-buffer load into a per-lane loop, while texel fetches are straight-line gathers
+/// (`docs/bvh-performance.md`).
+fn bvh_texture(ctx: &GpuContext, bvh: &SceneBvh) -> Result<wgpu::Texture> {
+    use wgpu::util::DeviceExt;
+    let nodes = bvh.gpu_nodes();
+    let texels = nodes.len() as u32 * 4;
+    let rows = texels.div_ceil(BVH_TEXTURE_WIDTH).max(1);
+    let max = ctx.device.limits().max_texture_dimension_2d;
+    if rows > max {
+        return Err(Error::DeviceLimit(format!(
+            "{} BVH nodes need a {BVH_TEXTURE_WIDTH}x{rows} texture; this device allows {max} rows",
+            nodes.len()
+        )));
+    }
+    let mut words: Vec<u32> = bytemuck::cast_slice(&nodes).to_vec();
+    words.resize((rows * BVH_TEXTURE_WIDTH * 4) as usize, 0);
+    Ok(ctx.device.create_texture_with_data(
+        &ctx.queue,
+        &wgpu::TextureDescriptor {
+            label: Some("bvh nodes"),
+            size: wgpu::Extent3d {
+                width: BVH_TEXTURE_WIDTH,
+                height: rows,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba32Uint,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        },
+        wgpu::util::TextureDataOrder::LayerMajor,
+        bytemuck::cast_slice(&words),
+    ))
+}
 
 /// Rust mirror of WGSL `Material`.
 #[repr(C)]
@@ -152,13 +194,16 @@ pub struct GpuScene {
     pub bind_group: wgpu::BindGroup,
     pub info: GpuSceneInfo,
     info_buffer: wgpu::Buffer,
-    /// Buffers kept alive for the bind group, in binding order.
+    /// Buffers kept alive for the bind group, in binding order (from binding 1).
     _buffers: Vec<wgpu::Buffer>,
+    /// The BVH node texture (binding 0).
+    _bvh_nodes: wgpu::Texture,
     /// Bytes uploaded, for memory reports.
     pub bytes: u64,
 }
 
-/// Storage buffers of group 0, bindings `0..SCENE_STORAGE_BINDINGS`; the info uniform follows.
+/// Group 0: the BVH node texture at binding 0, storage buffers at bindings
+/// `1..SCENE_STORAGE_BINDINGS`; the info uniform follows.
 const SCENE_STORAGE_BINDINGS: u32 = 8;
 
 /// The bind group layout of the scene tables (group 0 in every pass).
@@ -173,7 +218,17 @@ pub fn scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
         },
         count: None,
     };
-    let mut entries: Vec<_> = (0..SCENE_STORAGE_BINDINGS).map(storage).collect();
+    let mut entries = vec![wgpu::BindGroupLayoutEntry {
+        binding: 0,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Uint,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }];
+    entries.extend((1..SCENE_STORAGE_BINDINGS).map(storage));
     entries.push(wgpu::BindGroupLayoutEntry {
         binding: SCENE_STORAGE_BINDINGS,
         visibility: wgpu::ShaderStages::COMPUTE,
@@ -214,8 +269,9 @@ impl GpuScene {
         }
         let (materials, texture_infos, texels) = material_tables(scene);
         let lights: Vec<GpuLight> = scene.lights.iter().map(GpuLight::new).collect();
+        let bvh_nodes = bvh_texture(ctx, bvh)?;
+        let bvh_view = bvh_nodes.create_view(&Default::default());
         let buffers = vec![
-            ctx.storage_buffer("bvh nodes", &bvh.gpu_nodes())?,
             ctx.storage_buffer("triangles", &bvh.triangles)?,
             ctx.storage_buffer("triangle shading", &bvh.shading)?,
             ctx.storage_buffer("instances", &bvh.instances)?,
@@ -234,14 +290,19 @@ impl GpuScene {
         };
         let info_buffer = ctx.uniform_buffer("scene info", &info);
         let layout = scene_layout(&ctx.device);
-        let mut entries: Vec<_> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::TextureView(&bvh_view),
+        }];
+        entries.extend(
+            buffers
+                .iter()
+                .enumerate()
+                .map(|(i, b)| wgpu::BindGroupEntry {
+                    binding: i as u32 + 1,
+                    resource: b.as_entire_binding(),
+                }),
+        );
         entries.push(wgpu::BindGroupEntry {
             binding: SCENE_STORAGE_BINDINGS,
             resource: info_buffer.as_entire_binding(),
@@ -251,13 +312,15 @@ impl GpuScene {
             layout: &layout,
             entries: &entries,
         });
-        let bytes = buffers.iter().map(|b| b.size()).sum();
+        let texture_bytes = u64::from(bvh_nodes.width()) * u64::from(bvh_nodes.height()) * 16;
+        let bytes = buffers.iter().map(|b| b.size()).sum::<u64>() + texture_bytes;
         Ok(Self {
             layout,
             bind_group,
             info,
             info_buffer,
             _buffers: buffers,
+            _bvh_nodes: bvh_nodes,
             bytes,
         })
     }

@@ -1,10 +1,18 @@
 // Two-level BVH traversal (TLAS over instances, one BLAS per mesh), closest hit and any hit.
-// One stack holds TLAS entries below `tlas_sp` and the current BLAS's entries above it;
-// when the stack unwinds to `tlas_sp` the ray returns to world space.
+// Nodes are 4-wide with quantised child boxes (`GpuNode` in src/bvh/gpu_layout.rs), read
+// from the `bvh_nodes` texture. One stack holds TLAS entries below `tlas_sp` and the current
+// BLAS's entries above it; when the stack unwinds to `tlas_sp` the ray returns to world
+// space.
 //!include shared/ray.wgsl
 //!include shared/scene.wgsl
 
 const BVH_STACK_SIZE: u32 = 64u;
+
+// A traversal entry is one u32: an inner node's index, or, with LEAF_BIT set, a leaf's
+// first primitive (bits 4..30) and primitive count - 1 (bits 0..3); EMPTY marks an unused
+// child slot. Limits checked in `GpuScene::upload` and `GpuNode::new`.
+const LEAF_BIT: u32 = 0x80000000u;
+const EMPTY: u32 = 0xffffffffu;
 
 fn safe_inverse(d: vec3f) -> vec3f {
     let eps = 1.0e-20;
@@ -13,18 +21,6 @@ fn safe_inverse(d: vec3f) -> vec3f {
         select(1.0 / d.y, select(1.0 / eps, -1.0 / eps, d.y < 0.0), abs(d.y) < eps),
         select(1.0 / d.z, select(1.0 / eps, -1.0 / eps, d.z < 0.0), abs(d.z) < eps),
     );
-}
-
-// Slab test in fma form (`oid` = origin * inv_dir); returns the entry distance, or INF
-// when the box is missed or lies beyond tmax.
-fn intersect_aabb(bmin: vec3f, bmax: vec3f, inv_dir: vec3f, oid: vec3f, tmin: f32, tmax: f32) -> f32 {
-    let t0 = fma(bmin, inv_dir, -oid);
-    let t1 = fma(bmax, inv_dir, -oid);
-    let near = min(t0, t1);
-    let far = max(t0, t1);
-    let tn = max(max(near.x, near.y), max(near.z, tmin));
-    let tf = min(min(far.x, far.y), min(far.z, tmax));
-    return select(INF, tn, tn <= tf);
 }
 
 // Möller–Trumbore; returns (t, u, v) with t = INF on a miss. Same formulation as
@@ -47,17 +43,45 @@ fn intersect_triangle(tri: Triangle, origin: vec3f, dir: vec3f, tmin: f32, tmax:
     return select(vec3f(INF, 0.0, 0.0), vec3f(t, u, v), inside);
 }
 
-// A traversal entry is one u32: an inner node's child pair (the index of its first child;
-// siblings are adjacent, so one entry names two boxes), or, with LEAF_BIT set, a leaf's
-// first primitive (bits 4..30) and primitive count - 1 (bits 0..3). Testing both children
-// of a pair in one step means a node's own record is never fetched. Limits checked in
-// `GpuScene::upload` and `bvh::SceneBvh::build_with`.
-const LEAF_BIT: u32 = 0x80000000u;
+// The four children's planes on one axis: bytes of `q` on the grid origin + q * step. The
+// product is exact (step is a power of two), so this matches `wide::plane` bit for bit.
+fn dequantise(q: u32, step: f32, origin: f32) -> vec4f {
+    let b = (vec4u(q) >> vec4u(0u, 8u, 16u, 24u)) & vec4u(255u);
+    return fma(vec4f(b), vec4f(step), vec4f(origin));
+}
 
-fn node_entry(node: BvhNode) -> u32 {
-    let index = bitcast<u32>(node.lo.w);
-    let count = bitcast<u32>(node.hi.w);
-    return select(index, LEAF_BIT | (index << 4u) | (count - 1u), count > 0u);
+// Slab test of node `node`'s four child boxes in fma form (`oid` = origin * inv_dir).
+// Returns each child's entry distance, INF when missed, beyond tmax or an empty slot.
+fn intersect_children(node: u32, entries: vec4u, inv_dir: vec3f, oid: vec3f, tmin: f32, tmax: f32) -> vec4f {
+    let a = bvh_texel(node, 0u);
+    let qxy = bvh_texel(node, 1u);
+    let qz = bvh_texel(node, 2u);
+    let o = bitcast<vec3f>(a.xyz);
+    let step = vec3f(
+        bitcast<f32>((a.w & 255u) << 23u),
+        bitcast<f32>(((a.w >> 8u) & 255u) << 23u),
+        bitcast<f32>(((a.w >> 16u) & 255u) << 23u),
+    );
+    let t0x = fma(dequantise(qxy.x, step.x, o.x), vec4f(inv_dir.x), vec4f(-oid.x));
+    let t1x = fma(dequantise(qxy.y, step.x, o.x), vec4f(inv_dir.x), vec4f(-oid.x));
+    let t0y = fma(dequantise(qxy.z, step.y, o.y), vec4f(inv_dir.y), vec4f(-oid.y));
+    let t1y = fma(dequantise(qxy.w, step.y, o.y), vec4f(inv_dir.y), vec4f(-oid.y));
+    let t0z = fma(dequantise(qz.x, step.z, o.z), vec4f(inv_dir.z), vec4f(-oid.z));
+    let t1z = fma(dequantise(qz.y, step.z, o.z), vec4f(inv_dir.z), vec4f(-oid.z));
+    let tn = max(max(min(t0x, t1x), min(t0y, t1y)), max(min(t0z, t1z), vec4f(tmin)));
+    let tf = min(min(max(t0x, t1x), max(t0y, t1y)), min(max(t0z, t1z), vec4f(tmax)));
+    return select(vec4f(INF), tn, (tn <= tf) & (entries != vec4u(EMPTY)));
+}
+
+// One compare-exchange of a sorting network over (distance, entry) pairs.
+fn sort_pair(da: ptr<function, f32>, db: ptr<function, f32>, ea: ptr<function, u32>, eb: ptr<function, u32>) {
+    let swap = *db < *da;
+    let d = select(*da, *db, swap);
+    let e = select(*ea, *eb, swap);
+    *db = select(*db, *da, swap);
+    *eb = select(*eb, *ea, swap);
+    *da = d;
+    *ea = e;
 }
 
 // Traverses the scene. `any_hit`: stop at the first hit (shadow rays).
@@ -75,30 +99,34 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
     var dir = ray.dir;
     var inv_dir = safe_inverse(dir);
     var oid = origin * inv_dir;
-    // The TLAS root's bounds are tested here; every other box is tested with its sibling.
-    let root = bvh_nodes[scene_info.tlas_root];
-    if intersect_aabb(root.lo.xyz, root.hi.xyz, inv_dir, oid, ray.tmin, hit.t) == INF {
-        return hit;
-    }
-    var entry = node_entry(root);
+    var entry = scene_info.tlas_root;
     loop {
         if (entry & LEAF_BIT) == 0u {
-            let a = bvh_nodes[entry];
-            let b = bvh_nodes[entry + 1u];
-            let ta = intersect_aabb(a.lo.xyz, a.hi.xyz, inv_dir, oid, ray.tmin, hit.t);
-            let tb = intersect_aabb(b.lo.xyz, b.hi.xyz, inv_dir, oid, ray.tmin, hit.t);
-            let ea = node_entry(a);
-            let eb = node_entry(b);
-            if ta != INF && tb != INF {
-                // Visit the nearer child first; the farther one waits on the stack.
-                let a_first = ta <= tb;
-                entry = select(eb, ea, a_first);
-                stack[sp] = select(ea, eb, a_first);
-                sp = min(sp + 1u, BVH_STACK_SIZE - 1u);
-                continue;
-            }
-            if ta != INF || tb != INF {
-                entry = select(eb, ea, ta != INF);
+            let e = bvh_texel(entry, 3u);
+            let d = intersect_children(entry, e, inv_dir, oid, ray.tmin, hit.t);
+            // Nearest child next, the other hit children onto the stack, farthest deepest.
+            var d0 = d.x;
+            var d1 = d.y;
+            var d2 = d.z;
+            var d3 = d.w;
+            var e0 = e.x;
+            var e1 = e.y;
+            var e2 = e.z;
+            var e3 = e.w;
+            sort_pair(&d0, &d1, &e0, &e1);
+            sort_pair(&d2, &d3, &e2, &e3);
+            sort_pair(&d0, &d2, &e0, &e2);
+            sort_pair(&d1, &d3, &e1, &e3);
+            sort_pair(&d1, &d2, &e1, &e2);
+            if d0 != INF {
+                // Unconditional stores, conditional increments: no divergent branches.
+                stack[sp] = e3;
+                sp = min(sp + select(0u, 1u, d3 != INF), BVH_STACK_SIZE - 1u);
+                stack[sp] = e2;
+                sp = min(sp + select(0u, 1u, d2 != INF), BVH_STACK_SIZE - 1u);
+                stack[sp] = e1;
+                sp = min(sp + select(0u, 1u, d1 != INF), BVH_STACK_SIZE - 1u);
+                entry = e0;
                 continue;
             }
         } else if in_blas {
@@ -116,8 +144,7 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
             }
         } else {
             // TLAS leaf: enter the instance's BLAS with the ray in object space. The
-            // direction is not renormalised, so t keeps its meaning across instances. The
-            // BLAS root's box is not tested: the TLAS leaf's box already bounds it.
+            // direction is not renormalised, so t keeps its meaning across instances.
             instance = (entry >> 4u) & 0x07ffffffu;
             let inst = instances[instance];
             origin = transform_point(inst.object_from_world, ray.origin);
@@ -126,7 +153,7 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
             oid = origin * inv_dir;
             in_blas = true;
             tlas_sp = sp;
-            entry = node_entry(bvh_nodes[inst.blas_root]);
+            entry = inst.blas_root;
             continue;
         }
         // Pop; leaving the BLAS when its part of the stack is used up.

@@ -1,14 +1,6 @@
 // Scene tables, bound at group 0 by every pass (layout: src/gpu/scene_buffers.rs,
 // Rust mirrors: src/bvh/gpu_layout.rs and src/gpu/scene_buffers.rs).
 
-// Read as two vec4s so a node costs two vector loads (lavapipe turns every load
-// instruction into a per-lane loop; see docs/bvh-performance.md). Rust: `GpuNode`.
-struct BvhNode {
-    lo: vec4f,   // xyz: min; w: bitcast u32 index (inner: first child, the second at
-                 // index + 1; BLAS leaf: first triangle; TLAS leaf: the instance)
-    hi: vec4f,   // xyz: max; w: bitcast u32 count (0 = inner node, else primitive count)
-}
-
 struct Triangle {
     v0: vec4f,
     e1: vec4f,   // v1 - v0
@@ -74,13 +66,15 @@ struct SceneInfo {
     light_count: u32,
     light_samples: u32,
     instance_count: u32,
-    tlas_root: u32,   // index of the TLAS root in `bvh_nodes` (after every BLAS)
+    tlas_root: u32,   // index of the TLAS root node in `bvh_nodes` (after every BLAS)
     _pad0: u32,
 }
 
-// Every BLAS (one per mesh), then the TLAS: one array, so traversal loads never branch
-// on the level.
-@group(0) @binding(0) var<storage, read> bvh_nodes: array<BvhNode>;
+// BVH nodes: every BLAS (one per mesh), then the TLAS, so traversal loads never branch on
+// the level. 4-wide nodes of four texels each (layout: `GpuNode` in
+// src/bvh/gpu_layout.rs), read with `bvh_texel`. A texture, not a storage buffer: lavapipe
+// turns each storage-buffer load into a per-lane loop (docs/bvh-performance.md).
+@group(0) @binding(0) var bvh_nodes: texture_2d<u32>;
 @group(0) @binding(1) var<storage, read> triangles: array<Triangle>;
 @group(0) @binding(2) var<storage, read> shading: array<TriangleShading>;
 @group(0) @binding(3) var<storage, read> instances: array<Instance>;
@@ -89,6 +83,12 @@ struct SceneInfo {
 @group(0) @binding(6) var<storage, read> texels: array<u32>;
 @group(0) @binding(7) var<storage, read> lights: array<Light>;
 @group(0) @binding(8) var<uniform> scene_info: SceneInfo;
+
+// Texel `k` (0..3) of BVH node `node`; 512 nodes per row of 2048 texels
+// (`BVH_TEXTURE_WIDTH` in src/gpu/scene_buffers.rs).
+fn bvh_texel(node: u32, k: u32) -> vec4u {
+    return textureLoad(bvh_nodes, vec2u(((node & 511u) << 2u) | k, node >> 9u), 0);
+}
 
 fn transform_point(m: array<vec4f, 3>, p: vec3f) -> vec3f {
     let h = vec4f(p, 1.0);
