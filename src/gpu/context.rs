@@ -16,8 +16,9 @@ pub const STORAGE_BUFFERS_PER_STAGE: u32 = 16;
 pub fn required_limits() -> wgpu::Limits {
     wgpu::Limits {
         max_storage_buffers_per_shader_stage: STORAGE_BUFFERS_PER_STAGE,
-        max_compute_invocations_per_workgroup: 64,
-        max_compute_workgroup_size_x: 64,
+        // Splat binning and scans run 256-wide workgroups (WebGPU's default limits).
+        max_compute_invocations_per_workgroup: 256,
+        max_compute_workgroup_size_x: 256,
         max_compute_workgroup_size_y: 8,
         ..wgpu::Limits::downlevel_defaults()
     }
