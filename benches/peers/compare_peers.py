@@ -116,9 +116,9 @@ def main():
                 "--stats", out / "reference-stats.json"] + common, env)
     rows.append((f"radsplat reference ({args.spp} spp)", t, None, ref))
 
-    # radsplat direct only (the default render without -a), and GI when the build has it.
+    # radsplat direct only (--direct-only), then irradiance-cache GI at accuracy -a.
     direct = out / "radsplat-direct.exr"
-    t, _ = run([radsplat, "render", notex, "-o", direct, "--stats", out / "direct-stats.json"]
+    t, _ = run([radsplat, "render", notex, "--direct-only", "-o", direct, "--stats", out / "direct-stats.json"]
                + common, env)
     rows.append(("radsplat direct only", t, None, direct))
     _, help_text = run([radsplat, "render", "--help"], env, quiet=True)
