@@ -3,7 +3,7 @@
 //! whole data flow of a global-illumination frame in one function.
 
 use crate::bvh::SceneBvh;
-use crate::direct::DirectLightPass;
+use crate::direct::{DirectLightPass, DirectOutput};
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, GpuScene};
 use crate::placement::{PlacementPass, PlacementStats};
@@ -11,7 +11,7 @@ use crate::records::{CacheSettings, Record, RecordCache, RecordPass};
 use crate::resolve::ResolvePass;
 use crate::scene::{Camera, Scene};
 use crate::splat::{SplatBuffer, SplatPass};
-use crate::visibility::{VisSample, VisibilityPass};
+use crate::visibility::{VisSample, VisibilityBuffer, VisibilityPass};
 use crate::{Error, Result};
 use std::time::Instant;
 
@@ -207,21 +207,7 @@ impl Renderer {
         let mut times: Vec<(&'static str, f64)> = Vec::new();
 
         // Visibility buffer and direct light.
-        let mut timer = PassTimer::new(ctx, 2);
-        let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        let vis = self.visibility.record(
-            ctx,
-            &mut encoder,
-            &scene.gpu,
-            camera,
-            timer.next("visibility"),
-        )?;
-        let direct =
-            self.direct
-                .record(ctx, &mut encoder, &scene.gpu, &vis, timer.next("direct"))?;
-        timer.resolve(&mut encoder);
-        ctx.queue.submit([encoder.finish()]);
-        times.extend(timer.read(ctx)?);
+        let (vis, direct) = self.visibility_and_direct(scene, camera, &mut times)?;
 
         // Splat the records the cache already holds, then place new ones.
         let reused_records = cache.records.count;
@@ -336,12 +322,16 @@ impl Renderer {
         })
     }
 
-    /// Renders one frame of a prepared scene from `camera`: visibility, then direct light,
-    /// then reads the images back.
-    pub fn render_frame(&self, scene: &PreparedScene, camera: &Camera) -> Result<Frame> {
+    /// Records and runs the visibility and direct-light passes (one submission), adding
+    /// their GPU times to `times`.
+    fn visibility_and_direct(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<(VisibilityBuffer, DirectOutput)> {
         let ctx = &self.ctx;
-        let t0 = Instant::now();
-        let mut timer = PassTimer::new(ctx, 4);
+        let mut timer = PassTimer::new(ctx, 2);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         let vis = self.visibility.record(
             ctx,
@@ -355,6 +345,17 @@ impl Renderer {
                 .record(ctx, &mut encoder, &scene.gpu, &vis, timer.next("direct"))?;
         timer.resolve(&mut encoder);
         ctx.queue.submit([encoder.finish()]);
+        times.extend(timer.read(ctx)?);
+        Ok((vis, direct))
+    }
+
+    /// Renders one frame of a prepared scene from `camera`: visibility, then direct light,
+    /// then reads the images back.
+    pub fn render_frame(&self, scene: &PreparedScene, camera: &Camera) -> Result<Frame> {
+        let ctx = &self.ctx;
+        let t0 = Instant::now();
+        let mut times = Vec::new();
+        let (vis, direct) = self.visibility_and_direct(scene, camera, &mut times)?;
         // One submission and one wait for all three images.
         let mut images = ctx
             .read_buffers::<[f32; 4]>(&[&direct.beauty, &direct.albedo, &direct.direct])?
@@ -368,11 +369,7 @@ impl Renderer {
             }
         };
         let visibility = vis.read(ctx)?;
-        let pass_ms = timer
-            .read(ctx)?
-            .into_iter()
-            .map(|(n, ms)| (n.to_string(), ms))
-            .collect();
+        let pass_ms = sum_by_pass(&times);
         let (width, height) = (camera.width, camera.height);
         Ok(Frame {
             width,

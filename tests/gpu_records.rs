@@ -6,9 +6,9 @@ mod common;
 
 use glam::Vec3;
 use radsplat::Renderer;
+use radsplat::records::plane_error::monte_carlo_irradiance;
 use radsplat::records::reference::{RecordReference, reduce_plane};
 use radsplat::records::{CacheSettings, Record, RecordCache, RecordPass, RecordSite};
-use radsplat::sampling::{cosine_hemisphere, orthonormal_basis, sobol_2d};
 use radsplat::scene::Scene;
 use radsplat::visibility::GpuCamera;
 
@@ -119,40 +119,6 @@ fn gpu_planes_and_records_match_the_cpu_reference() {
         }
         assert!(gpu.radius >= gpu.r_min && gpu.radius <= gpu.r_min * settings.r_max_factor);
     }
-}
-
-/// Full-hemisphere Monte Carlo irradiance at a site, shading hits as the plane does.
-fn monte_carlo_irradiance(reference: &RecordReference, site: &RecordSite, samples: u32) -> Vec3 {
-    let scene = reference.shading.scene;
-    let n = Vec3::from(site.normal);
-    let ng = Vec3::from(site.geometric_normal);
-    let frame = orthonormal_basis(n);
-    let origin = radsplat::direct::reference::offset_ray_origin(site.position.into(), ng);
-    let mut sum = Vec3::ZERO;
-    for k in 0..samples {
-        let dir = frame * cosine_hemisphere(sobol_2d(k, 0x5eed ^ site.seed));
-        if dir.dot(ng) <= 0.0 {
-            continue;
-        }
-        let Some(hit) = reference
-            .shading
-            .tracer
-            .closest_hit(origin, dir, 0.0, f32::INFINITY)
-        else {
-            continue; // the environment is a sampled light: misses add nothing
-        };
-        let s = reference.shading.surface_at(&hit, dir);
-        let m = &scene.materials[s.material as usize];
-        let emission = if s.front_face && !m.sampled_light {
-            m.emission
-        } else {
-            Vec3::ZERO
-        };
-        let e = reference.shading.direct_irradiance(&s, k);
-        sum += reference.shading.albedo(&s) / std::f32::consts::PI * e + emission;
-    }
-    // Cosine-weighted estimator: E = pi / N * sum L.
-    sum * (std::f32::consts::PI / samples as f32)
 }
 
 #[test]
