@@ -387,9 +387,10 @@ impl RecordPass {
     ) -> Result<Vec<(&'static str, f64)>> {
         cache.reserve(ctx, count)?;
         let res = self.settings.plane_resolution;
+        // Sized to this call's largest batch: small placement rounds stay small.
         let samples = ctx.storage_buffer_sized(
             "plane samples",
-            u64::from(self.batch) * u64::from(res * res) * 16,
+            u64::from(self.batch.min(count.max(1))) * u64::from(res * res) * 16,
         )?;
         let mut times = Vec::new();
         let site_bytes = std::mem::size_of::<RecordSite>() as u64;

@@ -138,6 +138,17 @@ pub fn plane_error_table(
             monte_carlo_irradiance(&base, s, mc_samples)
         })
         .collect();
+    // The three tables per field of view, built once; their pixel centres (the rays) are
+    // the same, so one traced plane serves all three.
+    const MODES: [PlaneMode; 3] = [
+        PlaneMode::Plain,
+        PlaneMode::CoverageRatio,
+        PlaneMode::Stretched,
+    ];
+    let tables: Vec<[HemispherePlane; 3]> = fovs
+        .iter()
+        .map(|&fov| MODES.map(|mode| HemispherePlane::new(settings.plane_resolution, fov, mode)))
+        .collect();
     let mut squared = vec![[0.0f64; 3]; fovs.len()];
     let mut counted = 0usize;
     for (i, (site, mc)) in sites.iter().zip(&references).enumerate() {
@@ -147,25 +158,10 @@ pub fn plane_error_table(
             continue; // a point in full darkness has no relative error
         }
         counted += 1;
-        for (f, &fov) in fovs.iter().enumerate() {
-            let traced = RecordReference::new(
-                scene,
-                &CacheSettings {
-                    plane_fov_degrees: fov,
-                    ..settings.clone()
-                },
-            );
-            let samples = traced.trace_plane(site);
-            for (m, mode) in [
-                PlaneMode::Plain,
-                PlaneMode::CoverageRatio,
-                PlaneMode::Stretched,
-            ]
-            .into_iter()
-            .enumerate()
-            {
-                let plane = HemispherePlane::new(settings.plane_resolution, fov, mode);
-                let e = plane_irradiance(&plane, &samples);
+        for (f, planes) in tables.iter().enumerate() {
+            let samples = base.trace_plane_with(&planes[2], site);
+            for (m, plane) in planes.iter().enumerate() {
+                let e = plane_irradiance(plane, &samples);
                 squared[f][m] += ((e - mc).length() / mc.length()).powi(2);
             }
         }

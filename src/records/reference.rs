@@ -50,12 +50,18 @@ impl<'a> RecordReference<'a> {
 
     /// Traces and shades the plane of `site` (as `hemisphere_plane.wgsl`).
     pub fn trace_plane(&self, site: &RecordSite) -> Vec<PlaneSample> {
+        self.trace_plane_with(&self.plane, site)
+    }
+
+    /// Same with another plane table (its pixel centres give the rays), reusing this
+    /// reference's CPU BVH.
+    pub fn trace_plane_with(&self, plane: &HemispherePlane, site: &RecordSite) -> Vec<PlaneSample> {
         let scene = self.shading.scene;
         let n = Vec3::from(site.normal);
         let ng = Vec3::from(site.geometric_normal);
         let frame = orthonormal_basis(n);
         let origin = offset_ray_origin(site.position.into(), ng);
-        self.plane
+        plane
             .pixels
             .iter()
             .enumerate()
