@@ -34,6 +34,54 @@ pub struct RgbImage {
     pub albedo: Option<Vec<[f32; 3]>>,
 }
 
+impl RgbImage {
+    /// The image box-filtered by `factor` x `factor` pixels (rows and columns that do not
+    /// fill a whole box are dropped). Comparing downsampled images measures the error at a
+    /// coarser scale, where the per-pixel noise of a Monte Carlo reference averages out
+    /// (a 64-spp reference downsampled by 4 has 1024 samples per compared pixel).
+    pub fn downsample(&self, factor: u32) -> Result<RgbImage> {
+        if factor == 0 || factor > self.width || factor > self.height {
+            return Err(Error::Usage(format!(
+                "--downsample {factor} does not fit {} ({}x{})",
+                self.path.display(),
+                self.width,
+                self.height
+            )));
+        }
+        let (w, h) = (self.width / factor, self.height / factor);
+        let src_w = self.width as usize;
+        let f = factor as usize;
+        let inv = 1.0 / (f * f) as f32;
+        let boxed = |pixels: &[[f32; 3]]| -> Vec<[f32; 3]> {
+            let mut out = Vec::with_capacity((w * h) as usize);
+            for y in 0..h as usize {
+                for x in 0..w as usize {
+                    let mut sum = [0.0f32; 3];
+                    for dy in 0..f {
+                        let row = (y * f + dy) * src_w;
+                        for dx in 0..f {
+                            let p = pixels[row + x * f + dx];
+                            for c in 0..3 {
+                                sum[c] += p[c];
+                            }
+                        }
+                    }
+                    out.push(sum.map(|v| v * inv));
+                }
+            }
+            out
+        };
+        Ok(RgbImage {
+            path: self.path.clone(),
+            width: w,
+            height: h,
+            beauty: boxed(&self.beauty),
+            indirect: self.indirect.as_deref().map(boxed),
+            albedo: self.albedo.as_deref().map(boxed),
+        })
+    }
+}
+
 /// RMSE of one image pair (module docs).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ErrorStats {
@@ -349,6 +397,24 @@ mod tests {
         let black = vec![[0.0; 3]; 4];
         assert_eq!(error_stats(&black, &black).relative_rmse, 0.0);
         assert!(error_stats(&b, &black).relative_rmse.is_infinite());
+    }
+
+    #[test]
+    fn downsample_averages_boxes() {
+        let img = RgbImage {
+            path: PathBuf::from("x"),
+            width: 4,
+            height: 3,
+            beauty: (0..12).map(|i| [i as f32, 0.0, 1.0]).collect(),
+            indirect: None,
+            albedo: None,
+        };
+        let d = img.downsample(2).unwrap();
+        assert_eq!((d.width, d.height), (2, 1));
+        // Boxes {0,1,4,5} and {2,3,6,7}; the last row is dropped.
+        assert_eq!(d.beauty, vec![[2.5, 0.0, 1.0], [4.5, 0.0, 1.0]]);
+        assert!(img.downsample(0).is_err());
+        assert!(img.downsample(5).is_err());
     }
 
     #[test]

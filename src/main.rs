@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use radsplat::gpu::GpuContext;
-use radsplat::output::{tonemap_to_srgb8, write_atomically, write_exr, write_png};
+use radsplat::output::{ImageFormat, tonemap_to_srgb8, write_atomically, write_exr, write_png};
 use radsplat::records::CacheSettings;
 use radsplat::scene::load_scene;
 use radsplat::{Error, Renderer, Result};
@@ -27,7 +27,8 @@ enum Command {
     Render {
         /// Scene file (TOML, see docs/scene-format.md).
         scene: PathBuf,
-        /// Output EXR (default: <scene name>.exr in the current directory).
+        /// Output image: `.exr` (linear, with AOVs) or `.png` (tone-mapped); default
+        /// <scene name>.exr in the current directory.
         #[arg(short, long)]
         output: Option<PathBuf>,
         /// Also write a tone-mapped sRGB PNG here.
@@ -110,7 +111,8 @@ enum Command {
         /// Bounce directions per pixel (powers of two suit the Sobol points).
         #[arg(long)]
         spp: u32,
-        /// Output EXR (default: <scene name>-reference.exr in the current directory).
+        /// Output image: `.exr` (linear, with AOVs) or `.png` (tone-mapped); default
+        /// <scene name>-reference.exr in the current directory.
         #[arg(short, long)]
         output: Option<PathBuf>,
         /// Also write a tone-mapped sRGB PNG here.
@@ -142,6 +144,10 @@ enum Command {
         /// The relative difference shown as full yellow in `--diff`.
         #[arg(long, default_value_t = 0.25)]
         diff_scale: f32,
+        /// Box-filter both images by N x N pixels before comparing (averages out the
+        /// per-pixel noise of a Monte Carlo reference).
+        #[arg(long, default_value_t = 1)]
+        downsample: u32,
         /// Write the numbers as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -285,8 +291,16 @@ fn main() -> ExitCode {
             b,
             diff,
             diff_scale,
+            downsample,
             json,
-        } => compare(&a, &b, diff.as_deref(), diff_scale, json.as_deref()),
+        } => compare(
+            &a,
+            &b,
+            diff.as_deref(),
+            diff_scale,
+            downsample,
+            json.as_deref(),
+        ),
         Command::ExportRad {
             scene,
             out_dir,
@@ -366,6 +380,7 @@ fn render(args: RenderArgs) -> Result<()> {
         let stem = scene_path.file_stem().unwrap_or_default().to_string_lossy();
         PathBuf::from(format!("{stem}.exr"))
     });
+    let format = ImageFormat::from_path(&output)?;
     bar.inc(1);
     bar.set_message("starting GPU");
     let renderer = Renderer::new(GpuContext::new()?)?;
@@ -392,7 +407,15 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     bar.inc(1);
     bar.set_message("writing");
-    write_exr(&output, &frame)?;
+    match format {
+        ImageFormat::Exr => {
+            write_exr(&output, &frame)?;
+        }
+        ImageFormat::Png => {
+            let rgb = tonemap_to_srgb8(&frame.beauty, scene.settings.exposure);
+            write_png(&output, frame.width, frame.height, &rgb)?;
+        }
+    }
     if let Some(path) = &record_map {
         let camera = radsplat::visibility::GpuCamera::new(&scene.camera);
         let rgb = radsplat::output::record_map(&frame, &camera, &records, scene.settings.exposure);
@@ -588,6 +611,7 @@ fn reference(
         let stem = scene_path.file_stem().unwrap_or_default().to_string_lossy();
         PathBuf::from(format!("{stem}-reference.exr"))
     });
+    let format = ImageFormat::from_path(&output)?;
     let t0 = std::time::Instant::now();
     let renderer = Renderer::new(GpuContext::new()?)?;
     radsplat::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
@@ -607,7 +631,15 @@ fn reference(
         },
     )?;
     bar.finish_and_clear();
-    result.write_exr(&output)?;
+    match format {
+        ImageFormat::Exr => {
+            result.write_exr(&output)?;
+        }
+        ImageFormat::Png => {
+            let rgb = tonemap_to_srgb8(&result.frame.beauty, scene.settings.exposure);
+            write_png(&output, result.frame.width, result.frame.height, &rgb)?;
+        }
+    }
     if let Some(png) = &png {
         let rgb = tonemap_to_srgb8(&result.frame.beauty, scene.settings.exposure);
         write_png(png, result.frame.width, result.frame.height, &rgb)?;
@@ -649,22 +681,38 @@ fn reference(
     Ok(())
 }
 
-fn compare(a: &Path, b: &Path, diff: Option<&Path>, scale: f32, json: Option<&Path>) -> Result<()> {
+fn compare(
+    a: &Path,
+    b: &Path,
+    diff: Option<&Path>,
+    scale: f32,
+    downsample: u32,
+    json: Option<&Path>,
+) -> Result<()> {
     use radsplat::compare::{compare, load_image, write_diff_png};
     if !(scale.is_finite() && scale > 0.0) {
         return Err(Error::Usage(
             "--diff-scale must be a positive number".into(),
         ));
     }
-    let ia = load_image(a)?;
-    let ib = load_image(b)?;
+    let mut ia = load_image(a)?;
+    let mut ib = load_image(b)?;
+    if downsample != 1 {
+        ia = ia.downsample(downsample)?;
+        ib = ib.downsample(downsample)?;
+    }
     let c = compare(&ia, &ib)?;
     println!(
-        "{} vs reference {} ({}x{})",
+        "{} vs reference {} ({}x{}{})",
         a.display(),
         b.display(),
         c.width,
-        c.height
+        c.height,
+        if downsample != 1 {
+            format!(", box-filtered {downsample}x{downsample}")
+        } else {
+            String::new()
+        }
     );
     let line = |name: &str, s: &radsplat::compare::ErrorStats| {
         println!(

@@ -126,3 +126,38 @@ fn render_writes_exr_and_png() {
     let img = image::open(&png).expect("png");
     assert_eq!((img.width(), img.height()), (32, 32));
 }
+
+#[test]
+fn output_format_follows_the_extension() {
+    let dir = tmp_dir("format");
+    let scene = common::bundled("cornell-box.toml");
+    let tif = dir.join("c.tif");
+    let (code, err) = radsplat(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        tif.to_str().unwrap(),
+        "--direct-only",
+        "--size",
+        "16x16",
+        "--quiet",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("c.tif") && err.contains(".png"), "{err}");
+    no_files_in(&dir);
+
+    let png = dir.join("c.png");
+    let (code, err) = radsplat(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--direct-only",
+        "--size",
+        "16x16",
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let img = image::open(&png).expect("-o c.png writes a PNG");
+    assert_eq!((img.width(), img.height()), (16, 16));
+}

@@ -53,11 +53,11 @@ def run(cmd, env, stdout=None, quiet=False):
     return dt, (p.stdout.decode(errors="replace") if stdout is None else "")
 
 
-def compare(radsplat, a, ref, out, env):
-    """`radsplat compare A REF --json`, returns the parsed JSON."""
+def compare(radsplat, a, ref, out, env, downsample=1):
+    """`radsplat compare A REF --json [--downsample N]`, returns the parsed JSON."""
     js = out / (Path(a).stem + "-vs-ref.json")
-    run([radsplat, "compare", a, ref, "--json", js, "--diff", out / (Path(a).stem + "-diff.png")],
-        env, quiet=True)
+    run([radsplat, "compare", a, ref, "--json", js, "--diff", out / (Path(a).stem + "-diff.png"),
+         "--downsample", str(downsample)], env, quiet=True)
     return json.loads(js.read_text())
 
 
@@ -82,6 +82,15 @@ def main():
     ap.add_argument("--ar", type=int, default=128, help="rpict -ar (ambient resolution)")
     ap.add_argument("--ds", type=float, default=0.05,
                     help="rpict -ds (area-light subdivision; smaller is finer)")
+    ap.add_argument("--plane-resolution", type=int, default=32,
+                    help="radsplat hemisphere plane P (P x P rays per record; 32 x 32 = 1024 "
+                         "rays, the same count as rpict -ad 1024)")
+    ap.add_argument("--reference", type=Path, default=None,
+                    help="reuse this radsplat reference EXR (rendered with `radsplat reference` "
+                         "on OUT/rad/notex.toml at the same size) instead of rendering one")
+    ap.add_argument("--downsample", type=int, default=1,
+                    help="compare after box-filtering every image N x N (averages out the "
+                         "reference's Monte Carlo noise at large sizes)")
     ap.add_argument("--spp", type=int, default=256, help="radsplat reference bounce samples")
     ap.add_argument("--light-samples", type=int, default=16,
                     help="radsplat light samples per area light")
@@ -111,10 +120,13 @@ def main():
     common = ["--size", args.size, "--light-samples", str(args.light_samples), "--quiet"]
 
     # radsplat reference first: everything is compared with it.
-    ref = out / "radsplat-reference.exr"
-    t, _ = run([radsplat, "reference", notex, "--spp", str(args.spp), "-o", ref,
-                "--stats", out / "reference-stats.json"] + common, env)
-    rows.append((f"radsplat reference ({args.spp} spp)", t, None, ref))
+    if args.reference is None:
+        ref = out / "radsplat-reference.exr"
+        t, _ = run([radsplat, "reference", notex, "--spp", str(args.spp), "-o", ref,
+                    "--stats", out / "reference-stats.json"] + common, env)
+        rows.append((f"radsplat reference ({args.spp} spp)", t, None, ref))
+    else:
+        ref = args.reference.resolve()
 
     # radsplat direct only (--direct-only), then irradiance-cache GI at accuracy -a.
     direct = out / "radsplat-direct.exr"
@@ -127,6 +139,7 @@ def main():
         gi = out / "radsplat-gi.exr"
         stats = out / "gi-stats.json"
         t, _ = run([radsplat, "render", notex, "-a", str(args.accuracy), "-o", gi,
+                    "--plane-resolution", str(args.plane_resolution),
                     "--stats", stats] + common, env)
         # radsplat render --stats: {"bvh": ..., "frame": {..., "cache": {"records": N, ...}}}
         records = json.loads(stats.read_text())["frame"]["cache"]["records"]
@@ -154,7 +167,7 @@ def main():
     print(f"{'renderer':<32} {'wall s':>8} {'records':>8} {'RMSE':>10} {'rel RMSE':>9} "
           f"{'rel RMSE surfaces':>17}")
     for name, t, records, img in rows:
-        c = compare(radsplat, img, ref, out, env)
+        c = compare(radsplat, img, ref, out, env, args.downsample)
         b = c["beauty"]
         surf = c.get("surfaces") or {}
         results.append({"renderer": name, "wall_s": t, "records": records,
@@ -178,7 +191,8 @@ def main():
               "Radiance's glow sky is ambient-only, so -ab 0 and -ab 1 lack sky terms")
     summary = {"scene": str(args.scene), "width": w, "height": h, "accuracy": args.accuracy,
                "rpict": {"ad": args.ad, "as": args.as_, "ar": args.ar, "ds": args.ds},
-               "spp": args.spp, "light_samples": args.light_samples,
+               "spp": args.spp, "reference": str(ref), "downsample": args.downsample,
+               "plane_resolution": args.plane_resolution, "light_samples": args.light_samples,
                "gi_pending": gi_pending, "results": results,
                "conversion_check_relative_rmse": v["relative_rmse"],
                "conversion_check_relative_rmse_surfaces": vs.get("relative_rmse")}

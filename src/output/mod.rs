@@ -14,6 +14,33 @@ use crate::{Error, Result};
 use std::io::Write;
 use std::path::Path;
 
+/// The kind of image an output path asks for, from its extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// Linear OpenEXR with every AOV (`.exr`).
+    Exr,
+    /// Tone-mapped sRGB 8-bit PNG of the beauty image (`.png`).
+    Png,
+}
+
+impl ImageFormat {
+    /// `.exr` or `.png` (any case); anything else is an error naming the path, raised
+    /// before any rendering so no work is wasted on an output that cannot be written.
+    pub fn from_path(path: &Path) -> Result<ImageFormat> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("exr") => Ok(ImageFormat::Exr),
+            Some("png") => Ok(ImageFormat::Png),
+            _ => Err(Error::Output {
+                path: path.to_path_buf(),
+                message: "unknown image format: the output must end in .exr or .png".into(),
+            }),
+        }
+    }
+}
+
 /// Writes `bytes` to `path` atomically (temp file in the same directory, fsync, rename).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     let err = |message: String| Error::Output {
