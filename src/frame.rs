@@ -31,6 +31,17 @@ pub struct BvhStats {
     pub upload_bytes: u64,
 }
 
+/// Options of [`Renderer::render_cached_frame`].
+#[derive(Default)]
+pub struct CachedFrameOptions<'a, 'b> {
+    /// At most this many new records (None: until every visible pixel is covered).
+    pub max_new_records: Option<u32>,
+    /// Also estimate every new record at the next frame (temporal caching).
+    pub lookahead: Option<&'a mut crate::records::Lookahead<'b>>,
+    /// Count the pixels each record covers.
+    pub count_coverage: bool,
+}
+
 /// Statistics of one frame.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct FrameStats {
@@ -202,6 +213,39 @@ impl Renderer {
         max_new_records: Option<u32>,
         progress: impl FnMut(u32),
     ) -> Result<Frame> {
+        let (frame, _) = self.render_cached_frame(
+            scene,
+            camera,
+            &mut cache.records,
+            &cache.pass,
+            CachedFrameOptions {
+                max_new_records,
+                lookahead: None,
+                count_coverage: false,
+            },
+            progress,
+        )?;
+        Ok(frame)
+    }
+
+    /// The frame of [`Renderer::render_gi_frame`] over `records` (computed by `pass`),
+    /// with the temporal options: new records also estimated at t+1 (`lookahead`), and
+    /// per-record coverage counted (returned, one count per record of `records`; empty
+    /// when not counted).
+    pub fn render_cached_frame(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        records: &mut RecordCache,
+        pass: &RecordPass,
+        options: CachedFrameOptions<'_, '_>,
+        progress: impl FnMut(u32),
+    ) -> Result<(Frame, Vec<u32>)> {
+        let CachedFrameOptions {
+            max_new_records,
+            lookahead,
+            count_coverage,
+        } = options;
         let ctx = &self.ctx;
         let t0 = Instant::now();
         let mut times: Vec<(&'static str, f64)> = Vec::new();
@@ -210,29 +254,27 @@ impl Renderer {
         let (vis, direct) = self.visibility_and_direct(scene, camera, &mut times)?;
 
         // Splat the records the cache already holds, then place new ones.
-        let reused_records = cache.records.count;
-        let accuracy = cache.settings().accuracy;
-        let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
+        let reused_records = records.count;
+        let accuracy = pass.settings.accuracy;
+        let coverage_records = if count_coverage {
+            pass.settings.record_budget.max(records.count)
+        } else {
+            0
+        };
+        let splat = SplatBuffer::with_coverage(ctx, camera.width, camera.height, coverage_records)?;
         self.splat.splat(
-            ctx,
-            &scene.gpu,
-            &vis,
-            &cache.records,
-            0,
-            accuracy,
-            &splat,
-            false,
-            &mut times,
+            ctx, &scene.gpu, &vis, records, 0, accuracy, &splat, false, &mut times,
         )?;
         let placement = self.placement.place(
             ctx,
             &scene.gpu,
             &vis,
-            &mut cache.records,
-            &cache.pass,
+            records,
+            pass,
             &self.splat,
             &splat,
             max_new_records,
+            lookahead,
             &mut times,
             progress,
         )?;
@@ -270,15 +312,21 @@ impl Renderer {
         let (beauty, albedo, direct_img, indirect_img, sums) =
             (next()?, next()?, next()?, next()?, next()?);
         let visibility = vis.read(ctx)?;
+        let mut coverage = if count_coverage {
+            splat.read_coverage(ctx)?
+        } else {
+            Vec::new()
+        };
+        coverage.truncate(records.count as usize);
         let uncovered_pixels = visibility
             .iter()
             .zip(&sums)
             .filter(|(v, s)| v.is_hit() && s[3] <= 0.0)
             .count() as u64;
         ctx.check()?;
-        let res = u64::from(cache.settings().plane_resolution);
+        let res = u64::from(pass.settings.plane_resolution);
         let (width, height) = (camera.width, camera.height);
-        Ok(Frame {
+        let frame = Frame {
             width,
             height,
             beauty,
@@ -293,14 +341,15 @@ impl Renderer {
                 wall_ms: t0.elapsed().as_secs_f64() * 1e3,
                 camera_rays: u64::from(width) * u64::from(height),
                 cache: Some(CacheFrameStats {
-                    records: cache.records.count,
+                    records: records.count,
                     reused_records,
                     plane_rays: u64::from(placement.new_records) * res * res,
                     placement,
                     uncovered_pixels,
                 }),
             },
-        })
+        };
+        Ok((frame, coverage))
     }
 
     /// Builds the BVH and uploads the scene.
@@ -393,6 +442,12 @@ impl Renderer {
 
 /// Total GPU time per pass name, in first-seen order (passes run once per round).
 fn sum_by_pass(times: &[(&'static str, f64)]) -> Vec<(String, f64)> {
+    let owned: Vec<(String, f64)> = times.iter().map(|(n, ms)| (n.to_string(), *ms)).collect();
+    sum_by_pass_owned(&owned)
+}
+
+/// Per-pass totals in first-seen order.
+pub(crate) fn sum_by_pass_owned(times: &[(String, f64)]) -> Vec<(String, f64)> {
     let mut out: Vec<(String, f64)> = Vec::new();
     for (name, ms) in times {
         match out.iter_mut().find(|(n, _)| n == name) {

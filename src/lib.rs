@@ -27,6 +27,7 @@ pub mod resolve;
 pub mod sampling;
 pub mod scene;
 pub mod splat;
+pub mod temporal;
 pub mod visibility;
 
 pub use error::{Error, Result};

@@ -81,6 +81,7 @@ fn gpu_planes_and_records_match_the_cpu_reference() {
         &site_buf,
         sites.len() as u32,
         &mut cache,
+        None,
         |_| {},
     )
     .expect("records");

@@ -13,13 +13,14 @@ struct PlaneParams {
     resolution: u32,
     count: u32,
     light_samples: u32,
-    _pad: u32,
+    record_hits: u32,   // 1: also write each sample's hit (temporal reprojection)
 }
 
 @group(1) @binding(0) var<uniform> params: PlaneParams;
 @group(1) @binding(1) var<storage, read> sites: array<RecordSite>;
 @group(1) @binding(2) var<storage, read> plane: array<PlanePixel>;
 @group(1) @binding(3) var<storage, read_write> samples: array<PlaneSample>;
+@group(1) @binding(4) var<storage, read_write> hits: array<PlaneHit>;
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3u) {
@@ -34,6 +35,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     var out: PlaneSample;
     out.radiance = vec3f(0.0);
     out.depth = -1.0;
+    var hit_out = PlaneHit(NO_HIT, 0u, 0.0, 0.0);
     // Directions below the geometric surface (shading normals differ from it) see the
     // surface itself: no light, no distance.
     if dot(dir, site.geometric_normal) > 0.0 {
@@ -44,7 +46,11 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             let e = direct_irradiance_samples(s, hash_combine(site.seed, pixel), params.light_samples);
             out.radiance = surface_albedo(s) * (1.0 / PI) * e + indirect_emission(s);
             out.depth = hit.t * dot(dir, site.normal);
+            hit_out = PlaneHit(hit.instance, hit.triangle, hit.u, hit.v);
         }
     }
     samples[id.z * res * res + pixel] = out;
+    if params.record_hits != 0u {
+        hits[id.z * res * res + pixel] = hit_out;
+    }
 }

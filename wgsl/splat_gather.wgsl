@@ -2,7 +2,10 @@
 // record order: Ward's weight with w >= 1/a (eq. 4.2-4.3), the "behind" test, gradient
 // extrapolation clamped at 0. Output per pixel: (sum w E'_k, sum w); with `accumulate`
 // the sums continue the previous ones, so adding records round by round gives the same
-// bits as splatting them all at once.
+// bits as splatting them all at once. With `count_coverage`, every (record, pixel) pair that
+// contributes adds 1 to the record's coverage (u32 atomics: exact, order-free); temporal
+// caching uses it to delete expired records that no longer cover any pixel instead of
+// replacing them (replaces the thesis's occlusion queries, algorithms.md 4.4).
 //!include shared/records.wgsl
 //!include shared/splat.wgsl
 
@@ -12,6 +15,7 @@
 @group(1) @binding(3) var<storage, read> tile_offsets: array<u32>;
 @group(1) @binding(4) var<storage, read> sorted: array<u32>;
 @group(1) @binding(5) var<storage, read_write> splat: array<vec4f>;
+@group(1) @binding(6) var<storage, read_write> coverage: array<atomic<u32>>;
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3u) {
@@ -29,12 +33,16 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         let p = v.position;
         let n = v.shading_normal;
         for (var j = tile_offsets[tile]; j < tile_offsets[tile + 1u]; j++) {
-            let r = records[sorted[j]];
+            let k = sorted[j];
+            let r = records[k];
             let err = record_error(r, p, n);
             if err <= params.accuracy && record_in_front(r, p, n, params.accuracy) {
                 // w = 1 / err, capped where p is the record's own point.
                 let w = 1.0 / max(err, 1.0e-6);
                 sum += vec4f(w * record_irradiance_at(r, p, n), w);
+                if params.count_coverage != 0u {
+                    atomicAdd(&coverage[k], 1u);
+                }
             }
         }
     }

@@ -53,6 +53,14 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/hemisphere_plane.wgsl"),
     ),
     (
+        "plane_reproject.wgsl",
+        include_str!("../../wgsl/plane_reproject.wgsl"),
+    ),
+    (
+        "plane_fill.wgsl",
+        include_str!("../../wgsl/plane_fill.wgsl"),
+    ),
+    (
         "record_reduce.wgsl",
         include_str!("../../wgsl/record_reduce.wgsl"),
     ),

@@ -15,7 +15,7 @@ use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
-use crate::records::{RecordCache, RecordPass};
+use crate::records::{Lookahead, RecordCache, RecordPass};
 use crate::splat::{SplatBuffer, SplatPass};
 use crate::visibility::VisibilityBuffer;
 use bytemuck::{Pod, Zeroable};
@@ -133,6 +133,7 @@ impl PlacementPass {
         splat_pass: &SplatPass,
         splat: &SplatBuffer,
         limit: Option<u32>,
+        mut lookahead: Option<&mut Lookahead<'_>>,
         times: &mut Vec<(&'static str, f64)>,
         mut progress: impl FnMut(u32),
     ) -> Result<PlacementStats> {
@@ -158,7 +159,15 @@ impl PlacementPass {
                     let n = pixels.len() as u32;
                     let first = cache.count;
                     let sites = records.sites_from_pixels(ctx, scene, vis, &pixels, first)?;
-                    times.extend(records.compute(ctx, scene, &sites, n, cache, |_| {})?);
+                    times.extend(records.compute(
+                        ctx,
+                        scene,
+                        &sites,
+                        n,
+                        cache,
+                        lookahead.as_deref_mut(),
+                        |_| {},
+                    )?);
                     splat_pass.splat(
                         ctx,
                         scene,

@@ -96,6 +96,16 @@ pub struct PlaneSample {
     pub depth: f32,
 }
 
+/// What [`RecordPass::compute`] needs to also estimate each new record at the next frame
+/// (temporal caching, algorithms.md 4.3): the scene at t+1 and a cache that receives the
+/// estimates at the same indices as the new records.
+pub struct Lookahead<'a> {
+    pub next_scene: &'a GpuScene,
+    pub reprojection: &'a crate::temporal::ReprojectionPass,
+    /// Records at t+1, in step with the cache (`next.count == cache.count`).
+    pub next: &'a mut RecordCache,
+}
+
 /// Settings of the irradiance cache (scene file `[cache]`, CLI flags).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct CacheSettings {
@@ -249,7 +259,7 @@ struct PlaneParams {
     resolution: u32,
     count: u32,
     light_samples: u32,
-    _pad: u32,
+    record_hits: u32,
 }
 
 #[repr(C)]
@@ -306,7 +316,13 @@ impl RecordPass {
             plane: ComputePass::new(
                 ctx,
                 "hemisphere_plane.wgsl",
-                &[Uniform, StorageRead, StorageRead, StorageReadWrite],
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
             )?,
             reduce: ComputePass::new(
                 ctx,
@@ -383,15 +399,32 @@ impl RecordPass {
         sites: &wgpu::Buffer,
         count: u32,
         cache: &mut RecordCache,
+        mut lookahead: Option<&mut Lookahead<'_>>,
         mut on_batch: impl FnMut(u32),
     ) -> Result<Vec<(&'static str, f64)>> {
         cache.reserve(ctx, count)?;
         let res = self.settings.plane_resolution;
         // Sized to this call's largest batch: small placement rounds stay small.
-        let samples = ctx.storage_buffer_sized(
-            "plane samples",
-            u64::from(self.batch.min(count.max(1))) * u64::from(res * res) * 16,
+        let batch_samples = u64::from(self.batch.min(count.max(1))) * u64::from(res * res);
+        let samples = ctx.storage_buffer_sized("plane samples", batch_samples * 16)?;
+        // Temporal caching: the hits of each sample, for the estimate at t+1.
+        let hits = ctx.storage_buffer_sized(
+            "plane hits",
+            if lookahead.is_some() {
+                batch_samples * 16
+            } else {
+                16
+            },
         )?;
+        if let Some(la) = lookahead.as_deref_mut() {
+            if la.next.count != cache.count {
+                return Err(Error::Usage(format!(
+                    "lookahead records ({}) out of step with the cache ({})",
+                    la.next.count, cache.count
+                )));
+            }
+            la.next.reserve(ctx, count)?;
+        }
         let mut times = Vec::new();
         let site_bytes = std::mem::size_of::<RecordSite>() as u64;
         let mut done = 0;
@@ -413,7 +446,7 @@ impl RecordPass {
                     resolution: res,
                     count: n,
                     light_samples: self.settings.plane_light_samples,
-                    _pad: 0,
+                    record_hits: u32::from(lookahead.is_some()),
                 },
             );
             let reduce_params = ctx.uniform_buffer(
@@ -430,7 +463,13 @@ impl RecordPass {
             );
             let plane_bind = self.plane.bind(
                 ctx,
-                &[&plane_params, &batch_sites, &self.plane_table, &samples],
+                &[
+                    &plane_params,
+                    &batch_sites,
+                    &self.plane_table,
+                    &samples,
+                    &hits,
+                ],
             );
             let reduce_bind = self.reduce.bind(
                 ctx,
@@ -442,7 +481,7 @@ impl RecordPass {
                     &cache.buffer,
                 ],
             );
-            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 2);
+            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 5);
             self.plane.record(
                 &mut enc,
                 &scene.bind_group,
@@ -457,10 +496,46 @@ impl RecordPass {
                 [n, 1, 1],
                 timer.next("record reduction"),
             );
+            if let Some(la) = lookahead.as_deref_mut() {
+                // E(t+1) estimate: reproject this batch's plane into `samples` (free
+                // again: the reduction above has read it), then reduce it into the
+                // lookahead records at the same indices.
+                la.reprojection.record(
+                    ctx,
+                    &mut enc,
+                    la.next_scene,
+                    &self.settings,
+                    &batch_sites,
+                    &hits,
+                    &samples,
+                    n,
+                    &mut timer,
+                )?;
+                let bind = self.reduce.bind(
+                    ctx,
+                    &[
+                        &reduce_params,
+                        &batch_sites,
+                        &self.plane_table,
+                        &samples,
+                        &la.next.buffer,
+                    ],
+                );
+                self.reduce.record(
+                    &mut enc,
+                    &la.next_scene.bind_group,
+                    &bind,
+                    [n, 1, 1],
+                    timer.next("record reduction"),
+                );
+            }
             timer.resolve(&mut enc);
             ctx.queue.submit([enc.finish()]);
             times.extend(timer.read(ctx)?);
             cache.count += n;
+            if let Some(la) = lookahead.as_deref_mut() {
+                la.next.count += n;
+            }
             done += n;
             on_batch(done);
         }
@@ -491,12 +566,14 @@ impl RecordPass {
                 resolution: res,
                 count: n,
                 light_samples: self.settings.plane_light_samples,
-                _pad: 0,
+                record_hits: 0,
             },
         );
-        let bind = self
-            .plane
-            .bind(ctx, &[&params, &sites_buf, &self.plane_table, &samples]);
+        let no_hits = ctx.storage_buffer_sized("no plane hits", 16)?;
+        let bind = self.plane.bind(
+            ctx,
+            &[&params, &sites_buf, &self.plane_table, &samples, &no_hits],
+        );
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.plane.record(
             &mut enc,

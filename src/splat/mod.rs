@@ -5,13 +5,13 @@
 
 pub mod reference;
 
-use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
 use crate::records::RecordCache;
 use crate::visibility::VisibilityBuffer;
+use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 
 /// Tile edge in pixels (`TILE_SIZE` in `wgsl/shared/splat.wgsl`).
@@ -29,23 +29,47 @@ struct SplatParams {
     record_end: u32,
     accuracy: f32,
     accumulate: u32,
+    count_coverage: u32,
+    _pad: [u32; 3],
 }
 
-/// Per-pixel splat sums `(sum w E'_k (rgb), sum w)`, resident on the GPU.
+/// Per-pixel splat sums `(sum w E'_k (rgb), sum w)`, resident on the GPU, and optionally
+/// per-record coverage counts.
 pub struct SplatBuffer {
     pub width: u32,
     pub height: u32,
     pub sums: wgpu::Buffer,
+    /// Per record id, the pixels it contributed to (u32), when counting
+    /// ([`SplatBuffer::with_coverage`]); a 4-byte placeholder otherwise.
+    pub coverage: wgpu::Buffer,
+    /// Records `coverage` has room for (0: not counting).
+    pub coverage_records: u32,
 }
 
 impl SplatBuffer {
     pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self> {
+        Self::with_coverage(ctx, width, height, 0)
+    }
+
+    /// As [`SplatBuffer::new`], also counting the pixels covered by each of the first
+    /// `records` record ids (temporal caching: expired records that cover nothing are
+    /// deleted). Counts start at zero.
+    pub fn with_coverage(ctx: &GpuContext, width: u32, height: u32, records: u32) -> Result<Self> {
         Ok(Self {
             width,
             height,
             sums: ctx
                 .storage_buffer_sized("splat sums", u64::from(width) * u64::from(height) * 16)?,
+            coverage: ctx.storage_buffer_sized("record coverage", u64::from(records.max(1)) * 4)?,
+            coverage_records: records,
         })
+    }
+
+    /// Reads the coverage counts back (one per record id, `coverage_records` of them).
+    pub fn read_coverage(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
+        let mut counts: Vec<u32> = ctx.read_buffer(&self.coverage)?;
+        counts.truncate(self.coverage_records as usize);
+        Ok(counts)
     }
 }
 
@@ -125,6 +149,7 @@ impl SplatPass {
                     StorageRead,
                     StorageRead,
                     StorageReadWrite,
+                    StorageReadWrite,
                 ],
             )?,
         })
@@ -150,6 +175,12 @@ impl SplatPass {
         let tiles_y = height.div_ceil(TILE_SIZE);
         let tiles = tiles_x * tiles_y;
         let records = cache.count.saturating_sub(first);
+        if out.coverage_records > 0 && cache.count > out.coverage_records {
+            return Err(Error::Usage(format!(
+                "splat: {} records exceed the coverage counters' {}",
+                cache.count, out.coverage_records
+            )));
+        }
         let params = ctx.uniform_buffer(
             "splat params",
             &SplatParams {
@@ -161,6 +192,8 @@ impl SplatPass {
                 record_end: cache.count,
                 accuracy,
                 accumulate: u32::from(accumulate),
+                count_coverage: u32::from(out.coverage_records > 0),
+                _pad: [0; 3],
             },
         );
         let record_tiles = ctx.storage_buffer_sized("record tiles", u64::from(records) * 16)?;
@@ -252,6 +285,7 @@ impl SplatPass {
                     &tile_offsets,
                     &sorted,
                     &out.sums,
+                    &out.coverage,
                 ],
             );
             self.gather.record(

@@ -25,6 +25,33 @@ struct PlaneSample {
     depth: f32,       // hit depth along the record normal, Z = r cos(theta); < 0 on a miss
 }
 
+// What a plane sample hit (Rust: records::PlaneHit): the surface is rebuilt from it at
+// the next frame, where only instance transforms have changed (temporal reprojection).
+struct PlaneHit {
+    instance: u32,    // NO_HIT on a miss
+    triangle: u32,
+    u: f32,
+    v: f32,
+}
+
+// Reprojected plane cells (temporal caching): a u32 key per cell, (depth bits, sample
+// index), so atomicMin keeps the nearest sample and breaks depth ties by index. Depths are
+// positive floats, whose bit patterns order like their values; the low 14 bits give way
+// to the index (planes up to 128 x 128), leaving a relative depth precision of 2^-9.
+const REPROJECTION_INDEX_BITS: u32 = 14u;
+const REPROJECTION_INDEX_MASK: u32 = 0x3fffu;
+const EMPTY_CELL: u32 = 0xffffffffu;
+// Depth of a miss: farther than any hit, its key still below EMPTY_CELL.
+const MISS_DEPTH: f32 = 3.0e38;
+
+fn reprojection_key(depth: f32, sample: u32) -> u32 {
+    return (bitcast<u32>(depth) & ~REPROJECTION_INDEX_MASK) | sample;
+}
+
+fn reprojection_sample(key: u32) -> u32 {
+    return key & REPROJECTION_INDEX_MASK;
+}
+
 // Ward's weight denominator |p - p_k| / R_k + sqrt(1 - n.n_k) (thesis eq. 4.2): the record
 // contributes iff it is <= a (w >= 1/a, eq. 4.3) and p is not behind p_k.
 fn record_error(r: Record, p: vec3f, n: vec3f) -> f32 {

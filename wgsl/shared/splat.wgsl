@@ -16,6 +16,10 @@ struct SplatParams {
     record_end: u32,
     accuracy: f32,
     accumulate: u32,     // 1: add onto the splat buffer's previous sums
+    count_coverage: u32, // 1: count the pixels each record contributes to
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Index of a 1-D invocation in a dispatch that may be split over y (groups of 256).

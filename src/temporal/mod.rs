@@ -1,0 +1,332 @@
+//! Temporal radiance caching (seed 000, thesis chapter 5, algorithms.md section 4):
+//! records live over several frames. Every new record is also estimated at the next frame
+//! by reprojecting its plane ([`ReprojectionPass`]); `tau = E(t+1) / E(t)` gives its
+//! lifespan (`w_t = 1 / (|tau - 1| (t - t_k)) >= 1 / a_t` and `t - t_k < dt_max`,
+//! decision 9) and the extrapolated temporal gradient. Records keep their world position;
+//! an expired record that covered pixels in its last frame is replaced by a new record at
+//! the same place, one that covered none is deleted.
+
+pub mod reprojection;
+
+pub use reprojection::ReprojectionPass;
+
+use crate::frame::{CachedFrameOptions, Frame, PreparedScene, Renderer};
+use crate::gpu::GpuContext;
+use crate::records::{CacheSettings, Lookahead, Record, RecordCache, RecordPass, RecordSite};
+use crate::scene::Camera;
+use crate::{Error, Result};
+
+/// Settings of temporal caching (decision 9; CLI `animate`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TemporalSettings {
+    /// Temporal accuracy a_t: a record lives while `|tau - 1| (t - t_k) <= a_t`.
+    pub accuracy: f32,
+    /// dt_max: no record lives this many frames or more (1: recompute every frame).
+    pub max_lifespan: u32,
+}
+
+impl Default for TemporalSettings {
+    /// The seed's cube-in-a-box values: a_t = 0.05, dt_max = 20.
+    fn default() -> Self {
+        Self {
+            accuracy: 0.05,
+            max_lifespan: 20,
+        }
+    }
+}
+
+impl TemporalSettings {
+    pub fn validate(&self) -> Result<()> {
+        if !(self.accuracy.is_finite() && self.accuracy > 0.0) {
+            return Err(Error::Usage(format!(
+                "temporal accuracy must be a positive number, not {}",
+                self.accuracy
+            )));
+        }
+        if self.max_lifespan == 0 {
+            return Err(Error::Usage(
+                "the maximum record lifespan must be at least 1 frame".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One record over its life (CPU side; the GPU holds the records of the current frame).
+#[derive(Clone, Copy, Debug)]
+pub struct TemporalRecord {
+    /// The record as computed at its first frame.
+    pub record: Record,
+    /// Its estimate at the next frame (reprojection); equal to `record` when the scene
+    /// does not change.
+    pub next: Record,
+    /// First frame t_k.
+    pub birth: u32,
+    /// Last frame it is used in (inclusive).
+    pub last_frame: u32,
+    /// Temporal irradiance ratio tau = Y(E(t_k + 1)) / Y(E(t_k)) (luminance).
+    pub tau: f32,
+}
+
+impl TemporalRecord {
+    /// The record at frame `t` with the extrapolated temporal gradient (seed 000 eqs.
+    /// 14-17): every irradiance and gradient term moves by (next - record) per frame.
+    pub fn at(&self, t: u32) -> Record {
+        let dt = t.saturating_sub(self.birth) as f32;
+        let mut r = self.record;
+        if dt == 0.0 {
+            return r;
+        }
+        let lerp = |a: &mut [f32; 4], b: [f32; 4]| {
+            for c in 0..4 {
+                a[c] += (b[c] - a[c]) * dt;
+            }
+        };
+        lerp(&mut r.irradiance, self.next.irradiance);
+        for c in 0..3 {
+            lerp(&mut r.rotation_gradient[c], self.next.rotation_gradient[c]);
+            lerp(
+                &mut r.translation_gradient[c],
+                self.next.translation_gradient[c],
+            );
+        }
+        r
+    }
+}
+
+fn luminance(e: [f32; 4]) -> f32 {
+    0.2126 * e[0] + 0.7152 * e[1] + 0.0722 * e[2]
+}
+
+/// The lifespan rule (decision 9): the last frame at which a record born at `birth` with
+/// ratio `tau` is still valid, `t - t_k <= a_t / |tau - 1|` and `t - t_k < dt_max`;
+/// `dynamic` false (nothing in the scene moves or changes) lifts dt_max.
+pub fn last_frame(birth: u32, tau: f32, settings: &TemporalSettings, dynamic: bool) -> u32 {
+    let cap = if dynamic {
+        settings.max_lifespan - 1
+    } else {
+        u32::MAX - birth
+    };
+    let change = (tau - 1.0).abs();
+    let by_change = if change > 0.0 && change.is_finite() {
+        (settings.accuracy / change).floor().min(u32::MAX as f32) as u32
+    } else if change == 0.0 {
+        u32::MAX
+    } else {
+        0 // tau infinite or NaN (a record born in the dark that lights up): one frame
+    };
+    birth + by_change.min(cap)
+}
+
+/// What the temporal cache did in one frame.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct TemporalFrameStats {
+    pub frame: u32,
+    /// Records used in this frame (kept + replaced + new).
+    pub alive: u32,
+    /// Records carried over from the previous frame.
+    pub kept: u32,
+    /// Expired records recomputed at the same place.
+    pub replaced: u32,
+    /// Expired records that covered no pixel in their last frame, dropped.
+    pub deleted: u32,
+    /// Records created by placement in this frame.
+    pub new: u32,
+    /// Hemisphere rays traced (replacements and new records).
+    pub plane_rays: u64,
+}
+
+/// Records that persist across the frames of an animation (temporal radiance caching).
+pub struct TemporalCache {
+    pub settings: TemporalSettings,
+    pass: RecordPass,
+    reprojection: ReprojectionPass,
+    /// Every record ever created (ids are indices).
+    pub history: Vec<TemporalRecord>,
+    /// Ids of the records used in the last frame, in frame order.
+    alive: Vec<u32>,
+    /// Pixels each of `alive` covered in the last frame.
+    coverage: Vec<u32>,
+    /// The frame's records on the GPU and their estimates at t+1 (same indices).
+    frame_records: RecordCache,
+    next_records: RecordCache,
+    last_frame_rendered: Option<u32>,
+}
+
+impl TemporalCache {
+    pub fn new(
+        ctx: &GpuContext,
+        cache: &CacheSettings,
+        settings: &TemporalSettings,
+    ) -> Result<Self> {
+        settings.validate()?;
+        Ok(Self {
+            settings: settings.clone(),
+            pass: RecordPass::new(ctx, cache)?,
+            reprojection: ReprojectionPass::new(ctx)?,
+            history: Vec::new(),
+            alive: Vec::new(),
+            coverage: Vec::new(),
+            frame_records: RecordCache::new(ctx)?,
+            next_records: RecordCache::new(ctx)?,
+            last_frame_rendered: None,
+        })
+    }
+
+    pub fn cache_settings(&self) -> &CacheSettings {
+        &self.pass.settings
+    }
+
+    /// Ids of the records used in the last frame, in frame order.
+    pub fn alive(&self) -> &[u32] {
+        &self.alive
+    }
+
+    /// Renders frame `t` (frames must come in increasing order). `scene` is the scene at
+    /// `t`; `next_scene` the scene at `t + 1`, or None when there is no next frame or
+    /// nothing changes (records are then not estimated ahead: tau = 1). `dynamic`: whether
+    /// anything that affects irradiance (instances, lights) is animated; when false,
+    /// records never expire (dt_max is lifted: nothing can change later).
+    #[allow(clippy::too_many_arguments)]
+    pub fn render_frame(
+        &mut self,
+        renderer: &Renderer,
+        scene: &PreparedScene,
+        next_scene: Option<&PreparedScene>,
+        camera: &Camera,
+        t: u32,
+        dynamic: bool,
+        progress: impl FnMut(u32),
+    ) -> Result<(Frame, TemporalFrameStats)> {
+        let ctx = &renderer.ctx;
+        if let Some(prev) = self.last_frame_rendered {
+            if t <= prev {
+                return Err(Error::Usage(format!(
+                    "temporal frames must increase: frame {t} after frame {prev}"
+                )));
+            }
+        }
+        let mut stats = TemporalFrameStats {
+            frame: t,
+            ..Default::default()
+        };
+        // Expiry: keep what is still valid, replace expired records that covered pixels
+        // in their last frame, delete the others (seed 000 section V-c).
+        let mut kept = Vec::new();
+        let mut replace = Vec::new();
+        for (i, &id) in self.alive.iter().enumerate() {
+            let rec = &self.history[id as usize];
+            if t <= rec.last_frame {
+                kept.push(id);
+            } else if self.coverage.get(i).copied().unwrap_or(0) > 0 {
+                replace.push(id);
+            } else {
+                stats.deleted += 1;
+            }
+        }
+        stats.kept = kept.len() as u32;
+        stats.replaced = replace.len() as u32;
+        let evaluated: Vec<Record> = kept
+            .iter()
+            .map(|&id| self.history[id as usize].at(t))
+            .collect();
+        self.frame_records.upload(ctx, &evaluated)?;
+        self.next_records.count = 0;
+        self.next_records.reserve(ctx, self.frame_records.count)?;
+        self.next_records.count = self.frame_records.count;
+
+        let mut lookahead = next_scene.map(|next| Lookahead {
+            next_scene: &next.gpu,
+            reprojection: &self.reprojection,
+            next: &mut self.next_records,
+        });
+        // Replacements at the same place (records keep their world position).
+        let mut times = Vec::new();
+        if !replace.is_empty() {
+            let sites: Vec<RecordSite> = replace
+                .iter()
+                .map(|&id| {
+                    let r = &self.history[id as usize].record;
+                    RecordSite {
+                        position: r.position,
+                        r_min: r.r_min,
+                        normal: r.normal,
+                        seed: crate::sampling::hash_combine(id, t),
+                        geometric_normal: r.normal,
+                        _pad: 0,
+                    }
+                })
+                .collect();
+            let buf = ctx.storage_buffer("replacement sites", &sites)?;
+            times.extend(self.pass.compute(
+                ctx,
+                &scene.gpu,
+                &buf,
+                sites.len() as u32,
+                &mut self.frame_records,
+                lookahead.as_mut(),
+                |_| {},
+            )?);
+        }
+        let before_new = self.frame_records.count;
+        let (mut frame, coverage) = renderer.render_cached_frame(
+            scene,
+            camera,
+            &mut self.frame_records,
+            &self.pass,
+            CachedFrameOptions {
+                max_new_records: None,
+                lookahead: lookahead.as_mut(),
+                count_coverage: true,
+            },
+            progress,
+        )?;
+        drop(lookahead);
+        stats.new = self.frame_records.count - before_new;
+
+        // The records computed this frame (replacements and new ones) and their estimates.
+        let first = kept.len();
+        let computed = self.frame_records.count as usize - first;
+        let records = self.frame_records.read(ctx)?;
+        let nexts = if next_scene.is_some() {
+            self.next_records.read(ctx)?
+        } else {
+            records.clone()
+        };
+        let mut alive = kept;
+        for k in first..first + computed {
+            let (record, next) = (records[k], nexts[k]);
+            let (e0, e1) = (luminance(record.irradiance), luminance(next.irradiance));
+            let tau = if e0 > 0.0 {
+                e1 / e0
+            } else if e1 > 0.0 {
+                f32::INFINITY
+            } else {
+                1.0
+            };
+            let id = self.history.len() as u32;
+            self.history.push(TemporalRecord {
+                record,
+                next,
+                birth: t,
+                last_frame: last_frame(t, tau, &self.settings, dynamic),
+                tau,
+            });
+            alive.push(id);
+        }
+        self.alive = alive;
+        self.coverage = coverage;
+        self.last_frame_rendered = Some(t);
+        stats.alive = self.alive.len() as u32;
+        let res = u64::from(self.pass.settings.plane_resolution);
+        stats.plane_rays = computed as u64 * res * res;
+        if let Some(cache_stats) = frame.stats.cache.as_mut() {
+            cache_stats.plane_rays = stats.plane_rays;
+            cache_stats.reused_records = stats.kept;
+        }
+        let mut all = frame.stats.pass_ms.clone();
+        all.extend(times.iter().map(|(n, ms)| (n.to_string(), *ms)));
+        frame.stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
+        Ok((frame, stats))
+    }
+}

@@ -1,0 +1,137 @@
+//! The E(t+1) estimate of new records (seed 000 section IV-G, thesis 5.2.4, algorithms.md
+//! 4.3) as two compute passes recorded right after a batch's hemisphere planes:
+//! `plane_reproject` (bound to the scene at t+1: move each plane hit with its instance,
+//! re-shade it with the lights at t+1, project it onto the record's plane with a depth
+//! test) and `plane_fill` (take each cell's nearest sample, fill holes from the deepest
+//! neighbour). The resulting plane goes through the ordinary record reduction
+//! ([`crate::records::RecordPass::compute`] with a [`crate::records::Lookahead`]).
+
+use crate::Result;
+use crate::gpu::GpuContext;
+use crate::gpu::pipeline::{Binding, ComputePass};
+use crate::gpu::scene_buffers::GpuScene;
+use crate::gpu::timer::PassTimer;
+use crate::records::{CacheSettings, PlaneMode};
+use bytemuck::{Pod, Zeroable};
+
+/// Largest plane the reprojection keys can index (14 bits of sample index,
+/// `REPROJECTION_INDEX_BITS` in `wgsl/shared/records.wgsl`).
+pub const MAX_REPROJECTION_RESOLUTION: u32 = 128;
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ReprojectParams {
+    resolution: u32,
+    count: u32,
+    light_samples: u32,
+    stretched: u32,
+    half_extent: f32,
+    _pad: [u32; 3],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct FillParams {
+    resolution: u32,
+    count: u32,
+    _pad: [u32; 2],
+}
+
+/// The `plane_reproject` and `plane_fill` passes.
+pub struct ReprojectionPass {
+    reproject: ComputePass,
+    fill: ComputePass,
+}
+
+impl ReprojectionPass {
+    pub fn new(ctx: &GpuContext) -> Result<Self> {
+        use Binding::*;
+        Ok(Self {
+            reproject: ComputePass::new(
+                ctx,
+                "plane_reproject.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
+            )?,
+            fill: ComputePass::new(
+                ctx,
+                "plane_fill.wgsl",
+                &[Uniform, StorageRead, StorageRead, StorageReadWrite],
+            )?,
+        })
+    }
+
+    /// Records the estimate at t+1 of `count` records' planes: reads their sites and plane
+    /// hits (traced at t), writes the reprojected, hole-filled plane into `samples`
+    /// (`count * P^2` [`crate::records::PlaneSample`]s).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        next_scene: &GpuScene,
+        settings: &CacheSettings,
+        sites: &wgpu::Buffer,
+        hits: &wgpu::Buffer,
+        samples: &wgpu::Buffer,
+        count: u32,
+        timer: &mut PassTimer,
+    ) -> Result<()> {
+        let res = settings.plane_resolution;
+        if res > MAX_REPROJECTION_RESOLUTION {
+            return Err(crate::Error::Usage(format!(
+                "temporal caching reprojects planes of at most {MAX_REPROJECTION_RESOLUTION} x \
+                 {MAX_REPROJECTION_RESOLUTION} pixels, not {res} x {res}"
+            )));
+        }
+        let cells_count = u64::from(count) * u64::from(res * res);
+        let cells = ctx.storage_buffer_sized("reprojected cells", cells_count * 4)?;
+        let moved = ctx.storage_buffer_sized("reprojected samples", cells_count * 16)?;
+        // Cells hold complemented keys: 0 is empty (`plane_reproject.wgsl`).
+        enc.clear_buffer(&cells, 0, None);
+        let params = ctx.uniform_buffer(
+            "reproject params",
+            &ReprojectParams {
+                resolution: res,
+                count,
+                light_samples: settings.plane_light_samples,
+                stretched: u32::from(settings.plane_mode == PlaneMode::Stretched),
+                half_extent: (settings.plane_fov_degrees.to_radians() * 0.5).tan(),
+                _pad: [0; 3],
+            },
+        );
+        let bind = self
+            .reproject
+            .bind(ctx, &[&params, sites, hits, &cells, &moved]);
+        let groups = [res.div_ceil(8), res.div_ceil(8), count];
+        self.reproject.record(
+            enc,
+            &next_scene.bind_group,
+            &bind,
+            groups,
+            timer.next("temporal: reprojection"),
+        );
+        let params = ctx.uniform_buffer(
+            "fill params",
+            &FillParams {
+                resolution: res,
+                count,
+                _pad: [0; 2],
+            },
+        );
+        let bind = self.fill.bind(ctx, &[&params, &cells, &moved, samples]);
+        self.fill.record(
+            enc,
+            &next_scene.bind_group,
+            &bind,
+            groups,
+            timer.next("temporal: hole filling"),
+        );
+        Ok(())
+    }
+}

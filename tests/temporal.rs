@@ -1,0 +1,116 @@
+//! Temporal radiance caching (issue 4): records reused across frames, the E(t+1)
+//! reprojection, expiry, replacement and deletion.
+
+mod common;
+
+use glam::{Mat4, Vec3};
+use radsplat::frame::Renderer;
+use radsplat::records::CacheSettings;
+use radsplat::scene::Scene;
+use radsplat::temporal::{TemporalCache, TemporalSettings};
+
+fn settings() -> CacheSettings {
+    CacheSettings {
+        accuracy: 0.25,
+        plane_resolution: 16,
+        ..CacheSettings::default()
+    }
+}
+
+/// The cube of cube-in-box.toml (instances[1]) moved along +x by `dx` metres.
+fn cube_moved(scene: &Scene, base: Mat4, dx: f32) -> Scene {
+    let mut s = scene.clone();
+    s.instances[1].transform = Mat4::from_translation(Vec3::new(dx, 0.0, 0.0)) * base;
+    s
+}
+
+#[test]
+fn static_animation_reuses_every_record_and_matches_the_static_render() {
+    let scene = common::load("cube-in-box.toml", Some((40, 32)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let mut cache = renderer.new_cache(&settings()).expect("cache");
+    let still = renderer
+        .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
+        .expect("static frame");
+    let mut temporal = TemporalCache::new(&renderer.ctx, &settings(), &TemporalSettings::default())
+        .expect("temporal cache");
+    for t in 0..4 {
+        let (frame, stats) = temporal
+            .render_frame(&renderer, &prepared, None, &scene.camera, t, false, |_| {})
+            .expect("temporal frame");
+        renderer.ctx.check().expect("no wgpu errors");
+        if t == 0 {
+            assert!(stats.new > 0);
+        } else {
+            assert_eq!(
+                (stats.new, stats.replaced, stats.deleted),
+                (0, 0, 0),
+                "frame {t}"
+            );
+            assert_eq!(stats.kept, stats.alive);
+        }
+        assert_eq!(
+            frame.beauty, still.beauty,
+            "frame {t} differs from the static render"
+        );
+    }
+}
+
+#[test]
+fn moving_cube_expires_replaces_and_deletes_records() {
+    let scene = common::load("cube-in-box.toml", Some((40, 32)));
+    let base = scene.instances[1].transform;
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let temporal_settings = TemporalSettings {
+        accuracy: 0.05,
+        max_lifespan: 4,
+    };
+    let mut temporal =
+        TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings).expect("temporal cache");
+    let frames = 10;
+    let prepared: Vec<_> = (0..=frames)
+        .map(|t| {
+            renderer
+                .prepare(&cube_moved(&scene, base, 0.08 * t as f32))
+                .expect("prepare")
+        })
+        .collect();
+    let mut totals = (0, 0, 0);
+    for t in 0..frames {
+        let (_, stats) = temporal
+            .render_frame(
+                &renderer,
+                &prepared[t as usize],
+                Some(&prepared[t as usize + 1]),
+                &scene.camera,
+                t,
+                true,
+                |_| {},
+            )
+            .expect("temporal frame");
+        renderer.ctx.check().expect("no wgpu errors");
+        eprintln!("{stats:?}");
+        totals.0 += stats.new;
+        totals.1 += stats.replaced;
+        totals.2 += stats.deleted;
+    }
+    // Every record expires within dt_max frames: by frame 9 all of frame 0's are gone.
+    let first_frame_ids: Vec<u32> = (0..temporal.history.len() as u32)
+        .filter(|&id| temporal.history[id as usize].birth == 0)
+        .collect();
+    assert!(
+        first_frame_ids
+            .iter()
+            .all(|id| !temporal.alive().contains(id))
+    );
+    assert!(totals.1 > 0, "no record was replaced");
+    // Replacements sit where the record they replace was.
+    for r in temporal.history.iter().filter(|r| r.birth > 0).take(50) {
+        assert!(r.last_frame >= r.birth && r.last_frame < r.birth + 4);
+    }
+    eprintln!(
+        "new {} replaced {} deleted {}",
+        totals.0, totals.1, totals.2
+    );
+}

@@ -1,0 +1,61 @@
+// Temporal reprojection, step 2 of 2: read the reprojected plane back into plane samples.
+// A cell that received a sample takes that sample (radiance at t+1, its new depth); an
+// empty cell (a hole opened by motion) takes the deepest of its eight neighbours, the
+// local background (seed 000 section V-a, thesis 5.3: "the neighbouring value with the
+// highest depth"); with no filled neighbour it stays a miss. Reads only the reprojected
+// cells, never filled ones, so the result does not depend on thread order. The samples
+// then go through the ordinary record reduction to give E(t+1) and its gradients.
+//!include shared/records.wgsl
+
+struct FillParams {
+    resolution: u32,
+    count: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(1) @binding(0) var<uniform> params: FillParams;
+@group(1) @binding(1) var<storage, read> cells: array<u32>;
+@group(1) @binding(2) var<storage, read> moved: array<vec4f>;
+@group(1) @binding(3) var<storage, read_write> samples: array<PlaneSample>;
+
+fn sample_of(base: u32, key: u32) -> PlaneSample {
+    let m = moved[base + reprojection_sample(key)];
+    return PlaneSample(m.xyz, m.w);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    let res = params.resolution;
+    if id.x >= res || id.y >= res || id.z >= params.count {
+        return;
+    }
+    let base = id.z * res * res;
+    let own = ~cells[base + id.y * res + id.x];   // stored complemented
+    var out = PlaneSample(vec3f(0.0), -1.0);
+    if own != EMPTY_CELL {
+        out = sample_of(base, own);
+    } else {
+        // Deepest filled neighbour; the key orders by depth, then by sample index.
+        var best = 0u;
+        var found = false;
+        for (var dy = -1; dy <= 1; dy++) {
+            for (var dx = -1; dx <= 1; dx++) {
+                let x = i32(id.x) + dx;
+                let y = i32(id.y) + dy;
+                if (dx == 0 && dy == 0) || x < 0 || y < 0 || x >= i32(res) || y >= i32(res) {
+                    continue;
+                }
+                let key = ~cells[base + u32(y) * res + u32(x)];
+                if key != EMPTY_CELL && (!found || key > best) {
+                    best = key;
+                    found = true;
+                }
+            }
+        }
+        if found {
+            out = sample_of(base, best);
+        }
+    }
+    samples[base + id.y * res + id.x] = out;
+}
