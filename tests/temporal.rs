@@ -114,3 +114,88 @@ fn moving_cube_expires_replaces_and_deletes_records() {
         totals.0, totals.1, totals.2
     );
 }
+
+#[test]
+fn gpu_reprojection_matches_the_cpu_reference() {
+    use radsplat::direct::reference::DirectReference;
+    use radsplat::records::reference::RecordReference;
+    use radsplat::records::{PlaneSample, RecordPass};
+    use radsplat::temporal::ReprojectionPass;
+    use radsplat::temporal::reference::reproject_plane;
+    use radsplat::visibility::GpuCamera;
+
+    let scene = common::load("cube-in-box.toml", Some((32, 32)));
+    let base = scene.instances[1].transform;
+    // The cube moves 15 cm and the light dims by half: both change the plane.
+    let mut next = cube_moved(&scene, base, 0.15);
+    for light in &mut next.lights {
+        if let radsplat::scene::Light::Rect { radiance, .. } = light {
+            *radiance *= 0.5;
+        }
+    }
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let prepared_next = renderer.prepare(&next).expect("prepare");
+    let settings = settings();
+    // Sites at every 37th visible pixel.
+    let (vis, _) = renderer
+        .splat_cache(
+            &prepared,
+            &scene.camera,
+            &renderer.new_cache(&settings).expect("cache"),
+        )
+        .expect("visibility");
+    let camera = GpuCamera::new(&scene.camera);
+    let sites: Vec<_> = vis
+        .iter()
+        .filter(|v| v.is_hit())
+        .step_by(37)
+        .enumerate()
+        .map(|(i, v)| RecordReference::site_from_pixel(&settings, &camera, v, i as u32))
+        .collect();
+    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    let reprojection = ReprojectionPass::new(&renderer.ctx).expect("reprojection pass");
+    let (at_t, ahead) = pass
+        .trace_planes_ahead(
+            &renderer.ctx,
+            &prepared.gpu,
+            Some((&prepared_next.gpu, &reprojection)),
+            &sites,
+        )
+        .expect("planes");
+    renderer.ctx.check().expect("no wgpu errors");
+
+    let cpu_t = RecordReference::new(&scene, &settings);
+    let cpu_next = DirectReference::new(&next, settings.plane_light_samples);
+    let cells = (settings.plane_resolution * settings.plane_resolution) as usize;
+    let close = |a: &PlaneSample, b: &PlaneSample| {
+        let depth_ok = (a.depth < 0.0 && b.depth < 0.0)
+            || (a.depth - b.depth).abs() <= 1e-3 * a.depth.abs().max(1e-3);
+        let radiance_ok = a
+            .radiance
+            .iter()
+            .zip(&b.radiance)
+            .all(|(x, y)| (x - y).abs() <= 1e-3 * x.abs().max(y.abs()) + 1e-6);
+        depth_ok && radiance_ok
+    };
+    let (mut differ, mut changed) = (0, 0);
+    for (i, site) in sites.iter().enumerate() {
+        let cpu = reproject_plane(&cpu_t, &cpu_next, site);
+        let gpu = &ahead[i * cells..(i + 1) * cells];
+        let before = &at_t[i * cells..(i + 1) * cells];
+        differ += cpu.iter().zip(gpu).filter(|(c, g)| !close(c, g)).count();
+        changed += before.iter().zip(gpu).filter(|(b, g)| !close(b, g)).count();
+    }
+    let total = sites.len() * cells;
+    eprintln!(
+        "{} sites, {total} cells: {differ} differ GPU vs CPU, {changed} changed by the motion",
+        sites.len()
+    );
+    assert!(sites.len() >= 10);
+    assert!(
+        changed * 4 > total,
+        "the motion should change most cells (light dimmed)"
+    );
+    // Float rounding of projected positions can move a sample across a cell edge.
+    assert!(differ * 200 <= total, "{differ} of {total} cells differ");
+}

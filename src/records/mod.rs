@@ -549,6 +549,19 @@ impl RecordPass {
         scene: &GpuScene,
         sites: &[RecordSite],
     ) -> Result<Vec<PlaneSample>> {
+        Ok(self.trace_planes_ahead(ctx, scene, None, sites)?.0)
+    }
+
+    /// As [`RecordPass::trace_planes`], and with `ahead = (scene at t+1, reprojection)`
+    /// also the planes estimated at t+1 by reprojection (tests, Table 5.1); the second
+    /// vector is empty without `ahead`.
+    pub fn trace_planes_ahead(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        ahead: Option<(&GpuScene, &crate::temporal::ReprojectionPass)>,
+        sites: &[RecordSite],
+    ) -> Result<(Vec<PlaneSample>, Vec<PlaneSample>)> {
         let res = self.settings.plane_resolution;
         let n = sites.len() as u32;
         if n > self.batch {
@@ -558,21 +571,22 @@ impl RecordPass {
             )));
         }
         let sites_buf = ctx.storage_buffer("record sites", sites)?;
-        let samples =
-            ctx.storage_buffer_sized("plane samples", u64::from(n) * u64::from(res * res) * 16)?;
+        let plane_bytes = u64::from(n) * u64::from(res * res) * 16;
+        let samples = ctx.storage_buffer_sized("plane samples", plane_bytes)?;
         let params = ctx.uniform_buffer(
             "plane params",
             &PlaneParams {
                 resolution: res,
                 count: n,
                 light_samples: self.settings.plane_light_samples,
-                record_hits: 0,
+                record_hits: u32::from(ahead.is_some()),
             },
         );
-        let no_hits = ctx.storage_buffer_sized("no plane hits", 16)?;
+        let hits =
+            ctx.storage_buffer_sized("plane hits", if ahead.is_some() { plane_bytes } else { 16 })?;
         let bind = self.plane.bind(
             ctx,
-            &[&params, &sites_buf, &self.plane_table, &samples, &no_hits],
+            &[&params, &sites_buf, &self.plane_table, &samples, &hits],
         );
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.plane.record(
@@ -582,9 +596,30 @@ impl RecordPass {
             [res.div_ceil(8), res.div_ceil(8), n],
             None,
         );
+        let estimated = ctx.storage_buffer_sized("estimated plane samples", plane_bytes)?;
+        if let Some((next_scene, reprojection)) = ahead {
+            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 2);
+            reprojection.record(
+                ctx,
+                &mut enc,
+                next_scene,
+                &self.settings,
+                &sites_buf,
+                &hits,
+                &estimated,
+                n,
+                &mut timer,
+            )?;
+        }
         ctx.queue.submit([enc.finish()]);
+        let mut ahead_out: Vec<PlaneSample> = if ahead.is_some() {
+            ctx.read_buffer(&estimated)?
+        } else {
+            Vec::new()
+        };
+        ahead_out.truncate((n * res * res) as usize);
         let mut out: Vec<PlaneSample> = ctx.read_buffer(&samples)?;
         out.truncate((n * res * res) as usize);
-        Ok(out)
+        Ok((out, ahead_out))
     }
 }

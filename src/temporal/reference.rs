@@ -1,0 +1,124 @@
+//! Plain-Rust reference of the E(t+1) reprojection (`plane_reproject.wgsl`,
+//! `plane_fill.wgsl`): the plane traced at t on the CPU, every hit rebuilt and re-shaded
+//! in the scene at t+1, projected onto the record's plane with the same (depth bits,
+//! sample index) keys, and holes filled from the deepest neighbour.
+
+use crate::direct::reference::{DirectReference, offset_ray_origin};
+use crate::records::reference::RecordReference;
+use crate::records::{PlaneMode, PlaneSample, RecordSite};
+use crate::sampling::{hash_combine, orthonormal_basis};
+use glam::Vec3;
+use std::f32::consts::PI;
+
+const INDEX_MASK: u32 = 0x3fff;
+const MISS_DEPTH: f32 = 3.0e38;
+
+fn key(depth: f32, sample: u32) -> u32 {
+    (depth.to_bits() & !INDEX_MASK) | sample
+}
+
+/// The plane of `site` traced in the scene of `at_t` and estimated at t+1 in the scene of
+/// `next` (same meshes and instance order, moved instances and lights).
+pub fn reproject_plane(
+    at_t: &RecordReference,
+    next: &DirectReference,
+    site: &RecordSite,
+) -> Vec<PlaneSample> {
+    let plane = &at_t.plane;
+    let res = plane.resolution as usize;
+    let half = (at_t.settings.plane_fov_degrees.to_radians() * 0.5).tan();
+    let stretched = at_t.settings.plane_mode == PlaneMode::Stretched;
+    let n = Vec3::from(site.normal);
+    let ng = Vec3::from(site.geometric_normal);
+    let frame = orthonormal_basis(n);
+    let origin = offset_ray_origin(site.position.into(), ng);
+    let index = |x: f32| -> Option<usize> {
+        let i = ((x + half) / (2.0 * half) * res as f32).floor() as i64;
+        if stretched {
+            Some(i.clamp(0, res as i64 - 1) as usize)
+        } else if (0..res as i64).contains(&i) {
+            Some(i as usize)
+        } else {
+            None
+        }
+    };
+    let mut cells = vec![u32::MAX; res * res];
+    let mut moved = vec![PlaneSample::default(); res * res];
+    for (k, px) in plane.pixels.iter().enumerate() {
+        let dir = (frame * Vec3::new(px.center[0], px.center[1], 1.0)).normalize();
+        let hit = if dir.dot(ng) > 0.0 {
+            at_t.shading
+                .tracer
+                .closest_hit(origin, dir, 0.0, f32::INFINITY)
+        } else {
+            None
+        };
+        let Some(hit) = hit else {
+            cells[k] = cells[k].min(key(MISS_DEPTH, k as u32));
+            moved[k] = PlaneSample {
+                radiance: [0.0; 3],
+                depth: -1.0,
+            };
+            continue;
+        };
+        let probe = next.surface_at(&hit, n);
+        let to_point = probe.position - origin;
+        let s = next.surface_at(&hit, to_point.normalize());
+        let e = next.direct_irradiance(&s, hash_combine(site.seed, k as u32));
+        let m = &next.scene.materials[s.material as usize];
+        let emission = if s.front_face && !m.sampled_light {
+            m.emission
+        } else {
+            Vec3::ZERO
+        };
+        let radiance = next.albedo(&s) / PI * e + emission;
+        let local = Vec3::new(
+            to_point.dot(frame.col(0)),
+            to_point.dot(frame.col(1)),
+            to_point.dot(frame.col(2)),
+        );
+        moved[k] = PlaneSample {
+            radiance: radiance.into(),
+            depth: local.z,
+        };
+        if local.z <= 0.0 {
+            continue;
+        }
+        if let (Some(ix), Some(iy)) = (index(local.x / local.z), index(local.y / local.z)) {
+            let c = iy * res + ix;
+            cells[c] = cells[c].min(key(local.z, k as u32));
+        }
+    }
+    let sample_of = |key: u32| moved[(key & INDEX_MASK) as usize];
+    let miss = PlaneSample {
+        radiance: [0.0; 3],
+        depth: -1.0,
+    };
+    (0..res * res)
+        .map(|c| {
+            if cells[c] != u32::MAX {
+                return sample_of(cells[c]);
+            }
+            let (x, y) = ((c % res) as i64, (c / res) as i64);
+            let mut best: Option<u32> = None;
+            for dy in -1..=1i64 {
+                for dx in -1..=1i64 {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if (dx == 0 && dy == 0)
+                        || nx < 0
+                        || ny < 0
+                        || nx >= res as i64
+                        || ny >= res as i64
+                    {
+                        continue;
+                    }
+                    let k = cells[(ny as usize) * res + nx as usize];
+                    if k != u32::MAX && best.is_none_or(|b| k > b) {
+                        best = Some(k);
+                    }
+                }
+            }
+            best.map_or(miss, sample_of)
+        })
+        .collect()
+}
