@@ -8,7 +8,7 @@ pub mod record_map;
 
 pub use exr_out::{read_exr_channels, write_exr};
 pub use png_out::{tonemap_to_srgb8, write_png};
-pub use record_map::record_map;
+pub use record_map::{lifespan_map, record_map};
 
 use crate::{Error, Result};
 use std::io::Write;

@@ -6,6 +6,7 @@
 //! an expired record that covered pixels in its last frame is replaced by a new record at
 //! the same place, one that covered none is deleted.
 
+pub mod estimate_error;
 pub mod reference;
 pub mod reprojection;
 
@@ -329,5 +330,19 @@ impl TemporalCache {
         all.extend(times.iter().map(|(n, ms)| (n.to_string(), *ms)));
         frame.stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
         Ok((frame, stats))
+    }
+}
+
+impl TemporalCache {
+    /// The records used in the last frame as they were at frame `t` (extrapolated), with
+    /// their lifespans in frames (for the lifespan map).
+    pub fn alive_records(&self, t: u32) -> (Vec<Record>, Vec<u32>) {
+        self.alive
+            .iter()
+            .map(|&id| {
+                let r = &self.history[id as usize];
+                (r.at(t), r.last_frame.saturating_sub(r.birth).saturating_add(1))
+            })
+            .unzip()
     }
 }
