@@ -6,6 +6,7 @@ use radsplat::gpu::GpuContext;
 use radsplat::output::{ImageFormat, tonemap_to_srgb8, write_atomically, write_exr, write_png};
 use radsplat::records::CacheSettings;
 use radsplat::scene::load_scene;
+use radsplat::temporal::TemporalSettings;
 use radsplat::{Error, Renderer, Result};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -102,6 +103,65 @@ enum Command {
         json: Option<PathBuf>,
         #[arg(short, long)]
         quiet: bool,
+    },
+    /// Render an animation (scene file `[animation]`, keyframes): one image per frame,
+    /// with temporal radiance caching (records reused across frames) by default.
+    Animate {
+        /// Scene file (TOML, see docs/scene-format.md).
+        scene: PathBuf,
+        /// Frames to render, `A..B` (inclusive) or `A`; default: the scene's range.
+        #[arg(long, value_parser = parse_frames)]
+        frames: Option<(u32, u32)>,
+        /// Output pattern: the last run of `#` becomes the zero-padded frame number;
+        /// `.exr` or `.png`. Default: <scene name>_####.exr.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Override the scene's resolution, e.g. 128x128.
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        /// Override the scene's light samples per pixel (area lights, environment).
+        #[arg(long)]
+        light_samples: Option<u32>,
+        /// `on`: temporal radiance caching; `off`: a fresh cache every frame (baseline).
+        #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+        temporal: String,
+        /// Temporal accuracy a_t: a record lives while |tau - 1| (t - t_k) <= a_t.
+        #[arg(long, default_value_t = TemporalSettings::default().accuracy)]
+        temporal_accuracy: f32,
+        /// dt_max: the longest a record lives, in frames (1 = recompute every frame).
+        #[arg(long, default_value_t = TemporalSettings::default().max_lifespan)]
+        max_lifespan: u32,
+        #[command(flatten)]
+        cache: CacheArgs,
+        /// Also write a lifespan map per frame (PNG pattern with `#`): record sites from
+        /// red (short-lived) to green (long-lived).
+        #[arg(long)]
+        lifespan_map: Option<PathBuf>,
+        /// Write per-frame statistics as JSON here.
+        #[arg(long)]
+        stats: Option<PathBuf>,
+        /// No progress bar or summary.
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// Thesis Table 5.1: error of the E(t+1) estimate of new records, with reprojection
+    /// and without (E(t+1) = E(t)), against records recomputed at t+1.
+    TemporalError {
+        scene: PathBuf,
+        /// Frame t (records are placed at t and estimated at t+1).
+        #[arg(long, default_value_t = 0)]
+        frame: u32,
+        /// Number of records (sites at evenly strided visible pixels).
+        #[arg(long, default_value_t = 1000)]
+        records: usize,
+        /// Override the scene's resolution (sites are chosen among its pixels).
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        #[command(flatten)]
+        cache: CacheArgs,
+        /// Write the table as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
     },
     /// Brute-force reference: direct light + first-bounce indirect light by Monte Carlo,
     /// `--spp` bounce directions per pixel. The EXR adds the AOV `indirect.*`.
@@ -208,6 +268,25 @@ impl CacheArgs {
     }
 }
 
+fn parse_frames(s: &str) -> std::result::Result<(u32, u32), String> {
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("'{v}' in '{s}' is not a frame number"))
+    };
+    let (a, b) = match s.split_once("..") {
+        Some((a, b)) => (parse(a)?, parse(b.trim_start_matches('='))?),
+        None => {
+            let a = parse(s)?;
+            (a, a)
+        }
+    };
+    if a > b {
+        return Err(format!("frame range '{s}' is empty (first > last)"));
+    }
+    Ok((a, b))
+}
+
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -248,6 +327,42 @@ fn main() -> ExitCode {
             record_map,
             quiet,
         }),
+        Command::Animate {
+            scene,
+            frames,
+            output,
+            size,
+            light_samples,
+            temporal,
+            temporal_accuracy,
+            max_lifespan,
+            cache,
+            lifespan_map,
+            stats,
+            quiet,
+        } => animate(AnimateArgs {
+            scene_path: &scene,
+            frames,
+            output,
+            size,
+            light_samples,
+            cache: cache.settings(),
+            temporal: (temporal == "on").then_some(TemporalSettings {
+                accuracy: temporal_accuracy,
+                max_lifespan,
+            }),
+            lifespan_map,
+            stats,
+            quiet,
+        }),
+        Command::TemporalError {
+            scene,
+            frame,
+            records,
+            size,
+            cache,
+            json,
+        } => temporal_error(&scene, frame, records, size, &cache.settings(), json.as_deref()),
         Command::Info => info(),
         Command::PlaneError {
             scene,
@@ -797,5 +912,202 @@ fn export_rad(scene_path: &Path, out_dir: &Path, size: Option<(u32, u32)>) -> Re
         "wrote {}/{{scene.rad, view.vf, notex.toml, export.json}}",
         out_dir.display()
     );
+    Ok(())
+}
+
+struct AnimateArgs<'a> {
+    scene_path: &'a Path,
+    frames: Option<(u32, u32)>,
+    output: Option<PathBuf>,
+    size: Option<(u32, u32)>,
+    light_samples: Option<u32>,
+    cache: CacheSettings,
+    /// None: the per-frame baseline.
+    temporal: Option<TemporalSettings>,
+    lifespan_map: Option<PathBuf>,
+    stats: Option<PathBuf>,
+    quiet: bool,
+}
+
+fn animate(args: AnimateArgs) -> Result<()> {
+    use radsplat::output::{frame_path, lifespan_map};
+    use radsplat::temporal::animation::{AnimationOptions, render_animation};
+    args.cache.validate()?;
+    if let Some(t) = &args.temporal {
+        t.validate()?;
+    }
+    let mut scene = load_scene(args.scene_path)?;
+    if let Some((w, h)) = args.size {
+        scene.camera.width = w;
+        scene.camera.height = h;
+    }
+    if let Some(n) = args.light_samples {
+        if n == 0 {
+            return Err(Error::Usage("--light-samples must be at least 1".into()));
+        }
+        scene.settings.light_samples = n;
+    }
+    let frames = match args.frames {
+        Some((a, b)) => a..=b,
+        None => scene.frames(),
+    };
+    let output = args.output.unwrap_or_else(|| {
+        let stem = args
+            .scene_path
+            .file_stem()
+            .unwrap_or_default()
+            .to_string_lossy();
+        PathBuf::from(format!("{stem}_####.exr"))
+    });
+    // Check every output name before rendering anything.
+    let format = ImageFormat::from_path(&frame_path(&output, *frames.start())?)?;
+    if let Some(map) = &args.lifespan_map {
+        if args.temporal.is_none() {
+            return Err(Error::Usage(
+                "--lifespan-map needs temporal caching (drop --temporal off)".into(),
+            ));
+        }
+        if ImageFormat::from_path(&frame_path(map, *frames.start())?)? != ImageFormat::Png {
+            return Err(Error::Usage("--lifespan-map writes PNG: use a .png pattern".into()));
+        }
+    }
+    let renderer = Renderer::new(GpuContext::new()?)?;
+    radsplat::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
+    let count = frames.end() - frames.start() + 1;
+    let bar = progress(args.quiet, u64::from(count));
+    bar.set_message("rendering");
+    let options = AnimationOptions {
+        frames: frames.clone(),
+        cache: args.cache.clone(),
+        temporal: args.temporal.clone(),
+    };
+    let max_lifespan = args.temporal.as_ref().map_or(1, |t| t.max_lifespan);
+    let exposure = scene.settings.exposure;
+    let stats = render_animation(
+        &renderer,
+        &scene,
+        &options,
+        |f| {
+            let path = frame_path(&output, f.frame_number)?;
+            match format {
+                ImageFormat::Exr => {
+                    write_exr(&path, f.frame)?;
+                }
+                ImageFormat::Png => {
+                    let rgb = tonemap_to_srgb8(&f.frame.beauty, exposure);
+                    write_png(&path, f.frame.width, f.frame.height, &rgb)?;
+                }
+            }
+            if let Some(map) = &args.lifespan_map {
+                let camera = radsplat::visibility::GpuCamera::new(&f.scene.camera);
+                let rgb = lifespan_map(
+                    f.frame,
+                    &camera,
+                    &f.records,
+                    &f.lifespans,
+                    max_lifespan,
+                    exposure,
+                );
+                write_png(
+                    &frame_path(map, f.frame_number)?,
+                    f.frame.width,
+                    f.frame.height,
+                    &rgb,
+                )?;
+            }
+            let s = &f.stats.temporal;
+            bar.inc(1);
+            bar.set_message(format!(
+                "frame {}: {} records ({} new, {} replaced, {} deleted)",
+                f.frame_number, s.alive, s.new, s.replaced, s.deleted
+            ));
+            Ok(())
+        },
+        |t, n| bar.set_message(format!("frame {t}: {n} new records")),
+    )?;
+    bar.finish_and_clear();
+    let wall_s: f64 = stats.iter().map(|s| s.wall_ms).sum::<f64>() / 1e3;
+    let rays: u64 = stats.iter().map(|s| s.temporal.plane_rays).sum();
+    let created: u64 = stats
+        .iter()
+        .map(|s| u64::from(s.temporal.new + s.temporal.replaced))
+        .sum();
+    if !args.quiet {
+        println!(
+            "{count} frames in {wall_s:.2} s ({:.2} s/frame); records computed {created}, \
+             plane rays {rays}; temporal caching {}",
+            wall_s / f64::from(count),
+            if args.temporal.is_some() { "on" } else { "off" }
+        );
+    }
+    if let Some(path) = &args.stats {
+        #[derive(serde::Serialize)]
+        struct Summary<'a> {
+            scene: &'a Path,
+            cache: &'a CacheSettings,
+            temporal: &'a Option<TemporalSettings>,
+            wall_s: f64,
+            records_computed: u64,
+            plane_rays: u64,
+            frames: &'a [radsplat::temporal::animation::AnimationFrameStats],
+        }
+        let json = serde_json::to_string_pretty(&Summary {
+            scene: args.scene_path,
+            cache: &args.cache,
+            temporal: &args.temporal,
+            wall_s,
+            records_computed: created,
+            plane_rays: rays,
+            frames: &stats,
+        })
+        .map_err(|e| Error::Usage(format!("stats JSON: {e}")))?;
+        write_atomically(path, json.as_bytes())?;
+    }
+    Ok(())
+}
+
+fn temporal_error(
+    scene_path: &Path,
+    frame: u32,
+    records: usize,
+    size: Option<(u32, u32)>,
+    settings: &CacheSettings,
+    json: Option<&Path>,
+) -> Result<()> {
+    use radsplat::temporal::estimate_error::estimate_error_table;
+    settings.validate()?;
+    let mut scene = load_scene(scene_path)?;
+    if let Some((w, h)) = size {
+        scene.camera.width = w;
+        scene.camera.height = h;
+    }
+    let mut next = scene.clone();
+    scene.set_frame(frame as f32);
+    next.set_frame((frame + 1) as f32);
+    let renderer = Renderer::new(GpuContext::new()?)?;
+    let table = estimate_error_table(&renderer, &scene, &next, settings, records)?;
+    println!(
+        "{}: {} records placed at frame {frame}, E(t+1) estimate vs recomputed (RGB RMS relative error)",
+        scene_path.display(),
+        table.records
+    );
+    println!("{:<18} {:>8} {:>8} {:>8} {:>8}", "", "min", "max", "mean", "median");
+    for (name, s) in [
+        ("reprojection", &table.reprojection),
+        ("no reprojection", &table.no_reprojection),
+    ] {
+        println!(
+            "{name:<18} {:>7.2}% {:>7.2}% {:>7.2}% {:>7.2}%",
+            100.0 * s.min,
+            100.0 * s.max,
+            100.0 * s.mean,
+            100.0 * s.median
+        );
+    }
+    if let Some(path) = json {
+        let text = serde_json::to_string_pretty(&table)
+            .map_err(|e| Error::Usage(format!("JSON: {e}")))?;
+        write_atomically(path, text.as_bytes())?;
+    }
     Ok(())
 }

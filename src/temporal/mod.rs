@@ -6,6 +6,7 @@
 //! an expired record that covered pixels in its last frame is replaced by a new record at
 //! the same place, one that covered none is deleted.
 
+pub mod animation;
 pub mod estimate_error;
 pub mod reference;
 pub mod reprojection;

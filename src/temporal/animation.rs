@@ -1,0 +1,161 @@
+//! Rendering an animation: the scene set to each frame, its BVH prepared, and every frame
+//! rendered over a [`TemporalCache`] (records reused across frames) or, as the baseline,
+//! over a fresh cache per frame (`--temporal off`).
+
+use super::{TemporalCache, TemporalFrameStats, TemporalSettings};
+use crate::frame::{Frame, PreparedScene, Renderer};
+use crate::records::{CacheSettings, Record};
+use crate::scene::Scene;
+use crate::{Error, Result};
+use std::ops::RangeInclusive;
+use std::time::Instant;
+
+/// What to render.
+#[derive(Clone, Debug)]
+pub struct AnimationOptions {
+    pub frames: RangeInclusive<u32>,
+    pub cache: CacheSettings,
+    /// None: the per-frame baseline (a new cache every frame).
+    pub temporal: Option<TemporalSettings>,
+}
+
+/// One rendered frame, handed to the caller to write out.
+pub struct AnimationFrame<'a> {
+    pub frame_number: u32,
+    pub frame: &'a Frame,
+    /// The scene at this frame (camera, lights).
+    pub scene: &'a Scene,
+    /// Records used in this frame (at this frame's time) and their lifespans in frames;
+    /// empty for the per-frame baseline.
+    pub records: Vec<Record>,
+    pub lifespans: Vec<u32>,
+    pub stats: &'a AnimationFrameStats,
+}
+
+/// Statistics of one animation frame (the `--stats` JSON of `animate`).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct AnimationFrameStats {
+    pub frame: u32,
+    /// Wall time of the frame: scene update and BVH, rendering, readback (ms).
+    pub wall_ms: f64,
+    /// Setting the scene to the frame, building its BVH and uploading it (ms).
+    pub prepare_ms: f64,
+    pub frame_stats: crate::frame::FrameStats,
+    pub temporal: TemporalFrameStats,
+}
+
+/// Whether anything that changes irradiance (instances, lights) moves in the scene.
+pub fn scene_is_dynamic(scene: &Scene) -> bool {
+    (0..scene.instances.len()).any(|i| scene.instance_is_animated(i)) || scene.lights_are_animated()
+}
+
+/// Renders `options.frames` of `scene` (set to each frame in turn), calling `on_frame`
+/// after each. Returns the per-frame statistics.
+pub fn render_animation(
+    renderer: &Renderer,
+    scene: &Scene,
+    options: &AnimationOptions,
+    mut on_frame: impl FnMut(AnimationFrame<'_>) -> Result<()>,
+    mut progress: impl FnMut(u32, u32),
+) -> Result<Vec<AnimationFrameStats>> {
+    let (first, last) = (*options.frames.start(), *options.frames.end());
+    if first > last {
+        return Err(Error::Usage(format!("empty frame range {first}..{last}")));
+    }
+    let dynamic = scene_is_dynamic(scene);
+    let mut current = scene.clone();
+    let mut next_scene = scene.clone();
+    let prepare = |s: &mut Scene, t: u32| -> Result<PreparedScene> {
+        s.set_frame(t as f32);
+        renderer.prepare(s)
+    };
+    let mut temporal = match &options.temporal {
+        Some(settings) => Some(TemporalCache::new(&renderer.ctx, &options.cache, settings)?),
+        None => None,
+    };
+    let mut all = Vec::new();
+    let t0 = Instant::now();
+    let mut prepared = prepare(&mut current, first)?;
+    let mut prepare_ms = t0.elapsed().as_secs_f64() * 1e3;
+    for t in first..=last {
+        let start = Instant::now();
+        // The scene at t+1 (for the E(t+1) estimate); reused as the next frame's scene.
+        let ahead = if temporal.is_some() && dynamic && t < last {
+            let p0 = Instant::now();
+            let p = prepare(&mut next_scene, t + 1)?;
+            prepare_ms += p0.elapsed().as_secs_f64() * 1e3;
+            Some(p)
+        } else {
+            None
+        };
+        let frame_progress = |n: u32| progress(t, n);
+        let (frame, temporal_stats, records, lifespans) = match temporal.as_mut() {
+            Some(cache) => {
+                let (frame, stats) = cache.render_frame(
+                    renderer,
+                    &prepared,
+                    ahead.as_ref(),
+                    &current.camera,
+                    t,
+                    dynamic,
+                    frame_progress,
+                )?;
+                let (records, lifespans) = cache.alive_records(t);
+                (frame, stats, records, lifespans)
+            }
+            None => {
+                let mut cache = renderer.new_cache(&options.cache)?;
+                let frame = renderer.render_gi_frame(
+                    &prepared,
+                    &current.camera,
+                    &mut cache,
+                    None,
+                    frame_progress,
+                )?;
+                let c = frame.stats.cache.clone().unwrap_or_default();
+                let stats = TemporalFrameStats {
+                    frame: t,
+                    alive: c.records,
+                    new: c.placement.new_records,
+                    plane_rays: c.plane_rays,
+                    ..Default::default()
+                };
+                (frame, stats, Vec::new(), Vec::new())
+            }
+        };
+        let stats = AnimationFrameStats {
+            frame: t,
+            wall_ms: start.elapsed().as_secs_f64() * 1e3 + prepare_ms,
+            prepare_ms,
+            frame_stats: frame.stats.clone(),
+            temporal: temporal_stats,
+        };
+        on_frame(AnimationFrame {
+            frame_number: t,
+            frame: &frame,
+            scene: &current,
+            records,
+            lifespans,
+            stats: &stats,
+        })?;
+        all.push(stats);
+        // Next frame's scene: the one prepared ahead, else prepare it now.
+        if t < last {
+            let p0 = Instant::now();
+            prepared = match ahead {
+                Some(p) => {
+                    std::mem::swap(&mut current, &mut next_scene);
+                    p
+                }
+                // Nothing that lights the scene moves: only the camera changes.
+                None if !dynamic => {
+                    current.set_frame((t + 1) as f32);
+                    prepared
+                }
+                None => prepare(&mut current, t + 1)?,
+            };
+            prepare_ms = p0.elapsed().as_secs_f64() * 1e3;
+        }
+    }
+    Ok(all)
+}
