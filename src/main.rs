@@ -6,7 +6,7 @@ use radsplat::gpu::GpuContext;
 use radsplat::output::{ImageFormat, tonemap_to_srgb8, write_atomically, write_exr, write_png};
 use radsplat::records::CacheSettings;
 use radsplat::scene::load_scene;
-use radsplat::temporal::TemporalSettings;
+use radsplat::temporal::{TemporalGradients, TemporalSettings};
 use radsplat::{Error, Renderer, Result};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -131,6 +131,10 @@ enum Command {
         /// dt_max: the longest a record lives, in frames (1 = recompute every frame).
         #[arg(long, default_value_t = TemporalSettings::default().max_lifespan)]
         max_lifespan: u32,
+        /// Temporal gradients: `interpolated` (two passes: every record moves towards its
+        /// replacement; no jumps) or `extrapolated` (one pass, from the E(t+1) estimate).
+        #[arg(long, default_value = "interpolated", value_parser = ["interpolated", "extrapolated"])]
+        temporal_gradients: String,
         #[command(flatten)]
         cache: CacheArgs,
         /// Also write a lifespan map per frame (PNG pattern with `#`): record sites from
@@ -336,6 +340,7 @@ fn main() -> ExitCode {
             temporal,
             temporal_accuracy,
             max_lifespan,
+            temporal_gradients,
             cache,
             lifespan_map,
             stats,
@@ -350,6 +355,11 @@ fn main() -> ExitCode {
             temporal: (temporal == "on").then_some(TemporalSettings {
                 accuracy: temporal_accuracy,
                 max_lifespan,
+                gradients: if temporal_gradients == "extrapolated" {
+                    TemporalGradients::Extrapolated
+                } else {
+                    TemporalGradients::Interpolated
+                },
             }),
             lifespan_map,
             stats,

@@ -65,6 +65,7 @@ fn moving_cube_expires_replaces_and_deletes_records() {
     let temporal_settings = TemporalSettings {
         accuracy: 0.05,
         max_lifespan: 4,
+        ..TemporalSettings::default()
     };
     let mut temporal =
         TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings).expect("temporal cache");

@@ -2,7 +2,7 @@
 //! rendered over a [`TemporalCache`] (records reused across frames) or, as the baseline,
 //! over a fresh cache per frame (`--temporal off`).
 
-use super::{TemporalCache, TemporalFrameStats, TemporalSettings};
+use super::{TemporalCache, TemporalFrameStats, TemporalGradients, TemporalSettings};
 use crate::frame::{Frame, PreparedScene, Renderer};
 use crate::records::{CacheSettings, Record};
 use crate::scene::Scene;
@@ -73,6 +73,12 @@ pub fn render_animation(
         Some(settings) => Some(TemporalCache::new(&renderer.ctx, &options.cache, settings)?),
         None => None,
     };
+    // Interpolated gradients need every record's successor: a first pass places and
+    // computes the records of the whole range, the second renders the frames.
+    let two_pass = options
+        .temporal
+        .as_ref()
+        .is_some_and(|t| t.gradients == TemporalGradients::Interpolated);
     let mut all = Vec::new();
     let t0 = Instant::now();
     let mut prepared = prepare(&mut current, first)?;
@@ -130,14 +136,16 @@ pub fn render_animation(
             frame_stats: frame.stats.clone(),
             temporal: temporal_stats,
         };
-        on_frame(AnimationFrame {
-            frame_number: t,
-            frame: &frame,
-            scene: &current,
-            records,
-            lifespans,
-            stats: &stats,
-        })?;
+        if !two_pass {
+            on_frame(AnimationFrame {
+                frame_number: t,
+                frame: &frame,
+                scene: &current,
+                records,
+                lifespans,
+                stats: &stats,
+            })?;
+        }
         all.push(stats);
         // Next frame's scene: the one prepared ahead, else prepare it now.
         if t < last {
@@ -155,6 +163,32 @@ pub fn render_animation(
                 None => prepare(&mut current, t + 1)?,
             };
             prepare_ms = p0.elapsed().as_secs_f64() * 1e3;
+        }
+    }
+    if let (true, Some(cache)) = (two_pass, temporal.as_mut()) {
+        let mut scene_t = scene.clone();
+        let mut prepared: Option<PreparedScene> = None;
+        for (t, stats) in (first..=last).zip(all.iter_mut()) {
+            let start = Instant::now();
+            if prepared.is_none() || dynamic {
+                prepared = Some(prepare(&mut scene_t, t)?);
+            } else {
+                scene_t.set_frame(t as f32);
+            }
+            let Some(p) = prepared.as_ref() else {
+                continue;
+            };
+            let frame = cache.render_second_pass(renderer, p, &scene_t.camera, t)?;
+            stats.wall_ms += start.elapsed().as_secs_f64() * 1e3;
+            let (records, lifespans) = cache.records_of_frame(t);
+            on_frame(AnimationFrame {
+                frame_number: t,
+                frame: &frame,
+                scene: &scene_t,
+                records,
+                lifespans,
+                stats,
+            })?;
         }
     }
     Ok(all)

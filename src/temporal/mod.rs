@@ -26,6 +26,7 @@ pub struct TemporalSettings {
     pub accuracy: f32,
     /// dt_max: no record lives this many frames or more (1: recompute every frame).
     pub max_lifespan: u32,
+    pub gradients: TemporalGradients,
 }
 
 impl Default for TemporalSettings {
@@ -34,6 +35,7 @@ impl Default for TemporalSettings {
         Self {
             accuracy: 0.05,
             max_lifespan: 20,
+            gradients: TemporalGradients::Interpolated,
         }
     }
 }
@@ -69,6 +71,8 @@ pub struct TemporalRecord {
     pub last_frame: u32,
     /// Temporal irradiance ratio tau = Y(E(t_k + 1)) / Y(E(t_k)) (luminance).
     pub tau: f32,
+    /// The record that replaced this one at the same place, once it expired.
+    pub successor: Option<u32>,
 }
 
 impl TemporalRecord {
@@ -95,6 +99,37 @@ impl TemporalRecord {
         }
         r
     }
+
+    /// The record at frame `t` with the interpolated temporal gradient (seed 000 eqs.
+    /// 18-20): between this record and its successor `l` at the same place,
+    /// `E + (E_l - E) (t - t_k) / (t_l - t_k)` for irradiance and both gradients.
+    pub fn interpolated(&self, t: u32, successor: &TemporalRecord) -> Record {
+        let span = successor.birth.saturating_sub(self.birth).max(1) as f32;
+        let f = t.saturating_sub(self.birth) as f32 / span;
+        let mut r = self.record;
+        let next = &successor.record;
+        let lerp = |a: &mut [f32; 4], b: [f32; 4]| {
+            for c in 0..4 {
+                a[c] += (b[c] - a[c]) * f;
+            }
+        };
+        lerp(&mut r.irradiance, next.irradiance);
+        for c in 0..3 {
+            lerp(&mut r.rotation_gradient[c], next.rotation_gradient[c]);
+            lerp(&mut r.translation_gradient[c], next.translation_gradient[c]);
+        }
+        r
+    }
+}
+
+/// How records change over their lifespan (seed 000 section IV-F).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum TemporalGradients {
+    /// From the record's own E(t+1) estimate: one pass.
+    Extrapolated,
+    /// Towards the record that replaces it: two passes (records of the whole range
+    /// first), continuous in time. The default for animations.
+    Interpolated,
 }
 
 fn luminance(e: [f32; 4]) -> f32 {
@@ -148,6 +183,9 @@ pub struct TemporalCache {
     pub history: Vec<TemporalRecord>,
     /// Ids of the records used in the last frame, in frame order.
     alive: Vec<u32>,
+    /// Per frame rendered (from the first): the ids used, in frame order (the second pass
+    /// of interpolated gradients renders exactly these).
+    pub frame_records_ids: Vec<(u32, Vec<u32>)>,
     /// Pixels each of `alive` covered in the last frame.
     coverage: Vec<u32>,
     /// The frame's records on the GPU and their estimates at t+1 (same indices).
@@ -169,6 +207,7 @@ impl TemporalCache {
             reprojection: ReprojectionPass::new(ctx)?,
             history: Vec::new(),
             alive: Vec::new(),
+            frame_records_ids: Vec::new(),
             coverage: Vec::new(),
             frame_records: RecordCache::new(ctx)?,
             next_records: RecordCache::new(ctx)?,
@@ -296,6 +335,9 @@ impl TemporalCache {
         } else {
             records.clone()
         };
+        for (j, &old) in replace.iter().enumerate() {
+            self.history[old as usize].successor = Some((self.history.len() + j) as u32);
+        }
         let mut alive = kept;
         for k in first..first + computed {
             let (record, next) = (records[k], nexts[k]);
@@ -314,9 +356,11 @@ impl TemporalCache {
                 birth: t,
                 last_frame: last_frame(t, tau, &self.settings, dynamic),
                 tau,
+                successor: None,
             });
             alive.push(id);
         }
+        self.frame_records_ids.push((t, alive.clone()));
         self.alive = alive;
         self.coverage = coverage;
         self.last_frame_rendered = Some(t);
@@ -335,14 +379,71 @@ impl TemporalCache {
 }
 
 impl TemporalCache {
-    /// The records used in the last frame as they were at frame `t` (extrapolated), with
-    /// their lifespans in frames (for the lifespan map).
-    pub fn alive_records(&self, t: u32) -> (Vec<Record>, Vec<u32>) {
-        self.alive
+    /// The record `id` at frame `t` with this cache's temporal gradients (interpolated
+    /// towards its successor when it has one, else extrapolated).
+    pub fn record_at(&self, id: u32, t: u32) -> Record {
+        let r = &self.history[id as usize];
+        match (self.settings.gradients, r.successor) {
+            (TemporalGradients::Interpolated, Some(l)) => {
+                r.interpolated(t, &self.history[l as usize])
+            }
+            _ => r.at(t),
+        }
+    }
+
+    /// Second pass of interpolated gradients: renders frame `t` again over exactly the
+    /// records the first pass used there, now interpolated between each record and its
+    /// successor (no placement: coverage is the first pass's).
+    pub fn render_second_pass(
+        &mut self,
+        renderer: &Renderer,
+        scene: &PreparedScene,
+        camera: &Camera,
+        t: u32,
+    ) -> Result<Frame> {
+        let ids = self
+            .frame_records_ids
             .iter()
+            .find(|(f, _)| *f == t)
+            .map(|(_, ids)| ids.clone())
+            .ok_or_else(|| Error::Usage(format!("frame {t} was not rendered by the first pass")))?;
+        let records: Vec<Record> = ids.iter().map(|&id| self.record_at(id, t)).collect();
+        self.frame_records.upload(&renderer.ctx, &records)?;
+        let (frame, _) = renderer.render_cached_frame(
+            scene,
+            camera,
+            &mut self.frame_records,
+            &self.pass,
+            CachedFrameOptions {
+                max_new_records: Some(0),
+                lookahead: None,
+                count_coverage: false,
+            },
+            |_| {},
+        )?;
+        Ok(frame)
+    }
+
+    /// The records used in the last frame at frame `t`, with their lifespans in frames
+    /// (for the lifespan map).
+    pub fn alive_records(&self, t: u32) -> (Vec<Record>, Vec<u32>) {
+        self.records_with_lifespans(&self.alive, t)
+    }
+
+    /// Same for the records frame `t` used (any frame rendered so far).
+    pub fn records_of_frame(&self, t: u32) -> (Vec<Record>, Vec<u32>) {
+        match self.frame_records_ids.iter().find(|(f, _)| *f == t) {
+            Some((_, ids)) => self.records_with_lifespans(ids, t),
+            None => (Vec::new(), Vec::new()),
+        }
+    }
+
+    fn records_with_lifespans(&self, ids: &[u32], t: u32) -> (Vec<Record>, Vec<u32>) {
+        ids.iter()
             .map(|&id| {
                 let r = &self.history[id as usize];
-                (r.at(t), r.last_frame.saturating_sub(r.birth).saturating_add(1))
+                let lifespan = r.last_frame.saturating_sub(r.birth).saturating_add(1);
+                (self.record_at(id, t), lifespan)
             })
             .unzip()
     }
