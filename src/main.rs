@@ -152,6 +152,28 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Compare an image sequence against a reference sequence frame by frame: RMSE and
+    /// relative RMSE per frame, and flicker, the mean over pixels of
+    /// | |Y_A(f) - Y_A(f-1)| - |Y_ref(f) - Y_ref(f-1)| |. Patterns replace their last run of
+    /// '#' by the zero-padded frame number: frame_####.exr, 12 -> frame_0012.exr.
+    CompareSeq {
+        /// The sequence to measure, e.g. out/frame_####.exr.
+        a_pattern: PathBuf,
+        /// The reference sequence.
+        ref_pattern: PathBuf,
+        /// Frames to compare: A..B (inclusive) or a single frame A.
+        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+        frames: std::ops::RangeInclusive<u32>,
+        /// Write a PNG chart of relative RMSE and relative flicker per frame here.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Write the per-frame numbers and the summary as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Box-filter all images by N x N pixels before comparing.
+        #[arg(long, default_value_t = 1)]
+        downsample: u32,
+    },
     /// Export a scene to Radiance for rpict: OUT_DIR/scene.rad, OUT_DIR/view.vf,
     /// OUT_DIR/notex.toml (the scene without textures) and OUT_DIR/export.json.
     ExportRad {
@@ -301,6 +323,14 @@ fn main() -> ExitCode {
             downsample,
             json.as_deref(),
         ),
+        Command::CompareSeq {
+            a_pattern,
+            ref_pattern,
+            frames,
+            plot,
+            json,
+            downsample,
+        } => compare_seq(&a_pattern, &ref_pattern, frames, plot, json, downsample),
         Command::ExportRad {
             scene,
             out_dir,
@@ -754,6 +784,31 @@ fn compare(
             message: e.to_string(),
         })?;
         write_atomically(path, text.as_bytes())?;
+    }
+    Ok(())
+}
+
+fn parse_frames(s: &str) -> std::result::Result<std::ops::RangeInclusive<u32>, String> {
+    radsplat::output::parse_frame_range(s).map_err(|e| e.to_string())
+}
+
+fn compare_seq(
+    a_pattern: &Path,
+    ref_pattern: &Path,
+    frames: std::ops::RangeInclusive<u32>,
+    plot: Option<PathBuf>,
+    json: Option<PathBuf>,
+    downsample: u32,
+) -> Result<()> {
+    let c = radsplat::compare_seq::compare_sequence(a_pattern, ref_pattern, frames, downsample)?;
+    print!("{}", c.table());
+    println!("{}", c.summary_line());
+    if let Some(path) = plot {
+        c.write_plot(&path)?;
+        println!("wrote {}", path.display());
+    }
+    if let Some(path) = json {
+        c.write_json(&path)?;
     }
     Ok(())
 }
