@@ -14,6 +14,7 @@
 pub mod bench;
 pub mod bvh;
 pub mod compare;
+pub mod compare_seq;
 pub mod direct;
 pub mod error;
 pub mod frame;

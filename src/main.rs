@@ -111,7 +111,7 @@ enum Command {
         scene: PathBuf,
         /// Frames to render, `A..B` (inclusive) or `A`; default: the scene's range.
         #[arg(long, value_parser = parse_frames)]
-        frames: Option<(u32, u32)>,
+        frames: Option<std::ops::RangeInclusive<u32>>,
         /// Output pattern: the last run of `#` becomes the zero-padded frame number;
         /// `.exr` or `.png`. Default: <scene name>_####.exr.
         #[arg(short, long)]
@@ -216,6 +216,28 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Compare an image sequence against a reference sequence frame by frame: RMSE and
+    /// relative RMSE per frame, and flicker, the mean over pixels of
+    /// | |Y_A(f) - Y_A(f-1)| - |Y_ref(f) - Y_ref(f-1)| |. Patterns replace their last run of
+    /// '#' by the zero-padded frame number: frame_####.exr, 12 -> frame_0012.exr.
+    CompareSeq {
+        /// The sequence to measure, e.g. out/frame_####.exr.
+        a_pattern: PathBuf,
+        /// The reference sequence.
+        ref_pattern: PathBuf,
+        /// Frames to compare: A..B (inclusive) or a single frame A.
+        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+        frames: std::ops::RangeInclusive<u32>,
+        /// Write a PNG chart of relative RMSE and relative flicker per frame here.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Write the per-frame numbers and the summary as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Box-filter all images by N x N pixels before comparing.
+        #[arg(long, default_value_t = 1)]
+        downsample: u32,
+    },
     /// Export a scene to Radiance for rpict: OUT_DIR/scene.rad, OUT_DIR/view.vf,
     /// OUT_DIR/notex.toml (the scene without textures) and OUT_DIR/export.json.
     ExportRad {
@@ -270,25 +292,6 @@ impl CacheArgs {
             ..CacheSettings::default()
         }
     }
-}
-
-fn parse_frames(s: &str) -> std::result::Result<(u32, u32), String> {
-    let parse = |v: &str| {
-        v.trim()
-            .parse::<u32>()
-            .map_err(|_| format!("'{v}' in '{s}' is not a frame number"))
-    };
-    let (a, b) = match s.split_once("..") {
-        Some((a, b)) => (parse(a)?, parse(b.trim_start_matches('='))?),
-        None => {
-            let a = parse(s)?;
-            (a, a)
-        }
-    };
-    if a > b {
-        return Err(format!("frame range '{s}' is empty (first > last)"));
-    }
-    Ok((a, b))
 }
 
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
@@ -426,6 +429,14 @@ fn main() -> ExitCode {
             downsample,
             json.as_deref(),
         ),
+        Command::CompareSeq {
+            a_pattern,
+            ref_pattern,
+            frames,
+            plot,
+            json,
+            downsample,
+        } => compare_seq(&a_pattern, &ref_pattern, frames, plot, json, downsample),
         Command::ExportRad {
             scene,
             out_dir,
@@ -883,6 +894,31 @@ fn compare(
     Ok(())
 }
 
+fn parse_frames(s: &str) -> std::result::Result<std::ops::RangeInclusive<u32>, String> {
+    radsplat::output::parse_frame_range(s).map_err(|e| e.to_string())
+}
+
+fn compare_seq(
+    a_pattern: &Path,
+    ref_pattern: &Path,
+    frames: std::ops::RangeInclusive<u32>,
+    plot: Option<PathBuf>,
+    json: Option<PathBuf>,
+    downsample: u32,
+) -> Result<()> {
+    let c = radsplat::compare_seq::compare_sequence(a_pattern, ref_pattern, frames, downsample)?;
+    print!("{}", c.table());
+    println!("{}", c.summary_line());
+    if let Some(path) = plot {
+        c.write_plot(&path)?;
+        println!("wrote {}", path.display());
+    }
+    if let Some(path) = json {
+        c.write_json(&path)?;
+    }
+    Ok(())
+}
+
 fn export_rad(scene_path: &Path, out_dir: &Path, size: Option<(u32, u32)>) -> Result<()> {
     use radsplat::radiance_export::{notex_scene_toml, scene_rad, view_options};
     let mut scene = load_scene(scene_path)?;
@@ -927,7 +963,7 @@ fn export_rad(scene_path: &Path, out_dir: &Path, size: Option<(u32, u32)>) -> Re
 
 struct AnimateArgs<'a> {
     scene_path: &'a Path,
-    frames: Option<(u32, u32)>,
+    frames: Option<std::ops::RangeInclusive<u32>>,
     output: Option<PathBuf>,
     size: Option<(u32, u32)>,
     light_samples: Option<u32>,
@@ -957,10 +993,7 @@ fn animate(args: AnimateArgs) -> Result<()> {
         }
         scene.settings.light_samples = n;
     }
-    let frames = match args.frames {
-        Some((a, b)) => a..=b,
-        None => scene.frames(),
-    };
+    let frames = args.frames.clone().unwrap_or_else(|| scene.frames());
     let output = args.output.unwrap_or_else(|| {
         let stem = args
             .scene_path

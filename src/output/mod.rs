@@ -1,14 +1,18 @@
-//! Output files: linear EXR with AOVs, tone-mapped sRGB PNG, false-colour PNGs. Every
+//! Output files: linear EXR with AOVs, tone-mapped sRGB PNG, false-colour PNGs, line
+//! charts ([`plot`]), and frame path patterns for image sequences ([`sequence`]). Every
 //! file is written atomically: to a temporary file next to it, then renamed, so a
 //! failure never leaves a half-written output.
 
 pub mod exr_out;
+pub mod plot;
 pub mod png_out;
 pub mod record_map;
+pub mod sequence;
 
 pub use exr_out::{read_exr_channels, write_exr};
 pub use png_out::{tonemap_to_srgb8, write_png};
 pub use record_map::{lifespan_map, record_map};
+pub use sequence::{check_pattern, frame_path, parse_frame_range};
 
 use crate::{Error, Result};
 use std::io::Write;
