@@ -18,6 +18,7 @@ Units: Radiance pictures hold radiance in W/(sr m^2) per channel (rpict writes n
 
 import argparse
 import json
+import resource
 import os
 import re
 import shutil
@@ -39,14 +40,22 @@ def radiance_dirs():
     return root / "bin", root / "lib"
 
 
+# CPU seconds (user + system) of the last command run: rpict is single-threaded, so its CPU
+# time does not depend on what else the machine runs; radsplat's lavapipe uses every core.
+LAST_CPU = [0.0]
+
+
 def run(cmd, env, stdout=None, quiet=False):
     """Runs a command, returns its wall time in seconds; exits with its stderr on failure."""
     if not quiet:
         print("  $", " ".join(str(c) for c in cmd), file=sys.stderr)
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     p = subprocess.run([str(c) for c in cmd], env=env, stdout=stdout or subprocess.PIPE,
                        stderr=subprocess.PIPE)
     dt = time.perf_counter() - t0
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    LAST_CPU[0] = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     if p.returncode != 0:
         sys.exit(f"failed ({p.returncode}): {' '.join(map(str, cmd))}\n"
                  f"{p.stderr.decode(errors='replace')}")
@@ -124,7 +133,7 @@ def main():
         ref = out / "radsplat-reference.exr"
         t, _ = run([radsplat, "reference", notex, "--spp", str(args.spp), "-o", ref,
                     "--stats", out / "reference-stats.json"] + common, env)
-        rows.append((f"radsplat reference ({args.spp} spp)", t, None, ref))
+        rows.append((f"radsplat reference ({args.spp} spp)", t, None, ref, LAST_CPU[0]))
     else:
         ref = args.reference.resolve()
 
@@ -132,7 +141,7 @@ def main():
     direct = out / "radsplat-direct.exr"
     t, _ = run([radsplat, "render", notex, "--direct-only", "-o", direct, "--stats", out / "direct-stats.json"]
                + common, env)
-    rows.append(("radsplat direct only", t, None, direct))
+    rows.append(("radsplat direct only", t, None, direct, LAST_CPU[0]))
     _, help_text = run([radsplat, "render", "--help"], env, quiet=True)
     gi_pending = "--accuracy" not in help_text
     if not gi_pending:
@@ -143,7 +152,7 @@ def main():
                     "--stats", stats] + common, env)
         # radsplat render --stats: {"bvh": ..., "frame": {..., "cache": {"records": N, ...}}}
         records = json.loads(stats.read_text())["frame"]["cache"]["records"]
-        rows.append((f"radsplat GI -a {args.accuracy}", t, records, gi))
+        rows.append((f"radsplat GI -a {args.accuracy}", t, records, gi, LAST_CPU[0]))
 
     # rpict: pixel centres (-pj 0), every pixel traced (-ps 1), exact size (-pa 0).
     rp = [bindir / "rpict"] + view + ["-x", w, "-y", h, "-pa", "0", "-pj", "0", "-ps", "1",
@@ -151,7 +160,7 @@ def main():
                                       "-ds", args.ds, "-dr", "0", "-lr", "1"]
     rp_direct = out / "rpict-ab0.hdr"
     t, _ = run(rp + ["-ab", "0", out / "scene.oct"], env, stdout=open(rp_direct, "wb"))
-    rows.append(("rpict -ab 0", t, None, rp_direct))
+    rows.append(("rpict -ab 0", t, None, rp_direct, LAST_CPU[0]))
     amb = out / "rpict.amb"
     if amb.exists():
         amb.unlink()
@@ -159,22 +168,23 @@ def main():
     t, _ = run(rp + ["-ab", "1", "-aa", args.accuracy, "-ad", args.ad, "-as", args.as_,
                      "-ar", args.ar, "-af", amb, out / "scene.oct"],
                env, stdout=open(rp_gi, "wb"))
+    cpu = LAST_CPU[0]
     rows.append((f"rpict -ab 1 -aa {args.accuracy}", t, count_ambient_records(bindir, amb, env),
-                 rp_gi))
+                 rp_gi, cpu))
 
     results = []
     print()
-    print(f"{'renderer':<32} {'wall s':>8} {'records':>8} {'RMSE':>10} {'rel RMSE':>9} "
+    print(f"{'renderer':<32} {'wall s':>8} {'cpu s':>8} {'records':>8} {'RMSE':>10} {'rel RMSE':>9} "
           f"{'rel RMSE surfaces':>17}")
-    for name, t, records, img in rows:
+    for name, t, records, img, cpu in rows:
         c = compare(radsplat, img, ref, out, env, args.downsample)
         b = c["beauty"]
         surf = c.get("surfaces") or {}
-        results.append({"renderer": name, "wall_s": t, "records": records,
+        results.append({"renderer": name, "wall_s": t, "cpu_s": cpu, "records": records,
                         "image": str(img), "beauty": b, "surfaces": surf or None,
                         "indirect": c.get("indirect")})
         rec = "-" if records is None else str(records)
-        print(f"{name:<32} {t:>8.2f} {rec:>8} {b['rmse']:>10.4g} {b['relative_rmse']:>9.4f} "
+        print(f"{name:<32} {t:>8.2f} {cpu:>8.2f} {rec:>8} {b['rmse']:>10.4g} {b['relative_rmse']:>9.4f} "
               f"{surf.get('relative_rmse', float('nan')):>17.4f}")
     if gi_pending:
         name = f"radsplat GI -a {args.accuracy}"
