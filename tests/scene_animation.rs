@@ -427,9 +427,6 @@ fn spheres_load() {
             .map(|q| scene.instance_transform_at(i, q as f32 / 4.0).w_axis.y)
             .collect();
         let lowest = heights.iter().copied().fold(f32::INFINITY, f32::min);
-        assert!(
-            lowest >= 0.14 - 1e-4 && lowest < 0.2,
-            "sphere {i}: {lowest}"
-        );
+        assert!((0.14 - 1e-4..0.2).contains(&lowest), "sphere {i}: {lowest}");
     }
 }

@@ -2,7 +2,7 @@
 //!
 //! The scene file's `[animation]` table and `[[mesh.keyframe]]`, `[[light.keyframe]]` and
 //! `[[camera.keyframe]]` entries (`docs/scene-format.md`, section "Animation") are parsed in
-//! [`super::file`] into the tracks kept here. Every track holds complete key values (fields
+//! [`mod@super::file`] into the tracks kept here. Every track holds complete key values (fields
 //! a keyframe omits were filled from the static entry at load), so evaluating one never
 //! needs the file again.
 //!
