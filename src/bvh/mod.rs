@@ -94,7 +94,9 @@ impl Blas {
     }
 }
 
-/// Timings of one BVH build, in milliseconds.
+/// Timings of one BVH build, in milliseconds. After [`SceneBvh::update_instances`] or
+/// [`SceneBvh::refit_instances`], `blas_ms` is 0 (no BLAS was built) and `tlas_ms` is the
+/// update's time.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct BuildTimes {
     pub blas_ms: f64,
@@ -119,6 +121,11 @@ pub struct SceneBvh {
     /// Traversal stack entries needed at most: the worst BLAS plus the TLAS (each level
     /// of a path pushes up to three children; see [`wide::stack_need`]).
     pub max_depth: u32,
+    /// Stack need of the worst BLAS alone, so that `max_depth` can be recomputed when only
+    /// the TLAS changes.
+    blas_stack_need: u32,
+    /// The TLAS before collapsing, kept for [`SceneBvh::refit_instances`].
+    tlas_bvh: Bvh2,
 }
 
 impl SceneBvh {
@@ -156,27 +163,102 @@ impl SceneBvh {
             }
         }
 
-        let t1 = Instant::now();
-        let (tlas_nodes, tlas_stack) = build_tlas(scene, blas_nodes.len() as u32);
-        let tlas_ms = t1.elapsed().as_secs_f64() * 1e3;
-        let instances = scene
-            .instances
-            .iter()
-            .map(|inst| {
-                let (node_base, tri_base) = mesh_offsets[inst.mesh as usize];
-                GpuInstance::new(inst.transform, node_base, tri_base, inst.mesh)
-            })
-            .collect();
-        SceneBvh {
-            tlas_nodes,
+        let mut bvh = SceneBvh {
+            tlas_nodes: Vec::new(),
             blas_nodes,
             triangles,
             shading,
-            instances,
+            instances: Vec::new(),
             mesh_offsets,
-            times: BuildTimes { blas_ms, tlas_ms },
-            max_depth: max_depth + tlas_stack,
+            times: BuildTimes::default(),
+            max_depth,
+            blas_stack_need: max_depth,
+            tlas_bvh: Bvh2::default(),
+        };
+        bvh.update_instances(scene);
+        bvh.times.blas_ms = blas_ms;
+        bvh
+    }
+
+    /// Rebuilds the TLAS and the instance table for the scene's current instance
+    /// transforms, reusing the BLASes: for a scene whose meshes are those this was built
+    /// from (only transforms changed, e.g. after [`Scene::set_frame`]), the result equals
+    /// a fresh [`SceneBvh::build`] of it, node for node.
+    ///
+    /// # Panics
+    /// If the scene has a different number of meshes than the one this was built from.
+    pub fn update_instances(&mut self, scene: &Scene) {
+        self.check_meshes(scene);
+        let t0 = Instant::now();
+        self.tlas_bvh = build_tlas(&instance_bounds(scene));
+        self.encode_instances(scene);
+        self.times = BuildTimes {
+            blas_ms: 0.0,
+            tlas_ms: t0.elapsed().as_secs_f64() * 1e3,
+        };
+    }
+
+    /// Like [`SceneBvh::update_instances`], but keeps the TLAS's tree and only recomputes
+    /// its boxes for the new transforms: faster, but the tree degrades as instances move
+    /// away from where it was built, so rebuild now and then (or when traversal slows).
+    ///
+    /// # Panics
+    /// If the scene has a different number of meshes or instances than the one this was
+    /// built from.
+    pub fn refit_instances(&mut self, scene: &Scene) {
+        self.check_meshes(scene);
+        assert_eq!(
+            scene.instances.len(),
+            self.instances.len(),
+            "a TLAS refit needs the instances it was built for"
+        );
+        let t0 = Instant::now();
+        let bounds = instance_bounds(scene);
+        let bvh = &mut self.tlas_bvh;
+        for node in &mut bvh.nodes {
+            if node.is_leaf() {
+                let first = node.first_index as usize;
+                let mut aabb = Aabb::empty();
+                for &prim in &bvh.primitive_indices[first..first + node.prim_count as usize] {
+                    aabb = aabb.union(&bounds[prim as usize]);
+                }
+                node.set_aabb(aabb);
+            }
         }
+        bvh.refit_all();
+        self.encode_instances(scene);
+        self.times = BuildTimes {
+            blas_ms: 0.0,
+            tlas_ms: t0.elapsed().as_secs_f64() * 1e3,
+        };
+    }
+
+    fn check_meshes(&self, scene: &Scene) {
+        assert_eq!(
+            scene.meshes.len(),
+            self.mesh_offsets.len(),
+            "a TLAS update needs the meshes the BLASes were built from"
+        );
+    }
+
+    /// Collapses and encodes `tlas_bvh`, and writes the instance table and `max_depth`.
+    fn encode_instances(&mut self, scene: &Scene) {
+        let node_base = self.blas_nodes.len() as u32;
+        let bvh = &self.tlas_bvh;
+        // One instance per leaf (tlas_params): a leaf entry names the instance itself.
+        let wide = wide::collapse(bvh, 4, &|first, _| {
+            (bvh.primitive_indices[first as usize], 1)
+        });
+        self.tlas_nodes = wide.iter().map(|n| GpuNode::new(n, node_base)).collect();
+        self.max_depth = self.blas_stack_need + wide::stack_need(&wide);
+        self.instances = scene
+            .instances
+            .iter()
+            .map(|inst| {
+                let (node_base, tri_base) = self.mesh_offsets[inst.mesh as usize];
+                GpuInstance::new(inst.transform, node_base, tri_base, inst.mesh)
+            })
+            .collect();
     }
 
     /// The node array the GPU traverses: every BLAS, then the TLAS (root at
@@ -211,19 +293,10 @@ pub fn instance_bounds(scene: &Scene) -> Vec<Aabb> {
         .collect()
 }
 
-/// Builds the TLAS over instance bounds; leaves hold exactly one instance. Inner nodes'
-/// child indices are offset by `node_base`, where the TLAS starts in the GPU node array.
-/// Also returns the TLAS's stack need.
-fn build_tlas(scene: &Scene, node_base: u32) -> (Vec<GpuNode>, u32) {
-    let bounds = instance_bounds(scene);
+/// Builds the TLAS (BVH2) over instance bounds; leaves hold exactly one instance.
+fn build_tlas(bounds: &[Aabb]) -> Bvh2 {
     let mut core = Duration::ZERO;
-    let bvh = obvhs::bvh2::builder::build_bvh2(&bounds, tlas_params(), &mut core);
-    // One instance per leaf (tlas_params): a leaf entry names the instance itself.
-    let wide = wide::collapse(&bvh, 4, &|first, _| {
-        (bvh.primitive_indices[first as usize], 1)
-    });
-    let nodes = wide.iter().map(|n| GpuNode::new(n, node_base)).collect();
-    (nodes, wide::stack_need(&wide))
+    obvhs::bvh2::builder::build_bvh2(bounds, tlas_params(), &mut core)
 }
 
 /// Object-space transform helpers shared by the CPU reference and the GPU layout.
@@ -246,5 +319,125 @@ pub fn tree_depth(bvh: &Bvh2) -> u32 {
         0
     } else {
         bvh.depth(0) as u32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::load_scene;
+    use std::path::Path;
+
+    fn bundled(name: &str) -> Scene {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(name);
+        load_scene(&path).expect("bundled scene loads")
+    }
+
+    fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
+        bytemuck::cast_slice(v)
+    }
+
+    /// Everything the GPU gets from a SceneBvh, compared byte for byte.
+    fn assert_same(a: &SceneBvh, b: &SceneBvh) {
+        assert_eq!(bytes(&a.gpu_nodes()), bytes(&b.gpu_nodes()), "nodes");
+        assert_eq!(a.tlas_root(), b.tlas_root(), "TLAS root");
+        assert_eq!(bytes(&a.instances), bytes(&b.instances), "instances");
+        assert_eq!(bytes(&a.triangles), bytes(&b.triangles), "triangles");
+        assert_eq!(bytes(&a.shading), bytes(&b.shading), "shading");
+        assert_eq!(a.mesh_offsets, b.mesh_offsets, "mesh offsets");
+        assert_eq!(a.max_depth, b.max_depth, "stack need");
+    }
+
+    /// The cube-in-box scene with its room and cube (instances 0 and 1) moved.
+    fn moved_cube_in_box() -> (Scene, Scene) {
+        let scene = bundled("cube-in-box.toml");
+        let mut moved = scene.clone();
+        moved.instances[0].transform =
+            Mat4::from_translation(Vec3::new(0.5, -1.0, 2.0)) * moved.instances[0].transform;
+        moved.instances[1].transform = Mat4::from_translation(Vec3::new(-1.0, 0.5, 0.7))
+            * Mat4::from_rotation_y(1.0)
+            * Mat4::from_scale(Vec3::splat(1.5));
+        (scene, moved)
+    }
+
+    #[test]
+    fn instance_update_equals_fresh_build() {
+        let (scene, moved) = moved_cube_in_box();
+        let mut bvh = SceneBvh::build(&scene);
+        bvh.update_instances(&moved);
+        assert_same(&bvh, &SceneBvh::build(&moved));
+        // And back: nothing of the moved state is left over.
+        bvh.update_instances(&scene);
+        assert_same(&bvh, &SceneBvh::build(&scene));
+    }
+
+    #[test]
+    fn refit_without_motion_equals_fresh_build() {
+        let scene = bundled("cube-in-box.toml");
+        let mut bvh = SceneBvh::build(&scene);
+        bvh.refit_instances(&scene);
+        assert_same(&bvh, &SceneBvh::build(&scene));
+    }
+
+    /// A refitted TLAS bounds the moved instances and writes the same instance table.
+    #[test]
+    fn refit_after_motion_bounds_every_instance() {
+        let (scene, moved) = moved_cube_in_box();
+        let mut refit = SceneBvh::build(&scene);
+        refit.refit_instances(&moved);
+        let fresh = SceneBvh::build(&moved);
+        assert_eq!(bytes(&refit.instances), bytes(&fresh.instances));
+        // The root's children together bound every instance (the boxes were refitted).
+        let root = refit.tlas_nodes[0];
+        let (lo, hi) = (0..4)
+            .filter(|&s| root.words[12 + s] != wide::EMPTY)
+            .map(|s| root.child_bounds(s))
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (a, b)| {
+                (lo.min(a), hi.max(b))
+            });
+        for b in instance_bounds(&moved) {
+            assert!(Vec3::from(b.min).cmpge(lo).all() && Vec3::from(b.max).cmple(hi).all());
+        }
+    }
+
+    /// Frame-to-frame update costs on the 66 bouncing spheres: a full build, a TLAS
+    /// rebuild and a TLAS refit per frame, in milliseconds (median over the frames).
+    /// `cargo test --release --lib bvh::tests::tlas_update_timings -- --ignored --nocapture`
+    #[test]
+    #[ignore = "a measurement, not a check"]
+    fn tlas_update_timings() {
+        let mut scene = bundled("spheres.toml");
+        let median = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let frames: Vec<u32> = scene.frames().collect();
+        let (mut full, mut rebuild, mut refit) = (vec![], vec![], vec![]);
+        let mut rebuilt = SceneBvh::build(&scene);
+        let mut refitted = SceneBvh::build(&scene);
+        for &frame in &frames {
+            scene.set_frame(frame as f32);
+            let t = Instant::now();
+            let fresh = SceneBvh::build(&scene);
+            full.push(t.elapsed().as_secs_f64() * 1e3);
+            let t = Instant::now();
+            rebuilt.update_instances(&scene);
+            rebuild.push(t.elapsed().as_secs_f64() * 1e3);
+            let t = Instant::now();
+            refitted.refit_instances(&scene);
+            refit.push(t.elapsed().as_secs_f64() * 1e3);
+            assert_eq!(bytes(&fresh.gpu_nodes()), bytes(&rebuilt.gpu_nodes()));
+        }
+        eprintln!(
+            "{} instances, {} frames: full build {:.3} ms, TLAS rebuild {:.3} ms, \
+             TLAS refit {:.3} ms (medians)",
+            scene.instances.len(),
+            frames.len(),
+            median(full),
+            median(rebuild),
+            median(refit)
+        );
     }
 }

@@ -4,6 +4,7 @@
 //! TOML deserializer and are reported as "line N, column M"; errors found while validating
 //! values name the field path (e.g. `mesh[2].scale`) and, where it can be found, its line.
 
+use super::animation::{Animation, CameraKey, LightTrack, RectQuad, Track, TransformKey};
 use super::asset_path::resolve_asset;
 use super::obj::{ObjData, load_obj};
 use super::texture::TextureCache;
@@ -17,6 +18,9 @@ use std::path::{Path, PathBuf};
 
 /// Smallest |determinant| accepted for a mesh transform.
 const MIN_DETERMINANT: f32 = 1e-12;
+
+/// `camera.up` when not given.
+const DEFAULT_UP: [f32; 3] = [0.0, 1.0, 0.0];
 
 /// Prefix of the names of the materials and meshes generated for rect lights.
 pub const RECT_LIGHT_PREFIX: &str = "__rect_light_";
@@ -55,6 +59,14 @@ struct SceneDef {
     material: Vec<MaterialDef>,
     #[serde(default)]
     light: Vec<LightDef>,
+    animation: Option<AnimationDef>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AnimationDef {
+    fps: Option<f32>,
+    frames: Option<[u32; 2]>,
 }
 
 #[derive(Deserialize)]
@@ -65,6 +77,19 @@ struct CameraDef {
     up: Option<[f32; 3]>,
     fov_y: f32,
     resolution: [u32; 2],
+    #[serde(default)]
+    keyframe: Vec<CameraKeyDef>,
+}
+
+/// A `[[camera.keyframe]]`: omitted fields come from `[camera]`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraKeyDef {
+    frame: f32,
+    position: Option<[f32; 3]>,
+    target: Option<[f32; 3]>,
+    up: Option<[f32; 3]>,
+    fov_y: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -89,6 +114,18 @@ struct MeshDef {
     rotate: Option<[f32; 3]>,
     scale: Option<ScaleDef>,
     matrix: Option<[f32; 16]>,
+    #[serde(default)]
+    keyframe: Vec<MeshKeyDef>,
+}
+
+/// A `[[mesh.keyframe]]`: omitted fields come from the `[[mesh]]` entry.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MeshKeyDef {
+    frame: f32,
+    translate: Option<[f32; 3]>,
+    rotate: Option<[f32; 3]>,
+    scale: Option<ScaleDef>,
 }
 
 #[derive(Deserialize)]
@@ -113,6 +150,25 @@ struct LightDef {
     intensity: Option<[f32; 3]>,
     inner_angle: Option<f32>,
     outer_angle: Option<f32>,
+    corner: Option<[f32; 3]>,
+    edge_u: Option<[f32; 3]>,
+    edge_v: Option<[f32; 3]>,
+    radiance: Option<[f32; 3]>,
+    irradiance: Option<[f32; 3]>,
+    #[serde(default)]
+    keyframe: Vec<LightKeyDef>,
+}
+
+/// A `[[light.keyframe]]`: any of the light type's animatable parameters (see
+/// [`light_animatable`]); omitted ones come from the `[[light]]` entry. The cone angles and
+/// the type cannot be animated, so they are not fields here (serde reports them by name).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightKeyDef {
+    frame: f32,
+    position: Option<[f32; 3]>,
+    direction: Option<[f32; 3]>,
+    intensity: Option<[f32; 3]>,
     corner: Option<[f32; 3]>,
     edge_u: Option<[f32; 3]>,
     edge_v: Option<[f32; 3]>,
@@ -291,6 +347,10 @@ struct SceneBuilder<'a> {
     /// (MTL file (canonical), material name) -> index in `materials`.
     material_by_key: HashMap<(Option<PathBuf>, String), u32>,
     lights: Vec<Light>,
+    /// Tracks of the instances of `[[mesh]]` entries with keyframes.
+    instance_tracks: Vec<(usize, Track<TransformKey>)>,
+    /// Tracks of the lights with keyframes.
+    light_tracks: Vec<(usize, LightTrack)>,
 }
 
 impl<'a> SceneBuilder<'a> {
@@ -304,12 +364,15 @@ impl<'a> SceneBuilder<'a> {
             mesh_by_file: HashMap::new(),
             material_by_key: HashMap::new(),
             lights: Vec::new(),
+            instance_tracks: Vec::new(),
+            light_tracks: Vec::new(),
         }
     }
 
     fn build(mut self, def: SceneDef) -> Result<Scene> {
         let ctx = self.ctx;
         let camera = camera(ctx, &def.camera)?;
+        let camera_track = camera_track(ctx, &def.camera)?;
         let settings = render_settings(ctx, def.render.as_ref())?;
         let environment = match def.environment.and_then(|e| e.radiance) {
             Some(radiance) => ctx.non_negative3("environment.radiance", radiance)?,
@@ -321,8 +384,10 @@ impl<'a> SceneBuilder<'a> {
         for (i, material) in def.material.iter().enumerate() {
             self.apply_override(i, material)?;
         }
-        for (i, light) in def.light.iter().enumerate() {
-            let light = parse_light(ctx, i, light)?;
+        for (i, light_def) in def.light.iter().enumerate() {
+            let light = parse_light(ctx, &format!("light[{i}]"), light_def)?;
+            let track = light_track(ctx, i, light_def)?;
+            let mut quad = None;
             if let Light::Rect {
                 corner,
                 edge_u,
@@ -331,9 +396,30 @@ impl<'a> SceneBuilder<'a> {
             } = light
             {
                 self.add_rect_light_mesh(i, corner, edge_u, edge_v, radiance);
+                quad = Some(RectQuad {
+                    instance: self.instances.len() - 1,
+                    material: self.materials.len() - 1,
+                    corner,
+                    edge_u,
+                    edge_v,
+                    moves: light_def
+                        .keyframe
+                        .iter()
+                        .any(|k| k.corner.is_some() || k.edge_u.is_some() || k.edge_v.is_some()),
+                });
+            }
+            if let Some(track) = track {
+                self.light_tracks.push((i, LightTrack { track, quad }));
             }
             self.lights.push(light);
         }
+        let animation = animation(
+            ctx,
+            def.animation.as_ref(),
+            self.instance_tracks,
+            self.light_tracks,
+            camera_track,
+        )?;
 
         let mut textures = TextureCache::new();
         for (material, texture) in self.materials.iter_mut().zip(&self.material_textures) {
@@ -342,7 +428,7 @@ impl<'a> SceneBuilder<'a> {
             }
         }
 
-        let scene = Scene {
+        let mut scene = Scene {
             source: ctx.path.to_path_buf(),
             meshes: self.meshes,
             instances: self.instances,
@@ -352,7 +438,12 @@ impl<'a> SceneBuilder<'a> {
             environment,
             camera,
             settings,
+            animation,
         };
+        // The static values are only defaults for keyframes: a loaded animated scene shows
+        // its first frame.
+        let first = *scene.frames().start();
+        scene.set_frame(first as f32);
         if scene.triangle_count() == 0 {
             return Err(ctx.field_error(
                 "mesh",
@@ -366,6 +457,7 @@ impl<'a> SceneBuilder<'a> {
     fn add_mesh_entry(&mut self, i: usize, def: &MeshDef) -> Result<()> {
         let ctx = self.ctx;
         let transform = mesh_transform(ctx, i, def)?;
+        let track = mesh_track(ctx, i, def)?;
         let file = resolve_asset(ctx.path, &format!("mesh[{i}].file"), &def.file)?;
         let key = std::fs::canonicalize(&file).unwrap_or_else(|_| file.clone());
         let mesh = match self.mesh_by_file.get(&key) {
@@ -386,6 +478,9 @@ impl<'a> SceneBuilder<'a> {
             }
         };
         self.instances.push(Instance { mesh, transform });
+        if let Some(track) = track {
+            self.instance_tracks.push((self.instances.len() - 1, track));
+        }
         Ok(())
     }
 
@@ -506,26 +601,59 @@ impl<'a> SceneBuilder<'a> {
     }
 }
 
-fn camera(ctx: &Context, def: &CameraDef) -> Result<Camera> {
-    let position = ctx.finite3("camera.position", def.position)?;
-    let target = ctx.finite3("camera.target", def.target)?;
-    let up = ctx.direction3("camera.up", def.up.unwrap_or([0.0, 1.0, 0.0]))?;
-    let view = (target - position)
-        .try_normalize()
-        .ok_or_else(|| ctx.field_error("camera.target", "must differ from camera.position"))?;
+/// The view of `[camera]` or of one of its keyframes (`prefix` names which in errors).
+fn camera_view(
+    ctx: &Context,
+    prefix: &str,
+    position: [f32; 3],
+    target: [f32; 3],
+    up: [f32; 3],
+    fov: f32,
+) -> Result<CameraKey> {
+    let field = |name: &str| format!("{prefix}.{name}");
+    let position = ctx.finite3(&field("position"), position)?;
+    let target = ctx.finite3(&field("target"), target)?;
+    let up = ctx.direction3(&field("up"), up)?;
+    let view = (target - position).try_normalize().ok_or_else(|| {
+        ctx.field_error(
+            &field("target"),
+            format!("must differ from {prefix}.position"),
+        )
+    })?;
     if view.cross(up).length() < 1e-6 {
         return Err(ctx.field_error(
-            "camera.up",
+            &field("up"),
             "must not be parallel to the view direction (target - position)",
         ));
     }
-    let fov = def.fov_y;
     if !(fov.is_finite() && fov > 0.0 && fov < 180.0) {
         return Err(ctx.field_error(
-            "camera.fov_y",
+            &field("fov_y"),
             format!("vertical field of view must be in (0, 180) degrees, got {fov}"),
         ));
     }
+    Ok(CameraKey {
+        position,
+        target,
+        up,
+        fov_y_degrees: fov,
+    })
+}
+
+fn camera(ctx: &Context, def: &CameraDef) -> Result<Camera> {
+    let CameraKey {
+        position,
+        target,
+        up,
+        fov_y_degrees: fov,
+    } = camera_view(
+        ctx,
+        "camera",
+        def.position,
+        def.target,
+        def.up.unwrap_or(DEFAULT_UP),
+        def.fov_y,
+    )?;
     let [width, height] = def.resolution;
     if width == 0 || height == 0 {
         return Err(ctx.field_error(
@@ -634,8 +762,10 @@ fn light_parameters(kind: &str) -> Option<&'static [&'static str]> {
     })
 }
 
-fn parse_light(ctx: &Context, i: usize, def: &LightDef) -> Result<Light> {
-    let field = |name: &str| format!("light[{i}].{name}");
+/// A light from its (possibly keyframe-merged) parameters; `prefix` (`light[2]` or
+/// `light[2].keyframe[0]`) names the fields in errors.
+fn parse_light(ctx: &Context, prefix: &str, def: &LightDef) -> Result<Light> {
+    let field = |name: &str| format!("{prefix}.{name}");
     let kind = def.kind.as_str();
     let Some(takes) = light_parameters(kind) else {
         return Err(ctx.field_error(
@@ -736,6 +866,220 @@ fn parse_light(ctx: &Context, i: usize, def: &LightDef) -> Result<Light> {
     })
 }
 
+// ---------------------------------------------------------------------------------------------
+// Animation.
+
+/// Keyframes of consecutive directions closer to opposite than this (|a + b| below it) are
+/// rejected: the normalised linear interpolation between them is undefined.
+const MIN_DIRECTION_SUM: f32 = 1e-3;
+
+/// Checks that the frames of `prefix`'s keyframes are finite and strictly increasing.
+fn check_frames(ctx: &Context, prefix: &str, frames: impl Iterator<Item = f32>) -> Result<()> {
+    let mut previous: Option<f32> = None;
+    for (j, frame) in frames.enumerate() {
+        let field = format!("{prefix}.keyframe[{j}].frame");
+        if !frame.is_finite() {
+            return Err(ctx.field_error(&field, format!("must be finite, got {frame}")));
+        }
+        if let Some(previous) = previous.filter(|&p| frame <= p) {
+            return Err(ctx.field_error(
+                &field,
+                format!(
+                    "keyframe frames must be strictly increasing, got {frame} after {previous}"
+                ),
+            ));
+        }
+        previous = Some(frame);
+    }
+    Ok(())
+}
+
+/// Rejects consecutive keys whose directions (from `direction`) are opposite.
+fn check_not_opposite<T>(
+    ctx: &Context,
+    prefix: &str,
+    name: &str,
+    keys: &[(f32, T)],
+    direction: impl Fn(&T) -> Option<Vec3>,
+) -> Result<()> {
+    for j in 1..keys.len() {
+        if let (Some(a), Some(b)) = (direction(&keys[j - 1].1), direction(&keys[j].1)) {
+            if (a + b).length() < MIN_DIRECTION_SUM {
+                return Err(ctx.field_error(
+                    &format!("{prefix}.keyframe[{j}].{name}"),
+                    format!(
+                        "opposite to the previous keyframe's {name}: the interpolation \
+                         between them is undefined (add a keyframe in between)"
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The transform track of mesh entry `i`, if it has keyframes.
+fn mesh_track(ctx: &Context, i: usize, def: &MeshDef) -> Result<Option<Track<TransformKey>>> {
+    if def.keyframe.is_empty() {
+        return Ok(None);
+    }
+    let prefix = format!("mesh[{i}]");
+    if def.matrix.is_some() {
+        return Err(ctx.field_error(
+            &format!("{prefix}.matrix"),
+            "a mesh with keyframes must be placed with 'translate', 'rotate' and 'scale', \
+             not 'matrix' (a matrix cannot be interpolated)",
+        ));
+    }
+    check_frames(ctx, &prefix, def.keyframe.iter().map(|k| k.frame))?;
+    let mut keys = Vec::with_capacity(def.keyframe.len());
+    for (j, key) in def.keyframe.iter().enumerate() {
+        let field = |name: &str| format!("{prefix}.keyframe[{j}].{name}");
+        let translate = key.translate.or(def.translate).unwrap_or([0.0; 3]);
+        let rotate = key.rotate.or(def.rotate).unwrap_or([0.0; 3]);
+        let scale = key.scale.or(def.scale).map_or([1.0; 3], |s| s.0);
+        let translate = ctx.finite3(&field("translate"), translate)?;
+        let rotate = ctx.finite3(&field("rotate"), rotate)?;
+        let scale = ctx.finite3(&field("scale"), scale)?;
+        // A rotation has determinant 1, so the scale alone decides invertibility.
+        let det = scale.x * scale.y * scale.z;
+        if !(det.is_finite() && det.abs() > MIN_DETERMINANT) {
+            return Err(ctx.field_error(
+                &field("scale"),
+                format!("transform is not invertible (determinant {det})"),
+            ));
+        }
+        keys.push((key.frame, TransformKey::from_trs(translate, rotate, scale)));
+    }
+    Ok(Some(Track { keys }))
+}
+
+/// The parameters a keyframe of each light type may set.
+fn light_animatable(kind: &str) -> &'static [&'static str] {
+    match kind {
+        "point" => &["position", "intensity"],
+        "spot" => &["position", "direction", "intensity"],
+        "rect" => &["corner", "edge_u", "edge_v", "radiance"],
+        "sun" => &["direction", "irradiance"],
+        _ => &[],
+    }
+}
+
+/// The track of light entry `i` (already parsed without error), if it has keyframes. Each
+/// key is the static light with the keyframe's parameters replaced, validated like a light.
+fn light_track(ctx: &Context, i: usize, def: &LightDef) -> Result<Option<Track<Light>>> {
+    if def.keyframe.is_empty() {
+        return Ok(None);
+    }
+    let prefix = format!("light[{i}]");
+    check_frames(ctx, &prefix, def.keyframe.iter().map(|k| k.frame))?;
+    let kind = def.kind.as_str();
+    let animatable = light_animatable(kind);
+    let mut keys = Vec::with_capacity(def.keyframe.len());
+    for (j, key) in def.keyframe.iter().enumerate() {
+        let key_prefix = format!("{prefix}.keyframe[{j}]");
+        let given = [
+            ("position", key.position.is_some()),
+            ("direction", key.direction.is_some()),
+            ("intensity", key.intensity.is_some()),
+            ("corner", key.corner.is_some()),
+            ("edge_u", key.edge_u.is_some()),
+            ("edge_v", key.edge_v.is_some()),
+            ("radiance", key.radiance.is_some()),
+            ("irradiance", key.irradiance.is_some()),
+        ];
+        for (name, is_given) in given {
+            if is_given && !animatable.contains(&name) {
+                return Err(ctx.field_error(
+                    &format!("{key_prefix}.{name}"),
+                    format!(
+                        "a {kind} light has no animatable parameter '{name}' (a keyframe may \
+                         set: frame, {})",
+                        animatable.join(", ")
+                    ),
+                ));
+            }
+        }
+        let merged = LightDef {
+            kind: def.kind.clone(),
+            position: key.position.or(def.position),
+            direction: key.direction.or(def.direction),
+            intensity: key.intensity.or(def.intensity),
+            inner_angle: def.inner_angle,
+            outer_angle: def.outer_angle,
+            corner: key.corner.or(def.corner),
+            edge_u: key.edge_u.or(def.edge_u),
+            edge_v: key.edge_v.or(def.edge_v),
+            radiance: key.radiance.or(def.radiance),
+            irradiance: key.irradiance.or(def.irradiance),
+            keyframe: Vec::new(),
+        };
+        keys.push((key.frame, parse_light(ctx, &key_prefix, &merged)?));
+    }
+    check_not_opposite(ctx, &prefix, "direction", &keys, |light| match light {
+        Light::Spot { direction, .. } | Light::Sun { direction, .. } => Some(*direction),
+        _ => None,
+    })?;
+    Ok(Some(Track { keys }))
+}
+
+/// The camera's track, if `[camera]` has keyframes.
+fn camera_track(ctx: &Context, def: &CameraDef) -> Result<Option<Track<CameraKey>>> {
+    if def.keyframe.is_empty() {
+        return Ok(None);
+    }
+    check_frames(ctx, "camera", def.keyframe.iter().map(|k| k.frame))?;
+    let mut keys = Vec::with_capacity(def.keyframe.len());
+    for (j, key) in def.keyframe.iter().enumerate() {
+        let view = camera_view(
+            ctx,
+            &format!("camera.keyframe[{j}]"),
+            key.position.unwrap_or(def.position),
+            key.target.unwrap_or(def.target),
+            key.up.or(def.up).unwrap_or(DEFAULT_UP),
+            key.fov_y.unwrap_or(def.fov_y),
+        )?;
+        keys.push((key.frame, view));
+    }
+    check_not_opposite(ctx, "camera", "up", &keys, |key| Some(key.up))?;
+    Ok(Some(Track { keys }))
+}
+
+/// The scene's animation: `None` without an `[animation]` table and without keyframes.
+fn animation(
+    ctx: &Context,
+    def: Option<&AnimationDef>,
+    instances: Vec<(usize, Track<TransformKey>)>,
+    lights: Vec<(usize, LightTrack)>,
+    camera: Option<Track<CameraKey>>,
+) -> Result<Option<Animation>> {
+    if def.is_none() && instances.is_empty() && lights.is_empty() && camera.is_none() {
+        return Ok(None);
+    }
+    let fps = def.and_then(|d| d.fps).unwrap_or(25.0);
+    if !(fps.is_finite() && fps > 0.0) {
+        return Err(ctx.field_error(
+            "animation.fps",
+            format!("must be a positive number, got {fps}"),
+        ));
+    }
+    let [first_frame, last_frame] = def.and_then(|d| d.frames).unwrap_or([0, 0]);
+    if first_frame > last_frame {
+        return Err(ctx.field_error(
+            "animation.frames",
+            format!("must be [first, last] with first <= last, got [{first_frame}, {last_frame}]"),
+        ));
+    }
+    Ok(Some(Animation {
+        fps,
+        first_frame,
+        last_frame,
+        instances,
+        lights,
+        camera,
+    }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -777,6 +1121,7 @@ mod tests {
             rotate: Some([90.0, 0.0, 90.0]),
             scale: Some(ScaleDef([2.0; 3])),
             matrix: None,
+            keyframe: Vec::new(),
         };
         let m = mesh_transform(&ctx, 0, &def).unwrap();
         // x: scale 2 -> (2,0,0); Rx keeps it; Rz(90) -> (0,2,0); translate -> (1,4,3).
@@ -802,6 +1147,7 @@ mod tests {
             matrix: Some([
                 1.0, 0.0, 0.0, 5.0, 0.0, 1.0, 0.0, 6.0, 0.0, 0.0, 1.0, 7.0, 0.0, 0.0, 0.0, 1.0,
             ]),
+            keyframe: Vec::new(),
         };
         let m = mesh_transform(&ctx, 0, &def).unwrap();
         assert_eq!(m.transform_point3(Vec3::ZERO), Vec3::new(5.0, 6.0, 7.0));

@@ -3,8 +3,9 @@
 //!
 //! The scene file format (TOML) is documented in `docs/scene-format.md`; parsing lives in
 //! [`mod@file`], OBJ/MTL loading in [`obj`], textures in [`texture`], and asset lookup along
-//! `RADSPLAT_ASSET_PATH` in [`asset_path`].
+//! `RADSPLAT_ASSET_PATH` in [`asset_path`]; keyframed animation in [`animation`].
 
+pub mod animation;
 pub mod asset_path;
 pub mod file;
 pub mod obj;
@@ -13,6 +14,7 @@ pub mod texture;
 use glam::{Mat4, Vec2, Vec3};
 use std::path::PathBuf;
 
+pub use animation::Animation;
 pub use file::load_scene;
 
 /// A triangle mesh in its own object space. One OBJ file gives one `Mesh`; several
@@ -144,6 +146,10 @@ pub struct Scene {
     pub environment: Vec3,
     pub camera: Camera,
     pub settings: RenderSettings,
+    /// Keyframes and frame range; `None` for a scene file without `[animation]` and without
+    /// keyframes. The other fields hold the values at the first frame after loading; use
+    /// [`Scene::set_frame`] to move the scene to another frame.
+    pub animation: Option<Animation>,
 }
 
 impl Scene {
