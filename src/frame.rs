@@ -354,10 +354,28 @@ impl Renderer {
 
     /// Builds the BVH and uploads the scene.
     pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene> {
+        let mut bvh = None;
+        self.prepare_frame(scene, &mut bvh)
+    }
+
+    /// Prepares a frame of an animation: the first call (with `bvh` None) builds every
+    /// mesh's BVH; later calls rebuild only the top level for the new instance transforms
+    /// (the meshes must be those of the first call, as after [`Scene::set_frame`]).
+    pub fn prepare_frame(
+        &self,
+        scene: &Scene,
+        bvh: &mut Option<SceneBvh>,
+    ) -> Result<PreparedScene> {
         let t0 = Instant::now();
-        let bvh = SceneBvh::build(scene);
+        match bvh.as_mut() {
+            Some(b) => b.update_instances(scene),
+            None => *bvh = Some(SceneBvh::build(scene)),
+        }
+        let Some(bvh) = bvh.as_ref() else {
+            return Err(Error::Gpu("internal: no BVH".into()));
+        };
         let build_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let gpu = GpuScene::upload(&self.ctx, scene, &bvh, scene.settings.light_samples)?;
+        let gpu = GpuScene::upload(&self.ctx, scene, bvh, scene.settings.light_samples)?;
         self.ctx.check()?;
         Ok(PreparedScene {
             bvh_stats: BvhStats {

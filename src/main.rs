@@ -375,7 +375,14 @@ fn main() -> ExitCode {
             size,
             cache,
             json,
-        } => temporal_error(&scene, frame, records, size, &cache.settings(), json.as_deref()),
+        } => temporal_error(
+            &scene,
+            frame,
+            records,
+            size,
+            &cache.settings(),
+            json.as_deref(),
+        ),
         Command::Info => info(),
         Command::PlaneError {
             scene,
@@ -1011,7 +1018,9 @@ fn animate(args: AnimateArgs) -> Result<()> {
             ));
         }
         if ImageFormat::from_path(&frame_path(map, *frames.start())?)? != ImageFormat::Png {
-            return Err(Error::Usage("--lifespan-map writes PNG: use a .png pattern".into()));
+            return Err(Error::Usage(
+                "--lifespan-map writes PNG: use a .png pattern".into(),
+            ));
         }
     }
     let renderer = Renderer::new(GpuContext::new()?)?;
@@ -1134,7 +1143,10 @@ fn temporal_error(
         scene_path.display(),
         table.records
     );
-    println!("{:<18} {:>8} {:>8} {:>8} {:>8}", "", "min", "max", "mean", "median");
+    println!(
+        "{:<18} {:>8} {:>8} {:>8} {:>8}",
+        "", "min", "max", "mean", "median"
+    );
     for (name, s) in [
         ("reprojection", &table.reprojection),
         ("no reprojection", &table.no_reprojection),
@@ -1148,8 +1160,8 @@ fn temporal_error(
         );
     }
     if let Some(path) = json {
-        let text = serde_json::to_string_pretty(&table)
-            .map_err(|e| Error::Usage(format!("JSON: {e}")))?;
+        let text =
+            serde_json::to_string_pretty(&table).map_err(|e| Error::Usage(format!("JSON: {e}")))?;
         write_atomically(path, text.as_bytes())?;
     }
     Ok(())

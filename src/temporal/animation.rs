@@ -65,9 +65,12 @@ pub fn render_animation(
     let dynamic = scene_is_dynamic(scene);
     let mut current = scene.clone();
     let mut next_scene = scene.clone();
-    let prepare = |s: &mut Scene, t: u32| -> Result<PreparedScene> {
+    // Mesh BVHs are built once; each frame rebuilds the top level (TLAS rebuild and
+    // refit cost about the same here, see docs/results.md, and a rebuild never degrades).
+    let mut bvh = None;
+    let mut prepare = |s: &mut Scene, t: u32| -> Result<PreparedScene> {
         s.set_frame(t as f32);
-        renderer.prepare(s)
+        renderer.prepare_frame(s, &mut bvh)
     };
     let mut temporal = match &options.temporal {
         Some(settings) => Some(TemporalCache::new(&renderer.ctx, &options.cache, settings)?),

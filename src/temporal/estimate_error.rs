@@ -94,9 +94,8 @@ pub fn estimate_error_table(
         settings.plane_mode,
     );
     let cells = (settings.plane_resolution * settings.plane_resolution) as usize;
-    let reduce = |site, samples: &[PlaneSample]| -> Record {
-        reduce_plane(&plane, settings, site, samples)
-    };
+    let reduce =
+        |site, samples: &[PlaneSample]| -> Record { reduce_plane(&plane, settings, site, samples) };
     let (mut with, mut without) = (Vec::new(), Vec::new());
     for chunk in sites.chunks(pass.batch as usize) {
         let (now, ahead) = pass.trace_planes_ahead(
