@@ -175,6 +175,9 @@ enum Command {
         /// Bounce directions per pixel (powers of two suit the Sobol points).
         #[arg(long)]
         spp: u32,
+        /// Render this frame of an animated scene (default: its first frame).
+        #[arg(long)]
+        frame: Option<u32>,
         /// Output image: `.exr` (linear, with AOVs) or `.png` (tone-mapped); default
         /// <scene name>-reference.exr in the current directory.
         #[arg(short, long)]
@@ -414,13 +417,24 @@ fn main() -> ExitCode {
         Command::Reference {
             scene,
             spp,
+            frame,
             output,
             png,
             size,
             light_samples,
             stats,
             quiet,
-        } => reference(&scene, spp, output, png, size, light_samples, stats, quiet),
+        } => reference(
+            &scene,
+            spp,
+            frame,
+            output,
+            png,
+            size,
+            light_samples,
+            stats,
+            quiet,
+        ),
         Command::Compare {
             a,
             b,
@@ -728,6 +742,7 @@ fn info() -> Result<()> {
 fn reference(
     scene_path: &Path,
     spp: u32,
+    frame: Option<u32>,
     output: Option<PathBuf>,
     png: Option<PathBuf>,
     size: Option<(u32, u32)>,
@@ -740,6 +755,9 @@ fn reference(
         return Err(Error::Usage("--spp must be at least 1".into()));
     }
     let mut scene = load_scene(scene_path)?;
+    if let Some(f) = frame {
+        scene.set_frame(f as f32);
+    }
     if let Some((w, h)) = size {
         scene.camera.width = w;
         scene.camera.height = h;

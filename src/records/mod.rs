@@ -392,6 +392,7 @@ impl RecordPass {
     /// Computes records for `count` sites (a buffer of [`RecordSite`]) and appends them to
     /// `cache`; `on_batch` is called after each batch with the number done. Returns the
     /// per-pass GPU times.
+    #[allow(clippy::too_many_arguments)]
     pub fn compute(
         &self,
         ctx: &GpuContext,

@@ -323,7 +323,6 @@ impl TemporalCache {
             },
             progress,
         )?;
-        drop(lookahead);
         stats.new = self.frame_records.count - before_new;
 
         // The records computed this frame (replacements and new ones) and their estimates.

@@ -1,0 +1,109 @@
+#!/usr/bin/env python3
+"""Temporal radiance caching against per-frame recomputation (issue 4's measurement).
+
+For one animated scene: renders frames A..B with `radsplat animate --temporal on` and
+`--temporal off` (same cache settings), a brute-force reference per frame
+(`radsplat reference --frame t`), then `radsplat compare-seq` of both against the
+reference. Prints wall time, speedup, records computed, relative RMSE and flicker.
+
+    python3 benches/temporal/compare_temporal.py scenes/cube-in-box-anim.toml \\
+        --frames 0..59 --size 64x64 --spp 64 [--max-lifespan 20] [--out out/temporal/NAME]
+
+A short warm-up run first fills Mesa's on-disk shader cache: the first run of a new
+binary compiles its shaders (seconds on lavapipe), which would otherwise be billed to
+whichever variant runs first.
+"""
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def run(cmd):
+    print("  $", " ".join(map(str, cmd)), file=sys.stderr)
+    t0 = time.perf_counter()
+    p = subprocess.run([str(c) for c in cmd], capture_output=True, text=True)
+    if p.returncode != 0:
+        sys.exit(f"failed: {' '.join(map(str, cmd))}\n{p.stderr}")
+    return time.perf_counter() - t0
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("scene", type=Path)
+    ap.add_argument("--frames", default="0..59")
+    ap.add_argument("--size", default="64x64")
+    ap.add_argument("--spp", type=int, default=64, help="reference bounce samples per pixel")
+    ap.add_argument("--accuracy", default="0.2")
+    ap.add_argument("--plane-resolution", default="32")
+    ap.add_argument("--temporal-accuracy", default="0.05")
+    ap.add_argument("--max-lifespan", default="20")
+    ap.add_argument("--radsplat", type=Path, default=REPO / "target/release/radsplat")
+    ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--no-reference", action="store_true",
+                    help="timings and records only (no reference, RMSE or flicker)")
+    args = ap.parse_args()
+    out = (args.out or REPO / "out/temporal" / args.scene.stem).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    a, b = (int(v) for v in args.frames.split(".."))
+    rs = args.radsplat.resolve()
+    common = ["--size", args.size, "-a", args.accuracy, "--plane-resolution",
+              args.plane_resolution, "--quiet"]
+    run([rs, "animate", args.scene, "--frames", f"{a}..{min(a + 1, b)}", "-o",
+         out / "warmup_####.exr"] + common)
+    rows = {}
+    for mode in ("off", "on"):
+        extra = [] if mode == "off" else [
+            "--temporal-accuracy", args.temporal_accuracy, "--max-lifespan", args.max_lifespan,
+            "--lifespan-map", out / "lifespan_####.png"]
+        wall = run([rs, "animate", args.scene, "--frames", f"{a}..{b}", "--temporal", mode,
+                    "-o", out / f"{mode}_####.exr", "--stats", out / f"{mode}.json"]
+                   + common + extra)
+        stats = json.loads((out / f"{mode}.json").read_text())
+        rows[mode] = {"wall_s": wall, "records_computed": stats["records_computed"],
+                      "plane_rays": stats["plane_rays"],
+                      "peak_alive": max(f["temporal"]["alive"] for f in stats["frames"])}
+    if not args.no_reference:
+        t0 = time.perf_counter()
+        for t in range(a, b + 1):
+            ref = out / f"ref_{t:04d}.exr"
+            if not ref.exists():
+                run([rs, "reference", args.scene, "--frame", t, "--spp", args.spp, "--size",
+                     args.size, "-o", ref, "--quiet"])
+        ref_wall = time.perf_counter() - t0
+        for mode in ("off", "on"):
+            run([rs, "compare-seq", out / f"{mode}_####.exr", out / "ref_####.exr", "--frames",
+                 f"{a}..{b}", "--json", out / f"{mode}-vs-ref.json", "--plot",
+                 out / f"{mode}-vs-ref.png"])
+            c = json.loads((out / f"{mode}-vs-ref.json").read_text())["summary"]
+            rows[mode].update({"mean_relative_rmse": c["mean_relative_rmse"],
+                               "mean_flicker_relative": c["mean_flicker_relative"]})
+    speedup = rows["off"]["wall_s"] / rows["on"]["wall_s"]
+    print(f"\n{args.scene} frames {a}..{b} at {args.size}, a = {args.accuracy}, "
+          f"P = {args.plane_resolution}, a_t = {args.temporal_accuracy}, "
+          f"dt_max = {args.max_lifespan}")
+    print(f"{'':<10} {'wall s':>8} {'records':>9} {'peak alive':>10} {'rel RMSE':>9} {'flicker':>8}")
+    for mode in ("off", "on"):
+        r = rows[mode]
+        rm = r.get("mean_relative_rmse")
+        fl = r.get("mean_flicker_relative")
+        print(f"{'temporal ' + mode:<10} {r['wall_s']:>8.1f} {r['records_computed']:>9} "
+              f"{r['peak_alive']:>10} "
+              f"{'-' if rm is None else f'{100 * rm:.2f}%':>9} "
+              f"{'-' if fl is None else f'{100 * fl:.3f}%':>8}")
+    print(f"speedup {speedup:.2f}x, records computed "
+          f"{rows['off']['records_computed']} -> {rows['on']['records_computed']}")
+    summary = {"scene": str(args.scene), "frames": [a, b], "size": args.size,
+               "accuracy": args.accuracy, "plane_resolution": args.plane_resolution,
+               "temporal_accuracy": args.temporal_accuracy, "max_lifespan": args.max_lifespan,
+               "spp": args.spp, "rows": rows, "speedup": speedup}
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    print(f"wrote {out / 'summary.json'}")
+
+
+if __name__ == "__main__":
+    main()
