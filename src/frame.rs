@@ -40,6 +40,9 @@ pub struct CachedFrameOptions<'a, 'b> {
     pub lookahead: Option<&'a mut crate::records::Lookahead<'b>>,
     /// Count the pixels each record covers.
     pub count_coverage: bool,
+    /// Only place records: no direct light, no resolve; the returned frame has stats and
+    /// no images (the first pass of interpolated temporal gradients).
+    pub placement_only: bool,
 }
 
 /// Statistics of one frame.
@@ -220,8 +223,7 @@ impl Renderer {
             &cache.pass,
             CachedFrameOptions {
                 max_new_records,
-                lookahead: None,
-                count_coverage: false,
+                ..Default::default()
             },
             progress,
         )?;
@@ -245,13 +247,31 @@ impl Renderer {
             max_new_records,
             lookahead,
             count_coverage,
+            placement_only,
         } = options;
         let ctx = &self.ctx;
         let t0 = Instant::now();
         let mut times: Vec<(&'static str, f64)> = Vec::new();
 
-        // Visibility buffer and direct light.
-        let (vis, direct) = self.visibility_and_direct(scene, camera, &mut times)?;
+        // Visibility buffer and direct light (placement needs only the visibility).
+        let (vis, direct) = if placement_only {
+            let mut timer = PassTimer::new(ctx, 1);
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            let vis = self.visibility.record(
+                ctx,
+                &mut encoder,
+                &scene.gpu,
+                camera,
+                timer.next("visibility"),
+            )?;
+            timer.resolve(&mut encoder);
+            ctx.queue.submit([encoder.finish()]);
+            times.extend(timer.read(ctx)?);
+            (vis, None)
+        } else {
+            let (vis, direct) = self.visibility_and_direct(scene, camera, &mut times)?;
+            (vis, Some(direct))
+        };
 
         // Splat the records the cache already holds, then place new ones.
         let reused_records = records.count;
@@ -278,6 +298,43 @@ impl Renderer {
             &mut times,
             progress,
         )?;
+
+        let res = u64::from(pass.settings.plane_resolution);
+        let (width, height) = (camera.width, camera.height);
+        let stats = |times: &[(&'static str, f64)], uncovered_pixels| FrameStats {
+            width,
+            height,
+            pass_ms: sum_by_pass(times),
+            wall_ms: t0.elapsed().as_secs_f64() * 1e3,
+            camera_rays: u64::from(width) * u64::from(height),
+            cache: Some(CacheFrameStats {
+                records: records.count,
+                reused_records,
+                plane_rays: u64::from(placement.new_records) * res * res,
+                placement,
+                uncovered_pixels,
+            }),
+        };
+        let mut coverage = if count_coverage {
+            splat.read_coverage(ctx)?
+        } else {
+            Vec::new()
+        };
+        coverage.truncate(records.count as usize);
+        let Some(direct) = direct else {
+            ctx.check()?;
+            let frame = Frame {
+                width,
+                height,
+                beauty: Vec::new(),
+                albedo: Vec::new(),
+                direct: Vec::new(),
+                indirect: None,
+                visibility: Vec::new(),
+                stats: stats(&times, 0),
+            };
+            return Ok((frame, coverage));
+        };
 
         // Resolve: direct + albedo / pi * interpolated irradiance.
         let mut timer = PassTimer::new(ctx, 1);
@@ -312,20 +369,12 @@ impl Renderer {
         let (beauty, albedo, direct_img, indirect_img, sums) =
             (next()?, next()?, next()?, next()?, next()?);
         let visibility = vis.read(ctx)?;
-        let mut coverage = if count_coverage {
-            splat.read_coverage(ctx)?
-        } else {
-            Vec::new()
-        };
-        coverage.truncate(records.count as usize);
         let uncovered_pixels = visibility
             .iter()
             .zip(&sums)
             .filter(|(v, s)| v.is_hit() && s[3] <= 0.0)
             .count() as u64;
         ctx.check()?;
-        let res = u64::from(pass.settings.plane_resolution);
-        let (width, height) = (camera.width, camera.height);
         let frame = Frame {
             width,
             height,
@@ -334,20 +383,7 @@ impl Renderer {
             direct: direct_img,
             indirect: Some(indirect_img),
             visibility,
-            stats: FrameStats {
-                width,
-                height,
-                pass_ms: sum_by_pass(&times),
-                wall_ms: t0.elapsed().as_secs_f64() * 1e3,
-                camera_rays: u64::from(width) * u64::from(height),
-                cache: Some(CacheFrameStats {
-                    records: records.count,
-                    reused_records,
-                    plane_rays: u64::from(placement.new_records) * res * res,
-                    placement,
-                    uncovered_pixels,
-                }),
-            },
+            stats: stats(&times, uncovered_pixels),
         };
         Ok((frame, coverage))
     }

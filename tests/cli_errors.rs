@@ -161,3 +161,72 @@ fn output_format_follows_the_extension() {
     let img = image::open(&png).expect("-o c.png writes a PNG");
     assert_eq!((img.width(), img.height()), (16, 16));
 }
+
+#[test]
+fn animate_writes_one_image_per_frame_and_refuses_bad_patterns() {
+    let dir = tmp_dir("animate");
+    let scene = common::bundled("cube-in-box-anim.toml");
+    // A pattern without '#' would overwrite one file: refused before rendering.
+    let single = dir.join("frame.exr");
+    let (code, err) = radsplat(&[
+        "animate",
+        scene.to_str().unwrap(),
+        "--frames",
+        "0..1",
+        "-o",
+        single.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("frame.exr") && err.contains('#'), "{err}");
+    no_files_in(&dir);
+    // The lifespan map needs temporal caching.
+    let pattern = dir.join("f_##.png");
+    let (code, err) = radsplat(&[
+        "animate",
+        scene.to_str().unwrap(),
+        "--frames",
+        "0..1",
+        "-o",
+        pattern.to_str().unwrap(),
+        "--temporal",
+        "off",
+        "--lifespan-map",
+        dir.join("l_##.png").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--lifespan-map"), "{err}");
+    no_files_in(&dir);
+
+    let stats = dir.join("stats.json");
+    let (code, err) = radsplat(&[
+        "animate",
+        scene.to_str().unwrap(),
+        "--frames",
+        "3..5",
+        "--size",
+        "16x16",
+        "--plane-resolution",
+        "8",
+        "-o",
+        pattern.to_str().unwrap(),
+        "--lifespan-map",
+        dir.join("l_##.png").to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    for f in 3..=5 {
+        let img = image::open(dir.join(format!("f_{f:02}.png"))).expect("frame PNG");
+        assert_eq!((img.width(), img.height()), (16, 16));
+        assert!(dir.join(format!("l_{f:02}.png")).exists());
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).expect("stats")).expect("JSON");
+    let frames = json["frames"].as_array().expect("frames");
+    assert_eq!(frames.len(), 3);
+    assert_eq!(frames[0]["frame"], 3);
+    assert!(frames[0]["temporal"]["new"].as_u64().unwrap_or(0) > 0);
+}

@@ -37,7 +37,16 @@ fn static_animation_reuses_every_record_and_matches_the_static_render() {
         .expect("temporal cache");
     for t in 0..4 {
         let (frame, stats) = temporal
-            .render_frame(&renderer, &prepared, None, &scene.camera, t, false, |_| {})
+            .render_frame(
+                &renderer,
+                &prepared,
+                None,
+                &scene.camera,
+                t,
+                false,
+                false,
+                |_| {},
+            )
             .expect("temporal frame");
         renderer.ctx.check().expect("no wgpu errors");
         if t == 0 {
@@ -87,6 +96,7 @@ fn moving_cube_expires_replaces_and_deletes_records() {
                 &scene.camera,
                 t,
                 true,
+                false,
                 |_| {},
             )
             .expect("temporal frame");

@@ -107,6 +107,7 @@ pub fn render_animation(
                     &current.camera,
                     t,
                     dynamic,
+                    two_pass,
                     frame_progress,
                 )?;
                 let (records, lifespans) = cache.alive_records(t);
@@ -183,6 +184,10 @@ pub fn render_animation(
             };
             let frame = cache.render_second_pass(renderer, p, &scene_t.camera, t)?;
             stats.wall_ms += start.elapsed().as_secs_f64() * 1e3;
+            // Both passes' GPU time in the frame's stats.
+            let mut all = stats.frame_stats.pass_ms.clone();
+            all.extend(frame.stats.pass_ms.iter().cloned());
+            stats.frame_stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
             let (records, lifespans) = cache.records_of_frame(t);
             on_frame(AnimationFrame {
                 frame_number: t,

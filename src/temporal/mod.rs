@@ -229,6 +229,8 @@ impl TemporalCache {
     /// nothing changes (records are then not estimated ahead: tau = 1). `dynamic`: whether
     /// anything that affects irradiance (instances, lights) is animated; when false,
     /// records never expire (dt_max is lifted: nothing can change later).
+    /// `placement_only`: the first pass of interpolated gradients (records only: no direct
+    /// light, no images in the returned frame).
     #[allow(clippy::too_many_arguments)]
     pub fn render_frame(
         &mut self,
@@ -238,6 +240,7 @@ impl TemporalCache {
         camera: &Camera,
         t: u32,
         dynamic: bool,
+        placement_only: bool,
         progress: impl FnMut(u32),
     ) -> Result<(Frame, TemporalFrameStats)> {
         let ctx = &renderer.ctx;
@@ -320,6 +323,7 @@ impl TemporalCache {
                 max_new_records: None,
                 lookahead: lookahead.as_mut(),
                 count_coverage: true,
+                placement_only,
             },
             progress,
         )?;
@@ -415,8 +419,7 @@ impl TemporalCache {
             &self.pass,
             CachedFrameOptions {
                 max_new_records: Some(0),
-                lookahead: None,
-                count_coverage: false,
+                ..Default::default()
             },
             |_| {},
         )?;
