@@ -35,6 +35,37 @@ pub struct RgbImage {
 }
 
 impl RgbImage {
+    /// The beauty of `self` minus that of `other`, also as the indirect AOV: the indirect
+    /// light of a renderer that writes only totals, e.g. rpict `-ab 1` minus `-ab 0`
+    /// (same direct sampling), to compare with a reference's `indirect.*`.
+    pub fn minus(&self, other: &RgbImage) -> Result<RgbImage> {
+        if (self.width, self.height) != (other.width, other.height) {
+            return Err(Error::Usage(format!(
+                "image sizes differ: {} is {}x{}, {} is {}x{}",
+                self.path.display(),
+                self.width,
+                self.height,
+                other.path.display(),
+                other.width,
+                other.height
+            )));
+        }
+        let beauty: Vec<[f32; 3]> = self
+            .beauty
+            .iter()
+            .zip(&other.beauty)
+            .map(|(a, b)| [a[0] - b[0], a[1] - b[1], a[2] - b[2]])
+            .collect();
+        Ok(RgbImage {
+            path: self.path.clone(),
+            width: self.width,
+            height: self.height,
+            indirect: Some(beauty.clone()),
+            beauty,
+            albedo: None,
+        })
+    }
+
     /// The image box-filtered by `factor` x `factor` pixels (rows and columns that do not
     /// fill a whole box are dropped). Comparing downsampled images measures the error at a
     /// coarser scale, where the per-pixel noise of a Monte Carlo reference averages out

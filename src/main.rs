@@ -215,6 +215,10 @@ enum Command {
         /// per-pixel noise of a Monte Carlo reference).
         #[arg(long, default_value_t = 1)]
         downsample: u32,
+        /// Compare A minus this image (e.g. rpict -ab 1 minus -ab 0: its indirect light);
+        /// the difference is also compared with B's `indirect.*`.
+        #[arg(long)]
+        minus: Option<PathBuf>,
         /// Write the numbers as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -441,10 +445,12 @@ fn main() -> ExitCode {
             diff,
             diff_scale,
             downsample,
+            minus,
             json,
         } => compare(
             &a,
             &b,
+            minus.as_deref(),
             diff.as_deref(),
             diff_scale,
             downsample,
@@ -842,9 +848,11 @@ fn reference(
     Ok(())
 }
 
+#[allow(clippy::too_many_arguments)]
 fn compare(
     a: &Path,
     b: &Path,
+    minus: Option<&Path>,
     diff: Option<&Path>,
     scale: f32,
     downsample: u32,
@@ -857,6 +865,9 @@ fn compare(
         ));
     }
     let mut ia = load_image(a)?;
+    if let Some(c) = minus {
+        ia = ia.minus(&load_image(c)?)?;
+    }
     let mut ib = load_image(b)?;
     if downsample != 1 {
         ia = ia.downsample(downsample)?;

@@ -62,11 +62,13 @@ def run(cmd, env, stdout=None, quiet=False):
     return dt, (p.stdout.decode(errors="replace") if stdout is None else "")
 
 
-def compare(radsplat, a, ref, out, env, downsample=1):
-    """`radsplat compare A REF --json [--downsample N]`, returns the parsed JSON."""
-    js = out / (Path(a).stem + "-vs-ref.json")
-    run([radsplat, "compare", a, ref, "--json", js, "--diff", out / (Path(a).stem + "-diff.png"),
-         "--downsample", str(downsample)], env, quiet=True)
+def compare(radsplat, a, ref, out, env, downsample=1, minus=None):
+    """`radsplat compare A REF --json [--downsample N] [--minus C]`, returns the parsed JSON."""
+    stem = Path(a).stem + ("-minus-" + Path(minus).stem if minus else "")
+    js = out / (stem + "-vs-ref.json")
+    run([radsplat, "compare", a, ref, "--json", js, "--diff", out / (stem + "-diff.png"),
+         "--downsample", str(downsample)] + (["--minus", minus] if minus else []),
+        env, quiet=True)
     return json.loads(js.read_text())
 
 
@@ -91,6 +93,9 @@ def main():
     ap.add_argument("--ar", type=int, default=128, help="rpict -ar (ambient resolution)")
     ap.add_argument("--ds", type=float, default=0.05,
                     help="rpict -ds (area-light subdivision; smaller is finer)")
+    ap.add_argument("--dj", type=float, default=0.7,
+                    help="rpict -dj (source jitter; 0 samples each source at fixed points, "
+                         "e.g. a sun as radsplat's delta sun)")
     ap.add_argument("--plane-resolution", type=int, default=32,
                     help="radsplat hemisphere plane P (P x P rays per record; 32 x 32 = 1024 "
                          "rays, the same count as rpict -ad 1024)")
@@ -156,7 +161,7 @@ def main():
 
     # rpict: pixel centres (-pj 0), every pixel traced (-ps 1), exact size (-pa 0).
     rp = [bindir / "rpict"] + view + ["-x", w, "-y", h, "-pa", "0", "-pj", "0", "-ps", "1",
-                                      "-pt", "0", "-dt", "0", "-dc", "1", "-dj", "0.7",
+                                      "-pt", "0", "-dt", "0", "-dc", "1", "-dj", str(args.dj),
                                       "-ds", args.ds, "-dr", "0", "-lr", "1"]
     rp_direct = out / "rpict-ab0.hdr"
     t, _ = run(rp + ["-ab", "0", out / "scene.oct"], env, stdout=open(rp_direct, "wb"))
@@ -175,17 +180,23 @@ def main():
     results = []
     print()
     print(f"{'renderer':<32} {'wall s':>8} {'cpu s':>8} {'records':>8} {'RMSE':>10} {'rel RMSE':>9} "
-          f"{'rel RMSE surfaces':>17}")
+          f"{'rel RMSE surfaces':>17} {'rel RMSE indirect':>17}")
     for name, t, records, img, cpu in rows:
         c = compare(radsplat, img, ref, out, env, args.downsample)
         b = c["beauty"]
         surf = c.get("surfaces") or {}
+        indirect = c.get("indirect")
+        if img == rp_gi:
+            # rpict's indirect light: -ab 1 minus -ab 0 (same direct sampling).
+            indirect = compare(radsplat, img, ref, out, env, args.downsample,
+                               minus=rp_direct).get("indirect")
         results.append({"renderer": name, "wall_s": t, "cpu_s": cpu, "records": records,
                         "image": str(img), "beauty": b, "surfaces": surf or None,
-                        "indirect": c.get("indirect")})
+                        "indirect": indirect})
         rec = "-" if records is None else str(records)
+        ind = float("nan") if indirect is None else indirect["relative_rmse"]
         print(f"{name:<32} {t:>8.2f} {cpu:>8.2f} {rec:>8} {b['rmse']:>10.4g} {b['relative_rmse']:>9.4f} "
-              f"{surf.get('relative_rmse', float('nan')):>17.4f}")
+              f"{surf.get('relative_rmse', float('nan')):>17.4f} {ind:>17.4f}")
     if gi_pending:
         name = f"radsplat GI -a {args.accuracy}"
         print(f"{name:<32} pending: this build's render has no -a/--accuracy")
@@ -200,7 +211,7 @@ def main():
         print("note: the scene has an environment; radsplat samples it as direct light, "
               "Radiance's glow sky is ambient-only, so -ab 0 and -ab 1 lack sky terms")
     summary = {"scene": str(args.scene), "width": w, "height": h, "accuracy": args.accuracy,
-               "rpict": {"ad": args.ad, "as": args.as_, "ar": args.ar, "ds": args.ds},
+               "rpict": {"ad": args.ad, "as": args.as_, "ar": args.ar, "ds": args.ds, "dj": args.dj},
                "spp": args.spp, "reference": str(ref), "downsample": args.downsample,
                "plane_resolution": args.plane_resolution, "light_samples": args.light_samples,
                "gi_pending": gi_pending, "results": results,
