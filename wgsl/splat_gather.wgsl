@@ -23,13 +23,18 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         return;
     }
     let pixel = id.y * params.width + id.x;
+    let tile = (id.y / TILE_SIZE) * params.tiles_x + id.x / TILE_SIZE;
+    // Accumulating a round that binned nothing into this tile leaves its sums as they
+    // are: skip the memory traffic (placement rounds touch few tiles of a large image).
+    if params.accumulate != 0u && tile_offsets[tile] == tile_offsets[tile + 1u] {
+        return;
+    }
     var sum = vec4f(0.0);
     if params.accumulate != 0u {
         sum = splat[pixel];
     }
     let v = vis[pixel];
     if v.instance != NO_HIT {
-        let tile = (id.y / TILE_SIZE) * params.tiles_x + id.x / TILE_SIZE;
         let p = v.position;
         let n = v.shading_normal;
         for (var j = tile_offsets[tile]; j < tile_offsets[tile + 1u]; j++) {
