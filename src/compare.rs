@@ -39,17 +39,7 @@ impl RgbImage {
     /// light of a renderer that writes only totals, e.g. rpict `-ab 1` minus `-ab 0`
     /// (same direct sampling), to compare with a reference's `indirect.*`.
     pub fn minus(&self, other: &RgbImage) -> Result<RgbImage> {
-        if (self.width, self.height) != (other.width, other.height) {
-            return Err(Error::Usage(format!(
-                "image sizes differ: {} is {}x{}, {} is {}x{}",
-                self.path.display(),
-                self.width,
-                self.height,
-                other.path.display(),
-                other.width,
-                other.height
-            )));
-        }
+        check_same_size(self, other)?;
         let beauty: Vec<[f32; 3]> = self
             .beauty
             .iter()
@@ -283,9 +273,8 @@ fn check_finite(img: &RgbImage, what: &str, pixels: &[[f32; 3]]) -> Result<()> {
     Ok(())
 }
 
-/// Compares image `a` against the reference `b`. Errors when the sizes differ or a
-/// pixel is not finite.
-pub fn compare(a: &RgbImage, b: &RgbImage) -> Result<Comparison> {
+/// A usage error naming both files when their sizes differ.
+fn check_same_size(a: &RgbImage, b: &RgbImage) -> Result<()> {
     if (a.width, a.height) != (b.width, b.height) {
         return Err(Error::Usage(format!(
             "image sizes differ: {} is {}x{}, {} is {}x{}",
@@ -297,6 +286,13 @@ pub fn compare(a: &RgbImage, b: &RgbImage) -> Result<Comparison> {
             b.height
         )));
     }
+    Ok(())
+}
+
+/// Compares image `a` against the reference `b`. Errors when the sizes differ or a
+/// pixel is not finite.
+pub fn compare(a: &RgbImage, b: &RgbImage) -> Result<Comparison> {
+    check_same_size(a, b)?;
     check_finite(a, "beauty", &a.beauty)?;
     check_finite(b, "beauty", &b.beauty)?;
     let indirect = match (&a.indirect, &b.indirect) {

@@ -254,24 +254,8 @@ impl Renderer {
         let mut times: Vec<(&'static str, f64)> = Vec::new();
 
         // Visibility buffer and direct light (placement needs only the visibility).
-        let (vis, direct) = if placement_only {
-            let mut timer = PassTimer::new(ctx, 1);
-            let mut encoder = ctx.device.create_command_encoder(&Default::default());
-            let vis = self.visibility.record(
-                ctx,
-                &mut encoder,
-                &scene.gpu,
-                camera,
-                timer.next("visibility"),
-            )?;
-            timer.resolve(&mut encoder);
-            ctx.queue.submit([encoder.finish()]);
-            times.extend(timer.read(ctx)?);
-            (vis, None)
-        } else {
-            let (vis, direct) = self.visibility_and_direct(scene, camera, &mut times)?;
-            (vis, Some(direct))
-        };
+        let (vis, direct) =
+            self.visibility_and_direct(scene, camera, !placement_only, &mut times)?;
 
         // Splat the records the cache already holds, then place new ones.
         let reused_records = records.count;
@@ -431,8 +415,9 @@ impl Renderer {
         &self,
         scene: &PreparedScene,
         camera: &Camera,
+        with_direct: bool,
         times: &mut Vec<(&'static str, f64)>,
-    ) -> Result<(VisibilityBuffer, DirectOutput)> {
+    ) -> Result<(VisibilityBuffer, Option<DirectOutput>)> {
         let ctx = &self.ctx;
         let mut timer = PassTimer::new(ctx, 2);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
@@ -443,9 +428,14 @@ impl Renderer {
             camera,
             timer.next("visibility"),
         )?;
-        let direct =
-            self.direct
-                .record(ctx, &mut encoder, &scene.gpu, &vis, timer.next("direct"))?;
+        let direct = if with_direct {
+            Some(
+                self.direct
+                    .record(ctx, &mut encoder, &scene.gpu, &vis, timer.next("direct"))?,
+            )
+        } else {
+            None
+        };
         timer.resolve(&mut encoder);
         ctx.queue.submit([encoder.finish()]);
         times.extend(timer.read(ctx)?);
@@ -458,7 +448,8 @@ impl Renderer {
         let ctx = &self.ctx;
         let t0 = Instant::now();
         let mut times = Vec::new();
-        let (vis, direct) = self.visibility_and_direct(scene, camera, &mut times)?;
+        let (vis, direct) = self.visibility_and_direct(scene, camera, true, &mut times)?;
+        let direct = direct.ok_or_else(|| Error::Gpu("internal: no direct light".into()))?;
         // One submission and one wait for all three images.
         let mut images = ctx
             .read_buffers::<[f32; 4]>(&[&direct.beauty, &direct.albedo, &direct.direct])?
