@@ -39,9 +39,16 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         let n = v.shading_normal;
         for (var j = tile_offsets[tile]; j < tile_offsets[tile + 1u]; j++) {
             let k = sorted[j];
-            let r = records[k];
+            // The weight test needs 32 of the record's 144 bytes: load those first and
+            // the gradients only for records that contribute (every storage load is a
+            // per-lane loop on lavapipe).
+            var r: Record;
+            r.position = records[k].position;
+            r.radius = records[k].radius;
+            r.normal = records[k].normal;
             let err = record_error(r, p, n);
             if err <= params.accuracy && record_in_front(r, p, n, params.accuracy) {
+                r = records[k];
                 // w = 1 / err, capped where p is the record's own point.
                 let w = 1.0 / max(err, 1.0e-6);
                 sum += vec4f(w * record_irradiance_at(r, p, n), w);
