@@ -135,21 +135,12 @@ fn placement_is_deterministic_and_the_gi_render_matches_its_golden_hash() {
         "records differ between runs"
     );
     assert_eq!(hashes[0], hashes[1], "GI renders differ between runs");
-    let driver = renderer
-        .ctx
-        .adapter_info
-        .as_ref()
-        .map(|a| a.driver_info.clone())
-        .unwrap_or_default();
-    eprintln!(
-        "Cornell GI 64x64 EXR SHA-256 {} (driver {driver})",
-        hashes[0]
+    common::assert_golden(
+        &renderer.ctx,
+        "Cornell GI 64x64 EXR",
+        &hashes[0],
+        GOLDEN_CORNELL_GI,
     );
-    if driver.contains("Mesa 22.3.6") {
-        assert_eq!(hashes[0], GOLDEN_CORNELL_GI);
-    } else {
-        panic!("the golden hash is tied to lavapipe of Mesa 22.3.6; this driver is '{driver}'");
-    }
 }
 
 /// SHA-256 of the 64x64 Cornell box GI EXR (test settings) on lavapipe, Mesa 22.3.6.

@@ -309,18 +309,7 @@ fn ten_frame_sequence_is_deterministic_and_matches_its_golden_hash() {
     assert!(computed * 2 < per_frame);
     let all: Vec<u8> = a.concat();
     let hash = radsplat::output::sha256_hex(&all);
-    let driver = renderer
-        .ctx
-        .adapter_info
-        .as_ref()
-        .map(|a| a.driver_info.clone())
-        .unwrap_or_default();
-    eprintln!("10-frame sequence SHA-256 {hash} (driver {driver})");
-    if driver.contains("Mesa 22.3.6") {
-        assert_eq!(hash, GOLDEN_SEQUENCE);
-    } else {
-        panic!("the golden hash is tied to lavapipe of Mesa 22.3.6; this driver is '{driver}'");
-    }
+    common::assert_golden(&renderer.ctx, "10-frame sequence", &hash, GOLDEN_SEQUENCE);
 }
 
 /// SHA-256 of the ten EXRs (concatenated) of cube-in-box-anim frames 0..9, 32 x 32,

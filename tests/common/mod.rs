@@ -35,3 +35,21 @@ pub fn shared_scenes_enabled() -> bool {
 pub fn gpu() -> GpuContext {
     GpuContext::new().unwrap_or_else(|e| panic!("no GPU context: {e}"))
 }
+
+/// Asserts a golden SHA-256. Golden hashes are tied to the driver CI installs (lavapipe of
+/// Mesa 22.3.6): on another driver the test fails with a message saying so, never skips.
+pub fn assert_golden(ctx: &GpuContext, what: &str, hash: &str, golden: &str) {
+    let driver = ctx
+        .adapter_info
+        .as_ref()
+        .map(|a| a.driver_info.clone())
+        .unwrap_or_default();
+    eprintln!("{what} SHA-256 {hash} (driver {driver})");
+    if driver.contains("Mesa 22.3.6") {
+        assert_eq!(hash, golden, "{what} changed");
+    } else {
+        panic!(
+            "the golden hash of {what} is tied to lavapipe of Mesa 22.3.6; this driver is '{driver}'"
+        );
+    }
+}
