@@ -375,16 +375,19 @@ impl Renderer {
     /// Builds the BVH and uploads the scene.
     pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene> {
         let mut bvh = None;
-        self.prepare_frame(scene, &mut bvh)
+        self.prepare_frame(scene, &mut bvh, None)
     }
 
     /// Prepares a frame of an animation: the first call (with `bvh` None) builds every
     /// mesh's BVH; later calls rebuild only the top level for the new instance transforms
-    /// (the meshes must be those of the first call, as after [`Scene::set_frame`]).
+    /// (the meshes must be those of the first call, as after [`Scene::set_frame`]) and,
+    /// given a `previous` frame prepared with the same `bvh`, share its mesh and texture
+    /// buffers instead of uploading them again.
     pub fn prepare_frame(
         &self,
         scene: &Scene,
         bvh: &mut Option<SceneBvh>,
+        previous: Option<&PreparedScene>,
     ) -> Result<PreparedScene> {
         let t0 = Instant::now();
         match bvh.as_mut() {
@@ -395,7 +398,13 @@ impl Renderer {
             return Err(Error::Gpu("internal: no BVH".into()));
         };
         let build_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let gpu = GpuScene::upload(&self.ctx, scene, bvh, scene.settings.light_samples)?;
+        let gpu = GpuScene::upload_frame(
+            &self.ctx,
+            scene,
+            bvh,
+            scene.settings.light_samples,
+            previous.map(|p| &p.gpu),
+        )?;
         self.ctx.check()?;
         Ok(PreparedScene {
             bvh_stats: BvhStats {

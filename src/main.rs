@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use radsplat::gpu::GpuContext;
-use radsplat::output::{ImageFormat, tonemap_to_srgb8, write_atomically, write_exr, write_png};
+use radsplat::output::{ImageFormat, tonemap_to_srgb8, write_atomically, write_png};
 use radsplat::records::CacheSettings;
 use radsplat::scene::load_scene;
 use radsplat::temporal::{TemporalGradients, TemporalSettings};
@@ -301,6 +301,31 @@ impl CacheArgs {
     }
 }
 
+/// Loads a scene with the command line's overrides: an animation frame, the resolution
+/// and the light samples (at least 1).
+fn load_scene_with(
+    path: &Path,
+    frame: Option<u32>,
+    size: Option<(u32, u32)>,
+    light_samples: Option<u32>,
+) -> Result<radsplat::scene::Scene> {
+    let mut scene = load_scene(path)?;
+    if let Some(f) = frame {
+        scene.set_frame(f as f32);
+    }
+    if let Some((w, h)) = size {
+        scene.camera.width = w;
+        scene.camera.height = h;
+    }
+    if let Some(n) = light_samples {
+        if n == 0 {
+            return Err(Error::Usage("--light-samples must be at least 1".into()));
+        }
+        scene.settings.light_samples = n;
+    }
+    Ok(scene)
+}
+
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -528,17 +553,7 @@ fn render(args: RenderArgs) -> Result<()> {
     }
     let bar = progress(quiet, 5);
     bar.set_message("loading scene");
-    let mut scene = load_scene(scene_path)?;
-    if let Some((w, h)) = size {
-        scene.camera.width = w;
-        scene.camera.height = h;
-    }
-    if let Some(n) = light_samples {
-        if n == 0 {
-            return Err(Error::Usage("--light-samples must be at least 1".into()));
-        }
-        scene.settings.light_samples = n;
-    }
+    let scene = load_scene_with(scene_path, None, size, light_samples)?;
     let output = output.unwrap_or_else(|| {
         let stem = scene_path.file_stem().unwrap_or_default().to_string_lossy();
         PathBuf::from(format!("{stem}.exr"))
@@ -570,15 +585,7 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     bar.inc(1);
     bar.set_message("writing");
-    match format {
-        ImageFormat::Exr => {
-            write_exr(&output, &frame)?;
-        }
-        ImageFormat::Png => {
-            let rgb = tonemap_to_srgb8(&frame.beauty, scene.settings.exposure);
-            write_png(&output, frame.width, frame.height, &rgb)?;
-        }
-    }
+    format.write_frame(&output, &frame, scene.settings.exposure)?;
     if let Some(path) = &record_map {
         let camera = radsplat::visibility::GpuCamera::new(&scene.camera);
         let rgb = radsplat::output::record_map(&frame, &camera, &records, scene.settings.exposure);
@@ -760,20 +767,7 @@ fn reference(
     if spp == 0 {
         return Err(Error::Usage("--spp must be at least 1".into()));
     }
-    let mut scene = load_scene(scene_path)?;
-    if let Some(f) = frame {
-        scene.set_frame(f as f32);
-    }
-    if let Some((w, h)) = size {
-        scene.camera.width = w;
-        scene.camera.height = h;
-    }
-    if let Some(n) = light_samples {
-        if n == 0 {
-            return Err(Error::Usage("--light-samples must be at least 1".into()));
-        }
-        scene.settings.light_samples = n;
-    }
+    let scene = load_scene_with(scene_path, frame, size, light_samples)?;
     let output = output.unwrap_or_else(|| {
         let stem = scene_path.file_stem().unwrap_or_default().to_string_lossy();
         PathBuf::from(format!("{stem}-reference.exr"))
@@ -957,11 +951,7 @@ fn compare_seq(
 
 fn export_rad(scene_path: &Path, out_dir: &Path, size: Option<(u32, u32)>) -> Result<()> {
     use radsplat::radiance_export::{notex_scene_toml, scene_rad, view_options};
-    let mut scene = load_scene(scene_path)?;
-    if let Some((w, h)) = size {
-        scene.camera.width = w;
-        scene.camera.height = h;
-    }
+    let scene = load_scene_with(scene_path, None, size, None)?;
     std::fs::create_dir_all(out_dir).map_err(|e| Error::Output {
         path: out_dir.to_path_buf(),
         message: e.to_string(),
@@ -1018,17 +1008,7 @@ fn animate(args: AnimateArgs) -> Result<()> {
     if let Some(t) = &args.temporal {
         t.validate()?;
     }
-    let mut scene = load_scene(args.scene_path)?;
-    if let Some((w, h)) = args.size {
-        scene.camera.width = w;
-        scene.camera.height = h;
-    }
-    if let Some(n) = args.light_samples {
-        if n == 0 {
-            return Err(Error::Usage("--light-samples must be at least 1".into()));
-        }
-        scene.settings.light_samples = n;
-    }
+    let scene = load_scene_with(args.scene_path, None, args.size, args.light_samples)?;
     let frames = args.frames.clone().unwrap_or_else(|| scene.frames());
     let output = args.output.unwrap_or_else(|| {
         let stem = args
@@ -1070,15 +1050,7 @@ fn animate(args: AnimateArgs) -> Result<()> {
         &options,
         |f| {
             let path = frame_path(&output, f.frame_number)?;
-            match format {
-                ImageFormat::Exr => {
-                    write_exr(&path, f.frame)?;
-                }
-                ImageFormat::Png => {
-                    let rgb = tonemap_to_srgb8(&f.frame.beauty, exposure);
-                    write_png(&path, f.frame.width, f.frame.height, &rgb)?;
-                }
-            }
+            format.write_frame(&path, f.frame, exposure)?;
             if let Some(map) = &args.lifespan_map {
                 let camera = radsplat::visibility::GpuCamera::new(&f.scene.camera);
                 let rgb = lifespan_map(
@@ -1157,11 +1129,7 @@ fn temporal_error(
 ) -> Result<()> {
     use radsplat::temporal::estimate_error::estimate_error_table;
     settings.validate()?;
-    let mut scene = load_scene(scene_path)?;
-    if let Some((w, h)) = size {
-        scene.camera.width = w;
-        scene.camera.height = h;
-    }
+    let mut scene = load_scene_with(scene_path, None, size, None)?;
     let mut next = scene.clone();
     scene.set_frame(frame as f32);
     next.set_frame((frame + 1) as f32);

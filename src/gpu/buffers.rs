@@ -77,17 +77,30 @@ impl GpuContext {
 
     /// Copies several buffers back with one submission and one wait, in order.
     pub fn read_buffers<T: bytemuck::Pod>(&self, buffers: &[&wgpu::Buffer]) -> Result<Vec<Vec<T>>> {
+        let whole: Vec<_> = buffers.iter().map(|&b| (b, 0..b.size())).collect();
+        self.read_buffer_ranges(&whole)
+    }
+
+    /// Copies byte ranges of buffers back with one submission and one wait, in order
+    /// (non-empty ranges whose ends are multiples of 4 bytes).
+    pub fn read_buffer_ranges<T: bytemuck::Pod>(
+        &self,
+        ranges: &[(&wgpu::Buffer, std::ops::Range<u64>)],
+    ) -> Result<Vec<Vec<T>>> {
         let mut enc = self.device.create_command_encoder(&Default::default());
-        let staging: Vec<wgpu::Buffer> = buffers
+        let staging: Vec<wgpu::Buffer> = ranges
             .iter()
-            .map(|b| {
+            .map(|(b, range)| {
+                let size = range.end.saturating_sub(range.start).max(4);
                 let s = self.device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("readback"),
-                    size: b.size(),
+                    size,
                     usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 });
-                enc.copy_buffer_to_buffer(b, 0, &s, 0, b.size());
+                if range.end > range.start {
+                    enc.copy_buffer_to_buffer(b, range.start, &s, 0, size);
+                }
                 s
             })
             .collect();

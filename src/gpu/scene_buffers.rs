@@ -160,7 +160,13 @@ pub struct GpuSceneInfo {
 
 /// Materials, texture table and packed texels in GPU layout.
 pub fn material_tables(scene: &Scene) -> (Vec<GpuMaterial>, Vec<GpuTextureInfo>, Vec<u32>) {
-    let materials = scene
+    let (infos, texels) = texture_tables(scene);
+    (gpu_materials(scene), infos, texels)
+}
+
+/// The material table in GPU layout.
+fn gpu_materials(scene: &Scene) -> Vec<GpuMaterial> {
+    scene
         .materials
         .iter()
         .map(|m| GpuMaterial {
@@ -173,7 +179,11 @@ pub fn material_tables(scene: &Scene) -> (Vec<GpuMaterial>, Vec<GpuTextureInfo>,
                 0
             },
         })
-        .collect();
+        .collect()
+}
+
+/// The texture table and every texture's texels packed in one array.
+fn texture_tables(scene: &Scene) -> (Vec<GpuTextureInfo>, Vec<u32>) {
     let mut infos = Vec::new();
     let mut texels = Vec::new();
     for t in &scene.textures {
@@ -185,7 +195,7 @@ pub fn material_tables(scene: &Scene) -> (Vec<GpuMaterial>, Vec<GpuTextureInfo>,
         });
         texels.extend(t.texels.iter().map(|c| u32::from_le_bytes(*c)));
     }
-    (materials, infos, texels)
+    (infos, texels)
 }
 
 /// Scene data resident on the GPU, with its bind group.
@@ -253,6 +263,20 @@ impl GpuScene {
         bvh: &SceneBvh,
         light_samples: u32,
     ) -> Result<Self> {
+        Self::upload_frame(ctx, scene, bvh, light_samples, None)
+    }
+
+    /// As [`GpuScene::upload`] for a frame of an animation: with `previous`, a frame of
+    /// the same scene (same meshes and textures, only transforms, lights and emission
+    /// changed), its triangle, shading and texture buffers are shared instead of uploaded
+    /// again; the instance, material and light tables and the BVH nodes are new.
+    pub fn upload_frame(
+        ctx: &GpuContext,
+        scene: &Scene,
+        bvh: &SceneBvh,
+        light_samples: u32,
+        previous: Option<&GpuScene>,
+    ) -> Result<Self> {
         if bvh.max_depth >= BVH_STACK_SIZE {
             return Err(Error::DeviceLimit(format!(
                 "BVH depth {} exceeds the traversal stack of {BVH_STACK_SIZE} entries",
@@ -267,19 +291,33 @@ impl GpuScene {
                 bvh.instances.len()
             )));
         }
-        let (materials, texture_infos, texels) = material_tables(scene);
+        let materials = gpu_materials(scene);
         let lights: Vec<GpuLight> = scene.lights.iter().map(GpuLight::new).collect();
         let bvh_nodes = bvh_texture(ctx, bvh)?;
         let bvh_view = bvh_nodes.create_view(&Default::default());
-        let buffers = vec![
-            ctx.storage_buffer("triangles", &bvh.triangles)?,
-            ctx.storage_buffer("triangle shading", &bvh.shading)?,
-            ctx.storage_buffer("instances", &bvh.instances)?,
-            ctx.storage_buffer("materials", &materials)?,
-            ctx.storage_buffer("texture table", &texture_infos)?,
-            ctx.storage_buffer("texels", &texels)?,
-            ctx.storage_buffer("lights", &lights)?,
-        ];
+        // Binding order (from 1): triangles, shading, instances, materials, texture table,
+        // texels, lights. The mesh and texture tables do not change between frames.
+        let shared = previous.map(|p| p._buffers.clone());
+        let buffers = match shared {
+            Some(mut b) if b.len() == 7 => {
+                b[2] = ctx.storage_buffer("instances", &bvh.instances)?;
+                b[3] = ctx.storage_buffer("materials", &materials)?;
+                b[6] = ctx.storage_buffer("lights", &lights)?;
+                b
+            }
+            _ => {
+                let (texture_infos, texels) = texture_tables(scene);
+                vec![
+                    ctx.storage_buffer("triangles", &bvh.triangles)?,
+                    ctx.storage_buffer("triangle shading", &bvh.shading)?,
+                    ctx.storage_buffer("instances", &bvh.instances)?,
+                    ctx.storage_buffer("materials", &materials)?,
+                    ctx.storage_buffer("texture table", &texture_infos)?,
+                    ctx.storage_buffer("texels", &texels)?,
+                    ctx.storage_buffer("lights", &lights)?,
+                ]
+            }
+        };
         let info = GpuSceneInfo {
             environment: scene.environment.into(),
             light_count: lights.len() as u32,

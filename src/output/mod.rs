@@ -45,6 +45,25 @@ impl ImageFormat {
     }
 }
 
+impl ImageFormat {
+    /// Writes `frame` to `path` in this format: the EXR with every AOV, or the beauty
+    /// tone-mapped with `exposure` as PNG.
+    pub fn write_frame(
+        self,
+        path: &Path,
+        frame: &crate::frame::Frame,
+        exposure: f32,
+    ) -> Result<()> {
+        match self {
+            ImageFormat::Exr => write_exr(path, frame).map(|_| ()),
+            ImageFormat::Png => {
+                let rgb = tonemap_to_srgb8(&frame.beauty, exposure);
+                write_png(path, frame.width, frame.height, &rgb)
+            }
+        }
+    }
+}
+
 /// Writes `bytes` to `path` atomically (temp file in the same directory, fsync, rename).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     let err = |message: String| Error::Output {

@@ -233,6 +233,12 @@ impl RecordCache {
         Ok(all)
     }
 
+    /// The byte range of records `first..first + count`, for
+    /// [`GpuContext::read_buffer_ranges`].
+    pub fn byte_range(first: u32, count: u32) -> std::ops::Range<u64> {
+        u64::from(first) * RECORD_BYTES..u64::from(first + count) * RECORD_BYTES
+    }
+
     /// Replaces the contents with `records` (tests, cache files).
     pub fn upload(&mut self, ctx: &GpuContext, records: &[Record]) -> Result<()> {
         self.count = 0;

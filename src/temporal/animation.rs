@@ -66,12 +66,14 @@ pub fn render_animation(
     let mut current = scene.clone();
     let mut next_scene = scene.clone();
     // Mesh BVHs are built once; each frame rebuilds the top level (TLAS rebuild and
-    // refit cost about the same here, see docs/results.md, and a rebuild never degrades).
+    // refit cost about the same here, see docs/results.md, and a rebuild never degrades)
     let mut bvh = None;
-    let mut prepare = |s: &mut Scene, t: u32| -> Result<PreparedScene> {
-        s.set_frame(t as f32);
-        renderer.prepare_frame(s, &mut bvh)
-    };
+    // and shares the mesh and texture buffers of the frame before.
+    let mut prepare =
+        |s: &mut Scene, t: u32, previous: Option<&PreparedScene>| -> Result<PreparedScene> {
+            s.set_frame(t as f32);
+            renderer.prepare_frame(s, &mut bvh, previous)
+        };
     let mut temporal = match &options.temporal {
         Some(settings) => Some(TemporalCache::new(&renderer.ctx, &options.cache, settings)?),
         None => None,
@@ -84,14 +86,14 @@ pub fn render_animation(
         .is_some_and(|t| t.gradients == TemporalGradients::Interpolated);
     let mut all = Vec::new();
     let t0 = Instant::now();
-    let mut prepared = prepare(&mut current, first)?;
+    let mut prepared = prepare(&mut current, first, None)?;
     let mut prepare_ms = t0.elapsed().as_secs_f64() * 1e3;
     for t in first..=last {
         let start = Instant::now();
         // The scene at t+1 (for the E(t+1) estimate); reused as the next frame's scene.
         let ahead = if temporal.is_some() && dynamic && t < last {
             let p0 = Instant::now();
-            let p = prepare(&mut next_scene, t + 1)?;
+            let p = prepare(&mut next_scene, t + 1, Some(&prepared))?;
             prepare_ms += p0.elapsed().as_secs_f64() * 1e3;
             Some(p)
         } else {
@@ -164,7 +166,7 @@ pub fn render_animation(
                     current.set_frame((t + 1) as f32);
                     prepared
                 }
-                None => prepare(&mut current, t + 1)?,
+                None => prepare(&mut current, t + 1, Some(&prepared))?,
             };
             prepare_ms = p0.elapsed().as_secs_f64() * 1e3;
         }
@@ -175,7 +177,7 @@ pub fn render_animation(
         for (t, stats) in (first..=last).zip(all.iter_mut()) {
             let start = Instant::now();
             if prepared.is_none() || dynamic {
-                prepared = Some(prepare(&mut scene_t, t)?);
+                prepared = Some(prepare(&mut scene_t, t, prepared.as_ref())?);
             } else {
                 scene_t.set_frame(t as f32);
             }

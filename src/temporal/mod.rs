@@ -330,20 +330,31 @@ impl TemporalCache {
         stats.new = self.frame_records.count - before_new;
 
         // The records computed this frame (replacements and new ones) and their estimates.
+        // Only these come back from the GPU (one wait); kept records are on the CPU.
         let first = kept.len();
         let computed = self.frame_records.count as usize - first;
-        let records = self.frame_records.read(ctx)?;
-        let nexts = if next_scene.is_some() {
-            self.next_records.read(ctx)?
-        } else {
-            records.clone()
-        };
+        let (mut records, mut nexts) = (Vec::new(), Vec::new());
+        if computed > 0 {
+            let range = RecordCache::byte_range(first as u32, computed as u32);
+            let mut read = if next_scene.is_some() {
+                ctx.read_buffer_ranges::<Record>(&[
+                    (&self.frame_records.buffer, range.clone()),
+                    (&self.next_records.buffer, range),
+                ])?
+            } else {
+                ctx.read_buffer_ranges::<Record>(&[(&self.frame_records.buffer, range)])?
+            };
+            nexts = read.pop().unwrap_or_default();
+            records = read.pop().unwrap_or_else(|| nexts.clone());
+        }
+        if records.len() != computed || nexts.len() != computed {
+            return Err(Error::Gpu("internal: record readback incomplete".into()));
+        }
         for (j, &old) in replace.iter().enumerate() {
             self.history[old as usize].successor = Some((self.history.len() + j) as u32);
         }
         let mut alive = kept;
-        for k in first..first + computed {
-            let (record, next) = (records[k], nexts[k]);
+        for (&record, &next) in records.iter().zip(&nexts) {
             let (e0, e1) = (luminance(record.irradiance), luminance(next.irradiance));
             let tau = if e0 > 0.0 {
                 e1 / e0
