@@ -6,7 +6,7 @@ use radsplat::gpu::GpuContext;
 use radsplat::output::{ImageFormat, tonemap_to_srgb8, write_atomically, write_png};
 use radsplat::records::CacheSettings;
 use radsplat::scene::load_scene;
-use radsplat::temporal::{TemporalGradients, TemporalSettings};
+use radsplat::temporal::{RecordAnchor, TemporalGradients, TemporalSettings};
 use radsplat::{Error, Renderer, Result};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -135,6 +135,10 @@ enum Command {
         /// replacement; no jumps) or `extrapolated` (one pass, from the E(t+1) estimate).
         #[arg(long, default_value = "interpolated", value_parser = ["interpolated", "extrapolated"])]
         temporal_gradients: String,
+        /// Where records stay while objects move: `world` (the thesis: at their world
+        /// position) or `instance` (carried with the instance they lie on).
+        #[arg(long, default_value = "world", value_parser = ["world", "instance"])]
+        record_anchor: String,
         #[command(flatten)]
         cache: CacheArgs,
         /// Also write a lifespan map per frame (PNG pattern with `#`): record sites from
@@ -376,6 +380,7 @@ fn main() -> ExitCode {
             temporal_accuracy,
             max_lifespan,
             temporal_gradients,
+            record_anchor,
             cache,
             lifespan_map,
             stats,
@@ -394,6 +399,11 @@ fn main() -> ExitCode {
                     TemporalGradients::Extrapolated
                 } else {
                     TemporalGradients::Interpolated
+                },
+                anchor: if record_anchor == "instance" {
+                    RecordAnchor::Instance
+                } else {
+                    RecordAnchor::World
                 },
             }),
             lifespan_map,

@@ -212,7 +212,7 @@ fn gradients_match_finite_differences() {
         normal: [0.0, 1.0, 0.0],
         seed: 7,
         geometric_normal: [0.0, 1.0, 0.0],
-        _pad: 0,
+        instance: 0,
     };
     let record: Record = reference.record(&site);
     let exact = exact_irradiance(site.position.into(), Vec3::Y);

@@ -7,7 +7,7 @@ use glam::{Mat4, Vec3};
 use radsplat::frame::Renderer;
 use radsplat::records::CacheSettings;
 use radsplat::scene::Scene;
-use radsplat::temporal::{TemporalCache, TemporalSettings};
+use radsplat::temporal::{FrameScenes, RecordAnchor, TemporalCache, TemporalSettings};
 
 fn settings() -> CacheSettings {
     CacheSettings {
@@ -39,8 +39,11 @@ fn static_animation_reuses_every_record_and_matches_the_static_render() {
         let (frame, stats) = temporal
             .render_frame(
                 &renderer,
-                &prepared,
-                None,
+                FrameScenes {
+                    now: &prepared,
+                    scene: &scene,
+                    next: None,
+                },
                 &scene.camera,
                 t,
                 false,
@@ -79,20 +82,23 @@ fn moving_cube_expires_replaces_and_deletes_records() {
     let mut temporal =
         TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings).expect("temporal cache");
     let frames = 10;
-    let prepared: Vec<_> = (0..=frames)
-        .map(|t| {
-            renderer
-                .prepare(&cube_moved(&scene, base, 0.08 * t as f32))
-                .expect("prepare")
-        })
+    let scenes: Vec<_> = (0..=frames)
+        .map(|t| cube_moved(&scene, base, 0.08 * t as f32))
+        .collect();
+    let prepared: Vec<_> = scenes
+        .iter()
+        .map(|s| renderer.prepare(s).expect("prepare"))
         .collect();
     let mut totals = (0, 0, 0);
     for t in 0..frames {
         let (_, stats) = temporal
             .render_frame(
                 &renderer,
-                &prepared[t as usize],
-                Some(&prepared[t as usize + 1]),
+                FrameScenes {
+                    now: &prepared[t as usize],
+                    scene: &scenes[t as usize],
+                    next: Some((&prepared[t as usize + 1], &scenes[t as usize + 1])),
+                },
                 &scene.camera,
                 t,
                 true,
@@ -167,29 +173,26 @@ fn moving_cube_expires_replaces_and_deletes_records() {
     );
 }
 
-#[test]
-fn gpu_reprojection_matches_the_cpu_reference() {
+/// GPU reprojection of planes at sites of `scene` into `next` against the CPU reference;
+/// returns (sites, cells, cells that differ, cells changed by the motion).
+fn reproject_against_cpu(
+    scene: &Scene,
+    next: &Scene,
+    anchored: bool,
+) -> (usize, usize, usize, usize) {
     use radsplat::direct::reference::DirectReference;
     use radsplat::records::reference::RecordReference;
     use radsplat::records::{PlaneSample, RecordPass};
-    use radsplat::temporal::ReprojectionPass;
+    use radsplat::temporal::motion::instance_motions;
     use radsplat::temporal::reference::reproject_plane;
+    use radsplat::temporal::{NextFrame, ReprojectionPass};
     use radsplat::visibility::GpuCamera;
 
-    let scene = common::load("cube-in-box.toml", Some((32, 32)));
-    let base = scene.instances[1].transform;
-    // The cube moves 15 cm and the light dims by half: both change the plane.
-    let mut next = cube_moved(&scene, base, 0.15);
-    for light in &mut next.lights {
-        if let radsplat::scene::Light::Rect { radiance, .. } = light {
-            *radiance *= 0.5;
-        }
-    }
     let renderer = Renderer::new(common::gpu()).expect("renderer");
-    let prepared = renderer.prepare(&scene).expect("prepare");
-    let prepared_next = renderer.prepare(&next).expect("prepare");
+    let prepared = renderer.prepare(scene).expect("prepare");
+    let prepared_next = renderer.prepare(next).expect("prepare");
     let settings = settings();
-    // Sites at every 37th visible pixel.
+    // Sites at every 37th visible pixel and every 5th pixel of the cube (instance 1).
     let (vis, _) = renderer
         .splat_cache(
             &prepared,
@@ -198,27 +201,31 @@ fn gpu_reprojection_matches_the_cpu_reference() {
         )
         .expect("visibility");
     let camera = GpuCamera::new(&scene.camera);
-    let sites: Vec<_> = vis
+    let hits: Vec<_> = vis.iter().filter(|v| v.is_hit()).collect();
+    let sites: Vec<_> = hits
         .iter()
-        .filter(|v| v.is_hit())
         .step_by(37)
+        .chain(hits.iter().filter(|v| v.instance == 1).step_by(5))
         .enumerate()
         .map(|(i, v)| RecordReference::site_from_pixel(&settings, &camera, v, i as u32))
         .collect();
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let reprojection = ReprojectionPass::new(&renderer.ctx).expect("reprojection pass");
+    let next_frame = NextFrame::new(&renderer.ctx, &prepared_next.gpu, scene, next, anchored)
+        .expect("next frame");
     let (at_t, ahead) = pass
         .trace_planes_ahead(
             &renderer.ctx,
             &prepared.gpu,
-            Some((&prepared_next.gpu, &reprojection)),
+            Some((&next_frame, &reprojection)),
             &sites,
         )
         .expect("planes");
     renderer.ctx.check().expect("no wgpu errors");
 
-    let cpu_t = RecordReference::new(&scene, &settings);
-    let cpu_next = DirectReference::new(&next, settings.plane_light_samples);
+    let cpu_t = RecordReference::new(scene, &settings);
+    let cpu_next = DirectReference::new(next, settings.plane_light_samples);
+    let motions = instance_motions(scene, next);
     let cells = (settings.plane_resolution * settings.plane_resolution) as usize;
     let close = |a: &PlaneSample, b: &PlaneSample| {
         let depth_ok = (a.depth < 0.0 && b.depth < 0.0)
@@ -232,7 +239,7 @@ fn gpu_reprojection_matches_the_cpu_reference() {
     };
     let (mut differ, mut changed) = (0, 0);
     for (i, site) in sites.iter().enumerate() {
-        let cpu = reproject_plane(&cpu_t, &cpu_next, site);
+        let cpu = reproject_plane(&cpu_t, &cpu_next, site, anchored.then_some(&motions[..]));
         let gpu = &ahead[i * cells..(i + 1) * cells];
         let before = &at_t[i * cells..(i + 1) * cells];
         differ += cpu.iter().zip(gpu).filter(|(c, g)| !close(c, g)).count();
@@ -240,16 +247,120 @@ fn gpu_reprojection_matches_the_cpu_reference() {
     }
     let total = sites.len() * cells;
     eprintln!(
-        "{} sites, {total} cells: {differ} differ GPU vs CPU, {changed} changed by the motion",
+        "anchored {anchored}: {} sites, {total} cells: {differ} differ GPU vs CPU, {changed} \
+         changed by the motion",
         sites.len()
     );
     assert!(sites.len() >= 10);
+    (sites.len(), total, differ, changed)
+}
+
+#[test]
+fn gpu_reprojection_matches_the_cpu_reference() {
+    let scene = common::load("cube-in-box.toml", Some((32, 32)));
+    let base = scene.instances[1].transform;
+    // The cube moves 15 cm and the light dims by half: both change the plane.
+    let mut next = cube_moved(&scene, base, 0.15);
+    for light in &mut next.lights {
+        if let radsplat::scene::Light::Rect { radiance, .. } = light {
+            *radiance *= 0.5;
+        }
+    }
+    let (_, total, differ, changed) = reproject_against_cpu(&scene, &next, false);
     assert!(
         changed * 4 > total,
         "the motion should change most cells (light dimmed)"
     );
     // Float rounding of projected positions can move a sample across a cell edge.
     assert!(differ * 200 <= total, "{differ} of {total} cells differ");
+}
+
+/// Only the cube moves: the GPU keeps the radiance traced at t wherever no shadow ray can
+/// meet the cube (the CPU reference re-shades every hit), and records anchored to the
+/// cube see the plane from where they are carried.
+#[test]
+fn reprojection_reuse_and_anchored_records_match_the_cpu_reference() {
+    let scene = common::load("cube-in-box.toml", Some((32, 32)));
+    let base = scene.instances[1].transform;
+    let moved = |m: Mat4| {
+        let mut s = scene.clone();
+        s.instances[1].transform = m * base;
+        s
+    };
+    let next = moved(
+        Mat4::from_translation(Vec3::new(0.1, 0.0, -0.05)) * Mat4::from_rotation_y(0.2),
+    );
+    for anchored in [false, true] {
+        let (_, total, differ, changed) = reproject_against_cpu(&scene, &next, anchored);
+        assert!(changed > 0, "the motion should change some cells");
+        assert!(differ * 200 <= total, "{differ} of {total} cells differ");
+    }
+}
+
+/// Records computed over 10 frames of the cube sliding 5 cm per frame, and the cache.
+fn slide_cube(renderer: &Renderer, anchor: RecordAnchor) -> (u32, TemporalCache, Vec<Scene>) {
+    let scene = common::load("cube-in-box.toml", Some((40, 32)));
+    let base = scene.instances[1].transform;
+    let temporal_settings = TemporalSettings {
+        anchor,
+        ..TemporalSettings::default()
+    };
+    let mut temporal = TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings)
+        .expect("temporal cache");
+    let scenes: Vec<_> = (0..=10)
+        .map(|t| cube_moved(&scene, base, 0.05 * t as f32))
+        .collect();
+    let prepared: Vec<_> = scenes
+        .iter()
+        .map(|s| renderer.prepare(s).expect("prepare"))
+        .collect();
+    let mut computed = 0;
+    for t in 0..10usize {
+        let (_, stats) = temporal
+            .render_frame(
+                renderer,
+                FrameScenes {
+                    now: &prepared[t],
+                    scene: &scenes[t],
+                    next: Some((&prepared[t + 1], &scenes[t + 1])),
+                },
+                &scene.camera,
+                t as u32,
+                true,
+                false,
+                |_| {},
+            )
+            .expect("temporal frame");
+        computed += stats.new + stats.replaced;
+    }
+    renderer.ctx.check().expect("no wgpu errors");
+    (computed, temporal, scenes)
+}
+
+#[test]
+fn anchored_records_move_with_their_instance() {
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let (world, _, _) = slide_cube(&renderer, RecordAnchor::World);
+    let (anchored, cache, scenes) = slide_cube(&renderer, RecordAnchor::Instance);
+    eprintln!("records computed over 10 frames: world {world}, anchored {anchored}");
+    // Records on the cube stay valid as it moves: fewer new records each frame.
+    assert!(anchored < world, "anchored {anchored} vs world {world}");
+    // A record born on the cube at frame 0 and alive at frame 9 is where the cube carried it.
+    let m0 = scenes[0].instances[1].transform;
+    let m9 = scenes[9].instances[1].transform;
+    let mut checked = 0;
+    for &id in cache.alive() {
+        let r = &cache.history[id as usize];
+        if r.birth != 0 || r.record.instance != 1 {
+            continue;
+        }
+        let expected = (m9 * m0.inverse()).transform_point3(r.record.position());
+        let at_9 = cache.record_at(id, 9).position();
+        assert!((at_9 - expected).length() < 1e-4, "{at_9} vs {expected}");
+        assert!((at_9 - r.record.position()).length() > 0.4, "record did not move");
+        checked += 1;
+    }
+    assert!(checked > 0, "no record of the cube lived to frame 9");
 }
 
 /// Frames 0..9 of cube-in-box-anim through the library's animation loop.

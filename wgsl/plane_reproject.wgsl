@@ -5,8 +5,12 @@
 // (shadow rays in the t+1 scene). The moved point is projected onto the record's plane
 // (the record keeps its world position and frame) and written into that pixel's cell
 // with a depth test: the smallest (depth bits, sample index) key wins whatever the thread
-// order (stored complemented, atomicMax on cells cleared to 0, so no fill pass is needed). A miss keeps its own pixel at the farthest depth, so any
-// surface moving in front of it wins. One invocation per (sample, record).
+// order (stored complemented, atomicMax on cells cleared to 0, so no fill pass is needed).
+// A miss keeps its own pixel at the farthest depth, so any surface moving in front of it
+// wins. With `anchored`, records move with the instance they lie on (temporal/motion.rs):
+// the moved point is seen from the record's place at t+1 and projected in the record's
+// frame carried along, i.e. after undoing the record's own motion. One invocation per
+// (sample, record).
 //!include shared/shading.wgsl
 //!include shared/records.wgsl
 
@@ -16,9 +20,9 @@ struct ReprojectParams {
     light_samples: u32,
     stretched: u32,      // 1: border pixels reach infinity (decision 6)
     half_extent: f32,    // tan(fov / 2): the plane spans [-s, s]^2 at z = 1
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    anchored: u32,       // 1: records move with their instance (`motion`)
+    reuse_shading: u32,  // 1: lights unchanged from t to t+1 and `moving` lists every mover
+    moving_count: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: ReprojectParams;
@@ -26,6 +30,89 @@ struct ReprojectParams {
 @group(1) @binding(2) var<storage, read> hits: array<PlaneHit>;
 @group(1) @binding(3) var<storage, read_write> cells: array<atomic<u32>>;
 @group(1) @binding(4) var<storage, read_write> moved: array<vec4f>;   // radiance at t+1, depth
+@group(1) @binding(5) var<storage, read> motion: array<InstanceMotion>;
+@group(1) @binding(6) var<storage, read> moving: array<MovingBounds>;
+@group(1) @binding(7) var<storage, read> traced: array<PlaneSample>;   // the plane at t
+
+// World box of an instance that moves between t and t+1, over both frames (Rust:
+// temporal::motion::MovingBounds).
+struct MovingBounds {
+    lo: vec4f,
+    hi: vec4f,
+}
+
+// Whether the ray o + x d, x in [0, x_max], meets the box (slab test).
+fn segment_meets_box(o: vec3f, d: vec3f, x_max: f32, b: MovingBounds) -> bool {
+    // Axis-parallel rays: a huge finite inverse keeps the slabs free of NaN.
+    let inv = 1.0 / select(d, vec3f(1.0e-30), abs(d) < vec3f(1.0e-30));
+    let t0 = (b.lo.xyz - o) * inv;
+    let t1 = (b.hi.xyz - o) * inv;
+    let near = max(max(min(t0.x, t1.x), min(t0.y, t1.y)), max(min(t0.z, t1.z), 0.0));
+    let far = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), min(max(t0.z, t1.z), x_max));
+    return near <= far;
+}
+
+fn meets_a_mover(o: vec3f, d: vec3f, x_max: f32) -> bool {
+    for (var i = 0u; i < params.moving_count; i++) {
+        if segment_meets_box(o, d, x_max, moving[i]) {
+            return true;
+        }
+    }
+    return false;
+}
+
+// Whether any shadow ray `direct_irradiance_samples(s, seed, count)` may trace passes
+// through the box of an instance that moves between t and t+1. When none does (and the
+// lights and s itself do not move), every shadow ray has the same outcome at t+1 as at t,
+// so the radiance traced at t is exactly the radiance at t+1. Conservative: it tests
+// every sample, including those the cosine tests would skip.
+fn shadows_may_change(s: Surface, seed: u32, count: u32) -> bool {
+    if params.moving_count == 0u {
+        return false;
+    }
+    let origin = offset_ray_origin(s.position, s.geometric_normal);
+    for (var li = 0u; li < scene_info.light_count; li++) {
+        let light = lights[li];
+        let kind = bitcast<u32>(light.a.w);
+        if kind == LIGHT_POINT || kind == LIGHT_SPOT {
+            if meets_a_mover(origin, light.a.xyz - origin, 1.0) {
+                return true;
+            }
+        } else if kind == LIGHT_SUN {
+            if meets_a_mover(origin, light.a.xyz, INF) {
+                return true;
+            }
+        } else if kind == LIGHT_RECT {
+            let light_seed = hash_combine(seed, li);
+            for (var k = 0u; k < count; k++) {
+                if meets_a_mover(origin, rect_light_point(light, k, light_seed) - origin, 1.0) {
+                    return true;
+                }
+            }
+        }
+    }
+    if any(scene_info.environment != vec3f(0.0)) {
+        let frame = orthonormal_basis(s.shading_normal);
+        let env_seed = hash_combine(seed, ENVIRONMENT_SEED);
+        for (var k = 0u; k < count; k++) {
+            let dir = frame * cosine_hemisphere(sobol_2d(k, env_seed));
+            if meets_a_mover(origin, dir, INF) {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+// How an instance moves from t to t+1 (Rust: temporal::motion::InstanceMotion).
+struct InstanceMotion {
+    to_next: mat4x4f,     // world at t -> world at t+1, for points on the instance
+    from_next: mat4x4f,   // its inverse
+    moves: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
 
 // Plane pixel of plane coordinate x in [-s, s] (clamped into the border pixels when they
 // are stretched); -1 outside an unstretched plane.
@@ -58,10 +145,28 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let origin = offset_ray_origin(site.position, site.geometric_normal);
     // Where the hit point is at t+1 (its triangle, moved with its instance).
     let probe = surface_at(Hit(0.0, h.instance, h.triangle, h.u, h.v), site.normal);
-    let to_point = probe.position - origin;
-    let s = surface_at(Hit(0.0, h.instance, h.triangle, h.u, h.v), normalize(to_point));
-    let e = direct_irradiance_samples(s, hash_combine(site.seed, pixel), params.light_samples);
-    let radiance = surface_albedo(s) * (1.0 / PI) * e + indirect_emission(s);
+    var to_point = probe.position - origin;
+    var view = to_point;
+    if params.anchored != 0u {
+        let m = motion[site.instance];
+        if m.moves != 0u {
+            view = probe.position - (m.to_next * vec4f(origin, 1.0)).xyz;
+            to_point = (m.from_next * vec4f(probe.position, 1.0)).xyz - origin;
+        }
+    }
+    let s = surface_at(Hit(0.0, h.instance, h.triangle, h.u, h.v), normalize(view));
+    let seed = hash_combine(site.seed, pixel);
+    // Re-shading is the costly part (shadow rays at t+1); skip it where nothing that
+    // lights this hit has changed.
+    let still = motion[h.instance].moves == 0u
+        && (params.anchored == 0u || motion[site.instance].moves == 0u);
+    var radiance: vec3f;
+    if params.reuse_shading != 0u && still && !shadows_may_change(s, seed, params.light_samples) {
+        radiance = traced[sample].radiance;
+    } else {
+        let e = direct_irradiance_samples(s, seed, params.light_samples);
+        radiance = surface_albedo(s) * (1.0 / PI) * e + indirect_emission(s);
+    }
     // Tangent-frame coordinates of the moved point (frame columns are t, b, n).
     let local = vec3f(dot(to_point, frame[0]), dot(to_point, frame[1]), dot(to_point, frame[2]));
     moved[sample] = vec4f(radiance, local.z);

@@ -112,7 +112,8 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     out.position = site.position;
     out.normal = site.normal;
     out.r_min = site.r_min;
-    out.irradiance = vec4f(sum.irradiance, 0.0);
+    out.irradiance = sum.irradiance;
+    out.instance = site.instance;
     let r_max = site.r_min * params.r_max_factor;
     // Harmonic mean distance, cosine-weighted (misses add 0 to the sum of 1/r).
     var radius = r_max;

@@ -32,5 +32,6 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     site.normal = v.shading_normal;
     site.seed = hash_u32(params.first_record + id.x);
     site.geometric_normal = v.geometric_normal;
+    site.instance = v.instance;
     sites[id.x] = site;
 }

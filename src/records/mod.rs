@@ -29,8 +29,10 @@ pub struct Record {
     pub normal: [f32; 3],
     /// The R_min the record was computed with.
     pub r_min: f32,
-    /// E_k (rgb, w unused).
-    pub irradiance: [f32; 4],
+    /// E_k (rgb).
+    pub irradiance: [f32; 3],
+    /// The instance the record lies on (temporal caching can move records with it).
+    pub instance: u32,
     /// Per channel (r, g, b): the world-space rotational gradient (xyz, w unused).
     pub rotation_gradient: [[f32; 4]; 3],
     /// Per channel: the world-space translational gradient.
@@ -84,7 +86,8 @@ pub struct RecordSite {
     pub seed: u32,
     /// Geometric normal (offsets ray origins).
     pub geometric_normal: [f32; 3],
-    pub _pad: u32,
+    /// The instance the site lies on.
+    pub instance: u32,
 }
 
 /// One traced plane pixel (mirror of WGSL `PlaneSample`, 16 bytes).
@@ -100,7 +103,7 @@ pub struct PlaneSample {
 /// (temporal caching, algorithms.md 4.3): the scene at t+1 and a cache that receives the
 /// estimates at the same indices as the new records.
 pub struct Lookahead<'a> {
-    pub next_scene: &'a GpuScene,
+    pub next_frame: crate::temporal::reprojection::NextFrame<'a>,
     pub reprojection: &'a crate::temporal::ReprojectionPass,
     /// Records at t+1, in step with the cache (`next.count == cache.count`).
     pub next: &'a mut RecordCache,
@@ -510,10 +513,11 @@ impl RecordPass {
                 la.reprojection.record(
                     ctx,
                     &mut enc,
-                    la.next_scene,
+                    &la.next_frame,
                     &self.settings,
                     &batch_sites,
                     &hits,
+                    &samples,
                     &samples,
                     n,
                     &mut timer,
@@ -530,7 +534,7 @@ impl RecordPass {
                 );
                 self.reduce.record(
                     &mut enc,
-                    &la.next_scene.bind_group,
+                    &la.next_frame.scene.bind_group,
                     &bind,
                     [n, 1, 1],
                     timer.next("record reduction"),
@@ -566,7 +570,10 @@ impl RecordPass {
         &self,
         ctx: &GpuContext,
         scene: &GpuScene,
-        ahead: Option<(&GpuScene, &crate::temporal::ReprojectionPass)>,
+        ahead: Option<(
+            &crate::temporal::reprojection::NextFrame<'_>,
+            &crate::temporal::ReprojectionPass,
+        )>,
         sites: &[RecordSite],
     ) -> Result<(Vec<PlaneSample>, Vec<PlaneSample>)> {
         let res = self.settings.plane_resolution;
@@ -604,15 +611,16 @@ impl RecordPass {
             None,
         );
         let estimated = ctx.storage_buffer_sized("estimated plane samples", plane_bytes)?;
-        if let Some((next_scene, reprojection)) = ahead {
+        if let Some((next, reprojection)) = ahead {
             let mut timer = crate::gpu::timer::PassTimer::new(ctx, 2);
             reprojection.record(
                 ctx,
                 &mut enc,
-                next_scene,
+                next,
                 &self.settings,
                 &sites_buf,
                 &hits,
+                &samples,
                 &estimated,
                 n,
                 &mut timer,

@@ -60,7 +60,7 @@ fn visible_sites(
             normal: s.shading_normal.into(),
             seed: hash_u32(sites.len() as u32),
             geometric_normal: s.geometric_normal.into(),
-            _pad: 0,
+            instance: hit.instance,
         });
     }
     sites

@@ -44,7 +44,7 @@ impl<'a> RecordReference<'a> {
             normal: v.shading_normal,
             seed: hash_u32(record_index),
             geometric_normal: v.geometric_normal,
-            _pad: 0,
+            instance: v.instance,
         }
     }
 
@@ -198,7 +198,8 @@ pub fn reduce_plane(
         radius: radius as f32,
         normal: site.normal,
         r_min: site.r_min,
-        irradiance: v4(e),
+        irradiance: [e.x as f32, e.y as f32, e.z as f32],
+        instance: site.instance,
         rotation_gradient: [v4(rot[0]), v4(rot[1]), v4(rot[2])],
         translation_gradient: [v4(tr[0]), v4(tr[1]), v4(tr[2])],
     }

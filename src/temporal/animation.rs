@@ -2,7 +2,7 @@
 //! rendered over a [`TemporalCache`] (records reused across frames) or, as the baseline,
 //! over a fresh cache per frame (`--temporal off`).
 
-use super::{TemporalCache, TemporalFrameStats, TemporalGradients, TemporalSettings};
+use super::{FrameScenes, TemporalCache, TemporalFrameStats, TemporalGradients, TemporalSettings};
 use crate::frame::{Frame, PreparedScene, Renderer};
 use crate::records::{CacheSettings, Record};
 use crate::scene::Scene;
@@ -104,8 +104,11 @@ pub fn render_animation(
             Some(cache) => {
                 let (frame, stats) = cache.render_frame(
                     renderer,
-                    &prepared,
-                    ahead.as_ref(),
+                    FrameScenes {
+                        now: &prepared,
+                        scene: &current,
+                        next: ahead.as_ref().map(|p| (p, &next_scene)),
+                    },
                     &current.camera,
                     t,
                     dynamic,

@@ -7,7 +7,7 @@ use crate::frame::Renderer;
 use crate::records::reference::{RecordReference, reduce_plane};
 use crate::records::{CacheSettings, PlaneSample, Record, RecordPass};
 use crate::scene::Scene;
-use crate::temporal::ReprojectionPass;
+use crate::temporal::{NextFrame, ReprojectionPass};
 use crate::visibility::GpuCamera;
 
 /// Min / max / mean / median of per-record relative errors.
@@ -51,7 +51,7 @@ pub struct EstimateErrorTable {
 }
 
 /// RGB RMS relative error of `estimate` against `truth`.
-fn relative_error(estimate: [f32; 4], truth: [f32; 4]) -> Option<f64> {
+fn relative_error(estimate: [f32; 3], truth: [f32; 3]) -> Option<f64> {
     let (mut num, mut den) = (0.0f64, 0.0f64);
     for c in 0..3 {
         let d = f64::from(estimate[c]) - f64::from(truth[c]);
@@ -96,12 +96,14 @@ pub fn estimate_error_table(
     let cells = (settings.plane_resolution * settings.plane_resolution) as usize;
     let reduce =
         |site, samples: &[PlaneSample]| -> Record { reduce_plane(&plane, settings, site, samples) };
+    // Records keep their world position here, as in the thesis's table.
+    let next_frame = NextFrame::new(ctx, &prepared_next.gpu, at_t, next, false)?;
     let (mut with, mut without) = (Vec::new(), Vec::new());
     for chunk in sites.chunks(pass.batch as usize) {
         let (now, ahead) = pass.trace_planes_ahead(
             ctx,
             &prepared.gpu,
-            Some((&prepared_next.gpu, &reprojection)),
+            Some((&next_frame, &reprojection)),
             chunk,
         )?;
         let (truth, _) = pass.trace_planes_ahead(ctx, &prepared_next.gpu, None, chunk)?;

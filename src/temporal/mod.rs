@@ -4,20 +4,24 @@
 //! lifespan (`w_t = 1 / (|tau - 1| (t - t_k)) >= 1 / a_t` and `t - t_k < dt_max`,
 //! decision 9) and the extrapolated temporal gradient. Records keep their world position;
 //! an expired record that covered pixels in its last frame is replaced by a new record at
-//! the same place, one that covered none is deleted.
+//! the same place, one that covered none is deleted. With [`RecordAnchor::Instance`]
+//! records move with the instance they lie on instead ([`motion`]).
 
 pub mod animation;
 pub mod estimate_error;
+pub mod motion;
 pub mod reference;
 pub mod reprojection;
 
-pub use reprojection::ReprojectionPass;
+pub use motion::{InstanceMotion, RecordAnchor};
+pub use reprojection::{NextFrame, ReprojectionPass};
 
 use crate::frame::{CachedFrameOptions, Frame, PreparedScene, Renderer};
 use crate::gpu::GpuContext;
 use crate::records::{CacheSettings, Lookahead, Record, RecordCache, RecordPass, RecordSite};
-use crate::scene::Camera;
+use crate::scene::{Camera, Scene};
 use crate::{Error, Result};
+use glam::Mat4;
 
 /// Settings of temporal caching (decision 9; CLI `animate`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -27,6 +31,8 @@ pub struct TemporalSettings {
     /// dt_max: no record lives this many frames or more (1: recompute every frame).
     pub max_lifespan: u32,
     pub gradients: TemporalGradients,
+    /// Where records stay while the scene moves (the thesis: world).
+    pub anchor: RecordAnchor,
 }
 
 impl Default for TemporalSettings {
@@ -36,6 +42,7 @@ impl Default for TemporalSettings {
             accuracy: 0.05,
             max_lifespan: 20,
             gradients: TemporalGradients::Interpolated,
+            anchor: RecordAnchor::World,
         }
     }
 }
@@ -57,10 +64,30 @@ impl TemporalSettings {
     }
 }
 
+/// The instance a record moves with ([`RecordAnchor::Instance`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Anchor {
+    pub instance: u32,
+    /// The instance's transform at the record's first frame.
+    pub transform: Mat4,
+}
+
+impl Anchor {
+    /// The motion carrying a record from its first frame to a frame where the instance's
+    /// transform is `now` (the identity, exactly, when the instance has not moved).
+    pub fn motion_to(&self, now: Mat4) -> Mat4 {
+        if now == self.transform {
+            Mat4::IDENTITY
+        } else {
+            now * self.transform.inverse()
+        }
+    }
+}
+
 /// One record over its life (CPU side; the GPU holds the records of the current frame).
 #[derive(Clone, Copy, Debug)]
 pub struct TemporalRecord {
-    /// The record as computed at its first frame.
+    /// The record as computed at its first frame (world space at that frame).
     pub record: Record,
     /// Its estimate at the next frame (reprojection); equal to `record` when the scene
     /// does not change.
@@ -73,50 +100,45 @@ pub struct TemporalRecord {
     pub tau: f32,
     /// The record that replaced this one at the same place, once it expired.
     pub successor: Option<u32>,
+    /// The instance it moves with; None: it keeps its world position.
+    pub anchor: Option<Anchor>,
+}
+
+fn lerp<const N: usize>(a: &mut [f32; N], b: [f32; N], f: f32) {
+    for c in 0..N {
+        a[c] += (b[c] - a[c]) * f;
+    }
 }
 
 impl TemporalRecord {
     /// The record at frame `t` with the extrapolated temporal gradient (seed 000 eqs.
     /// 14-17): every irradiance and gradient term moves by (next - record) per frame.
+    /// Where it lies: its place at its first frame.
     pub fn at(&self, t: u32) -> Record {
         let dt = t.saturating_sub(self.birth) as f32;
-        let mut r = self.record;
         if dt == 0.0 {
-            return r;
+            return self.record;
         }
-        let lerp = |a: &mut [f32; 4], b: [f32; 4]| {
-            for c in 0..4 {
-                a[c] += (b[c] - a[c]) * dt;
-            }
-        };
-        lerp(&mut r.irradiance, self.next.irradiance);
-        for c in 0..3 {
-            lerp(&mut r.rotation_gradient[c], self.next.rotation_gradient[c]);
-            lerp(
-                &mut r.translation_gradient[c],
-                self.next.translation_gradient[c],
-            );
-        }
-        r
+        Self::blend(&self.record, &self.next, dt)
     }
 
     /// The record at frame `t` with the interpolated temporal gradient (seed 000 eqs.
     /// 18-20): between this record and its successor `l` at the same place,
     /// `E + (E_l - E) (t - t_k) / (t_l - t_k)` for irradiance and both gradients.
+    /// `successor.record` must be given at this record's place at its first frame.
     pub fn interpolated(&self, t: u32, successor: &TemporalRecord) -> Record {
         let span = successor.birth.saturating_sub(self.birth).max(1) as f32;
         let f = t.saturating_sub(self.birth) as f32 / span;
-        let mut r = self.record;
-        let next = &successor.record;
-        let lerp = |a: &mut [f32; 4], b: [f32; 4]| {
-            for c in 0..4 {
-                a[c] += (b[c] - a[c]) * f;
-            }
-        };
-        lerp(&mut r.irradiance, next.irradiance);
+        Self::blend(&self.record, &successor.record, f)
+    }
+
+    /// `from` with irradiance and both gradients moved the fraction `f` towards `to`.
+    fn blend(from: &Record, to: &Record, f: f32) -> Record {
+        let mut r = *from;
+        lerp(&mut r.irradiance, to.irradiance, f);
         for c in 0..3 {
-            lerp(&mut r.rotation_gradient[c], next.rotation_gradient[c]);
-            lerp(&mut r.translation_gradient[c], next.translation_gradient[c]);
+            lerp(&mut r.rotation_gradient[c], to.rotation_gradient[c], f);
+            lerp(&mut r.translation_gradient[c], to.translation_gradient[c], f);
         }
         r
     }
@@ -132,7 +154,7 @@ pub enum TemporalGradients {
     Interpolated,
 }
 
-fn luminance(e: [f32; 4]) -> f32 {
+fn luminance(e: [f32; 3]) -> f32 {
     0.2126 * e[0] + 0.7152 * e[1] + 0.0722 * e[2]
 }
 
@@ -174,6 +196,26 @@ pub struct TemporalFrameStats {
     pub plane_rays: u64,
 }
 
+/// The scenes a temporal frame needs: frame t on the GPU and on the CPU (instance
+/// transforms), and frame t+1 when records are estimated ahead.
+pub struct FrameScenes<'a> {
+    pub now: &'a PreparedScene,
+    /// The CPU scene at t (set to frame t).
+    pub scene: &'a Scene,
+    /// The scene at t+1, GPU and CPU; None when there is no next frame or nothing that
+    /// lights the scene changes (records are then not estimated ahead: tau = 1).
+    pub next: Option<(&'a PreparedScene, &'a Scene)>,
+}
+
+/// The records one frame used, and where the instances were then.
+struct FrameRecords {
+    frame: u32,
+    /// Record ids, in frame order.
+    ids: Vec<u32>,
+    /// Every instance's transform at that frame (to place anchored records).
+    transforms: Vec<Mat4>,
+}
+
 /// Records that persist across the frames of an animation (temporal radiance caching).
 pub struct TemporalCache {
     pub settings: TemporalSettings,
@@ -183,9 +225,9 @@ pub struct TemporalCache {
     pub history: Vec<TemporalRecord>,
     /// Ids of the records used in the last frame, in frame order.
     alive: Vec<u32>,
-    /// Per frame rendered (from the first): the ids used, in frame order (the second pass
-    /// of interpolated gradients renders exactly these).
-    pub frame_records_ids: Vec<(u32, Vec<u32>)>,
+    /// Per frame rendered (from the first): the records used (the second pass of
+    /// interpolated gradients renders exactly these).
+    frames: Vec<FrameRecords>,
     /// Pixels each of `alive` covered in the last frame.
     coverage: Vec<u32>,
     /// The frame's records on the GPU and their estimates at t+1 (same indices).
@@ -207,7 +249,7 @@ impl TemporalCache {
             reprojection: ReprojectionPass::new(ctx)?,
             history: Vec::new(),
             alive: Vec::new(),
-            frame_records_ids: Vec::new(),
+            frames: Vec::new(),
             coverage: Vec::new(),
             frame_records: RecordCache::new(ctx)?,
             next_records: RecordCache::new(ctx)?,
@@ -224,19 +266,15 @@ impl TemporalCache {
         &self.alive
     }
 
-    /// Renders frame `t` (frames must come in increasing order). `scene` is the scene at
-    /// `t`; `next_scene` the scene at `t + 1`, or None when there is no next frame or
-    /// nothing changes (records are then not estimated ahead: tau = 1). `dynamic`: whether
+    /// Renders frame `t` (frames must come in increasing order). `dynamic`: whether
     /// anything that affects irradiance (instances, lights) is animated; when false,
     /// records never expire (dt_max is lifted: nothing can change later).
     /// `placement_only`: the first pass of interpolated gradients (records only: no direct
     /// light, no images in the returned frame).
-    #[allow(clippy::too_many_arguments)]
     pub fn render_frame(
         &mut self,
         renderer: &Renderer,
-        scene: &PreparedScene,
-        next_scene: Option<&PreparedScene>,
+        scenes: FrameScenes<'_>,
         camera: &Camera,
         t: u32,
         dynamic: bool,
@@ -251,6 +289,7 @@ impl TemporalCache {
                 )));
             }
         }
+        let transforms: Vec<Mat4> = scenes.scene.instances.iter().map(|i| i.transform).collect();
         let mut stats = TemporalFrameStats {
             frame: t,
             ..Default::default()
@@ -273,39 +312,44 @@ impl TemporalCache {
         stats.replaced = replace.len() as u32;
         let evaluated: Vec<Record> = kept
             .iter()
-            .map(|&id| self.history[id as usize].at(t))
+            .map(|&id| self.world_record(self.history[id as usize].at(t), id, &transforms))
             .collect();
         self.frame_records.upload(ctx, &evaluated)?;
         self.next_records.count = 0;
         self.next_records.reserve(ctx, self.frame_records.count)?;
         self.next_records.count = self.frame_records.count;
 
-        let mut lookahead = next_scene.map(|next| Lookahead {
-            next_scene: &next.gpu,
-            reprojection: &self.reprojection,
-            next: &mut self.next_records,
-        });
-        // Replacements at the same place (records keep their world position).
+        // Replacements at the same place: where the record is now (its world position,
+        // or carried by its instance).
+        let sites: Vec<RecordSite> = replace
+            .iter()
+            .map(|&id| {
+                let r = self.world_record(self.history[id as usize].record, id, &transforms);
+                RecordSite {
+                    position: r.position,
+                    r_min: r.r_min,
+                    normal: r.normal,
+                    seed: crate::sampling::hash_combine(id, t),
+                    geometric_normal: r.normal,
+                    instance: r.instance,
+                }
+            })
+            .collect();
+        let anchored = self.settings.anchor == RecordAnchor::Instance;
+        let mut lookahead = match scenes.next {
+            Some((next, next_cpu)) => Some(Lookahead {
+                next_frame: NextFrame::new(ctx, &next.gpu, scenes.scene, next_cpu, anchored)?,
+                reprojection: &self.reprojection,
+                next: &mut self.next_records,
+            }),
+            None => None,
+        };
         let mut times = Vec::new();
-        if !replace.is_empty() {
-            let sites: Vec<RecordSite> = replace
-                .iter()
-                .map(|&id| {
-                    let r = &self.history[id as usize].record;
-                    RecordSite {
-                        position: r.position,
-                        r_min: r.r_min,
-                        normal: r.normal,
-                        seed: crate::sampling::hash_combine(id, t),
-                        geometric_normal: r.normal,
-                        _pad: 0,
-                    }
-                })
-                .collect();
+        if !sites.is_empty() {
             let buf = ctx.storage_buffer("replacement sites", &sites)?;
             times.extend(self.pass.compute(
                 ctx,
-                &scene.gpu,
+                &scenes.now.gpu,
                 &buf,
                 sites.len() as u32,
                 &mut self.frame_records,
@@ -315,7 +359,7 @@ impl TemporalCache {
         }
         let before_new = self.frame_records.count;
         let (mut frame, coverage) = renderer.render_cached_frame(
-            scene,
+            scenes.now,
             camera,
             &mut self.frame_records,
             &self.pass,
@@ -336,7 +380,7 @@ impl TemporalCache {
         let (mut records, mut nexts) = (Vec::new(), Vec::new());
         if computed > 0 {
             let range = RecordCache::byte_range(first as u32, computed as u32);
-            let mut read = if next_scene.is_some() {
+            let mut read = if scenes.next.is_some() {
                 ctx.read_buffer_ranges::<Record>(&[
                     (&self.frame_records.buffer, range.clone()),
                     (&self.next_records.buffer, range),
@@ -363,6 +407,17 @@ impl TemporalCache {
             } else {
                 1.0
             };
+            let anchor = match self.settings.anchor {
+                RecordAnchor::World => None,
+                RecordAnchor::Instance => {
+                    transforms
+                        .get(record.instance as usize)
+                        .map(|&transform| Anchor {
+                            instance: record.instance,
+                            transform,
+                        })
+                }
+            };
             let id = self.history.len() as u32;
             self.history.push(TemporalRecord {
                 record,
@@ -371,10 +426,15 @@ impl TemporalCache {
                 last_frame: last_frame(t, tau, &self.settings, dynamic),
                 tau,
                 successor: None,
+                anchor,
             });
             alive.push(id);
         }
-        self.frame_records_ids.push((t, alive.clone()));
+        self.frames.push(FrameRecords {
+            frame: t,
+            ids: alive.clone(),
+            transforms,
+        });
         self.alive = alive;
         self.coverage = coverage;
         self.last_frame_rendered = Some(t);
@@ -390,19 +450,47 @@ impl TemporalCache {
         frame.stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
         Ok((frame, stats))
     }
-}
 
-impl TemporalCache {
+    /// `record` (record `id` as given at its first frame's place) where record `id` is
+    /// when the instances have `transforms`: unchanged for records that keep their world
+    /// position, carried by its instance's motion since then otherwise.
+    fn world_record(&self, record: Record, id: u32, transforms: &[Mat4]) -> Record {
+        match &self.history[id as usize].anchor {
+            Some(anchor) => match transforms.get(anchor.instance as usize) {
+                Some(&now) => motion::move_record(&record, &anchor.motion_to(now)),
+                None => record,
+            },
+            None => record,
+        }
+    }
+
     /// The record `id` at frame `t` with this cache's temporal gradients (interpolated
-    /// towards its successor when it has one, else extrapolated).
+    /// towards its successor when it has one, else extrapolated), where it is at frame `t`
+    /// (which must have been rendered).
     pub fn record_at(&self, id: u32, t: u32) -> Record {
+        let transforms = self
+            .frames
+            .iter()
+            .find(|f| f.frame == t)
+            .map(|f| f.transforms.as_slice())
+            .unwrap_or(&[]);
         let r = &self.history[id as usize];
-        match (self.settings.gradients, r.successor) {
+        let at_birth_place = match (self.settings.gradients, r.successor) {
             (TemporalGradients::Interpolated, Some(l)) => {
-                r.interpolated(t, &self.history[l as usize])
+                let mut successor = self.history[l as usize];
+                // The successor as it would be at this record's place at its first frame
+                // (the same place on the instance).
+                if let (Some(mine), Some(its)) = (r.anchor, successor.anchor) {
+                    let back = mine.transform * its.transform.inverse();
+                    if its.transform != mine.transform {
+                        successor.record = motion::move_record(&successor.record, &back);
+                    }
+                }
+                r.interpolated(t, &successor)
             }
             _ => r.at(t),
-        }
+        };
+        self.world_record(at_birth_place, id, transforms)
     }
 
     /// Second pass of interpolated gradients: renders frame `t` again over exactly the
@@ -416,10 +504,10 @@ impl TemporalCache {
         t: u32,
     ) -> Result<Frame> {
         let ids = self
-            .frame_records_ids
+            .frames
             .iter()
-            .find(|(f, _)| *f == t)
-            .map(|(_, ids)| ids.clone())
+            .find(|f| f.frame == t)
+            .map(|f| f.ids.clone())
             .ok_or_else(|| Error::Usage(format!("frame {t} was not rendered by the first pass")))?;
         let records: Vec<Record> = ids.iter().map(|&id| self.record_at(id, t)).collect();
         self.frame_records.upload(&renderer.ctx, &records)?;
@@ -445,8 +533,8 @@ impl TemporalCache {
 
     /// Same for the records frame `t` used (any frame rendered so far).
     pub fn records_of_frame(&self, t: u32) -> (Vec<Record>, Vec<u32>) {
-        match self.frame_records_ids.iter().find(|(f, _)| *f == t) {
-            Some((_, ids)) => self.records_with_lifespans(ids, t),
+        match self.frames.iter().find(|f| f.frame == t) {
+            Some(f) => self.records_with_lifespans(&f.ids, t),
             None => (Vec::new(), Vec::new()),
         }
     }

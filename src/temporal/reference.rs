@@ -7,7 +7,8 @@ use crate::direct::reference::{DirectReference, offset_ray_origin};
 use crate::records::reference::RecordReference;
 use crate::records::{PlaneMode, PlaneSample, RecordSite};
 use crate::sampling::{hash_combine, orthonormal_basis};
-use glam::Vec3;
+use super::motion::InstanceMotion;
+use glam::{Mat4, Vec3};
 use std::f32::consts::PI;
 
 const INDEX_MASK: u32 = 0x3fff;
@@ -18,11 +19,15 @@ fn key(depth: f32, sample: u32) -> u32 {
 }
 
 /// The plane of `site` traced in the scene of `at_t` and estimated at t+1 in the scene of
-/// `next` (same meshes and instance order, moved instances and lights).
+/// `next` (same meshes and instance order, moved instances and lights). With
+/// `anchored_motion` (the instances' motions from t to t+1), the record moves with its
+/// site's instance ([`super::RecordAnchor::Instance`]). Every hit is re-shaded: the GPU
+/// pass's reuse of the radiance traced at t must agree with this.
 pub fn reproject_plane(
     at_t: &RecordReference,
     next: &DirectReference,
     site: &RecordSite,
+    anchored_motion: Option<&[InstanceMotion]>,
 ) -> Vec<PlaneSample> {
     let plane = &at_t.plane;
     let res = plane.resolution as usize;
@@ -62,8 +67,17 @@ pub fn reproject_plane(
             continue;
         };
         let probe = next.surface_at(&hit, n);
-        let to_point = probe.position - origin;
-        let s = next.surface_at(&hit, to_point.normalize());
+        let mut to_point = probe.position - origin;
+        let mut view = to_point;
+        if let Some(m) = anchored_motion.and_then(|m| m.get(site.instance as usize)) {
+            if m.moves != 0 {
+                let to_next = Mat4::from_cols_array_2d(&m.to_next);
+                let from_next = Mat4::from_cols_array_2d(&m.from_next);
+                view = probe.position - to_next.transform_point3(origin);
+                to_point = from_next.transform_point3(probe.position) - origin;
+            }
+        }
+        let s = next.surface_at(&hit, view.normalize());
         let e = next.direct_irradiance(&s, hash_combine(site.seed, k as u32));
         let m = &next.scene.materials[s.material as usize];
         let emission = if s.front_face && !m.sampled_light {

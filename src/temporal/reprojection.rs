@@ -12,6 +12,8 @@ use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
 use crate::records::{CacheSettings, PlaneMode};
+use crate::scene::Scene;
+use super::motion::{InstanceMotion, MovingBounds, instance_motions, lights_unchanged, moving_bounds};
 use bytemuck::{Pod, Zeroable};
 
 /// Largest plane the reprojection keys can index (14 bits of sample index,
@@ -26,7 +28,9 @@ struct ReprojectParams {
     light_samples: u32,
     stretched: u32,
     half_extent: f32,
-    _pad: [u32; 3],
+    anchored: u32,
+    reuse_shading: u32,
+    moving_count: u32,
 }
 
 #[repr(C)]
@@ -35,6 +39,60 @@ struct FillParams {
     resolution: u32,
     count: u32,
     _pad: [u32; 2],
+}
+
+/// Reuse of the radiance traced at t is tested against at most this many moving
+/// instances (each shadow ray is tested against every box); with more, every hit is
+/// re-shaded.
+pub const MAX_MOVING_FOR_REUSE: usize = 32;
+
+/// Frame t+1 as the reprojection sees it.
+pub struct NextFrame<'a> {
+    /// The scene at t+1.
+    pub scene: &'a GpuScene,
+    /// One [`InstanceMotion`] per instance, from t to t+1.
+    motion: wgpu::Buffer,
+    /// [`MovingBounds`] of the instances that move.
+    moving: wgpu::Buffer,
+    /// Records move with the instance they lie on ([`super::RecordAnchor::Instance`]).
+    pub anchored: bool,
+    /// Hits whose lighting cannot have changed keep the radiance traced at t.
+    pub reuse_shading: bool,
+    moving_count: u32,
+}
+
+impl<'a> NextFrame<'a> {
+    /// Frame t+1 of `now` (the CPU scene at t): `next` is the CPU scene at t+1 and
+    /// `scene` the same on the GPU.
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &'a GpuScene,
+        now: &Scene,
+        next: &Scene,
+        anchored: bool,
+    ) -> Result<Self> {
+        let motions = instance_motions(now, next);
+        let bounds = moving_bounds(now, next);
+        let motion = if motions.is_empty() {
+            ctx.storage_buffer("instance motion", &[InstanceMotion::zeroed()])?
+        } else {
+            ctx.storage_buffer("instance motion", &motions)?
+        };
+        // Bindings cannot be empty: the shader reads `moving_count` boxes.
+        let moving = if bounds.is_empty() {
+            ctx.storage_buffer("moving bounds", &[MovingBounds::zeroed()])?
+        } else {
+            ctx.storage_buffer("moving bounds", &bounds)?
+        };
+        Ok(Self {
+            scene,
+            motion,
+            moving,
+            anchored,
+            moving_count: bounds.len() as u32,
+            reuse_shading: lights_unchanged(now, next) && bounds.len() <= MAX_MOVING_FOR_REUSE,
+        })
+    }
 }
 
 /// The `plane_reproject` and `plane_fill` passes.
@@ -56,6 +114,9 @@ impl ReprojectionPass {
                     StorageRead,
                     StorageReadWrite,
                     StorageReadWrite,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
                 ],
             )?,
             fill: ComputePass::new(
@@ -66,18 +127,19 @@ impl ReprojectionPass {
         })
     }
 
-    /// Records the estimate at t+1 of `count` records' planes: reads their sites and plane
-    /// hits (traced at t), writes the reprojected, hole-filled plane into `samples`
-    /// (`count * P^2` [`crate::records::PlaneSample`]s).
+    /// Records the estimate at t+1 of `count` records' planes: reads their sites, plane
+    /// hits and `traced` samples (at t), writes the reprojected, hole-filled plane into
+    /// `samples` (`count * P^2` [`crate::records::PlaneSample`]s; may be `traced`).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         ctx: &GpuContext,
         enc: &mut wgpu::CommandEncoder,
-        next_scene: &GpuScene,
+        next: &NextFrame<'_>,
         settings: &CacheSettings,
         sites: &wgpu::Buffer,
         hits: &wgpu::Buffer,
+        traced: &wgpu::Buffer,
         samples: &wgpu::Buffer,
         count: u32,
         timer: &mut PassTimer,
@@ -102,16 +164,30 @@ impl ReprojectionPass {
                 light_samples: settings.plane_light_samples,
                 stretched: u32::from(settings.plane_mode == PlaneMode::Stretched),
                 half_extent: (settings.plane_fov_degrees.to_radians() * 0.5).tan(),
-                _pad: [0; 3],
+                anchored: u32::from(next.anchored),
+                reuse_shading: u32::from(next.reuse_shading),
+                moving_count: next.moving_count,
             },
         );
         let bind = self
             .reproject
-            .bind(ctx, &[&params, sites, hits, &cells, &moved]);
+            .bind(
+            ctx,
+            &[
+                &params,
+                sites,
+                hits,
+                &cells,
+                &moved,
+                &next.motion,
+                &next.moving,
+                traced,
+            ],
+        );
         let groups = [res.div_ceil(8), res.div_ceil(8), count];
         self.reproject.record(
             enc,
-            &next_scene.bind_group,
+            &next.scene.bind_group,
             &bind,
             groups,
             timer.next("temporal: reprojection"),
@@ -127,7 +203,7 @@ impl ReprojectionPass {
         let bind = self.fill.bind(ctx, &[&params, &cells, &moved, samples]);
         self.fill.record(
             enc,
-            &next_scene.bind_group,
+            &next.scene.bind_group,
             &bind,
             groups,
             timer.next("temporal: hole filling"),

@@ -8,7 +8,8 @@ struct Record {
     radius: f32,                   // R_k, harmonic mean distance clamped to [R_min, R_max]
     normal: vec3f,
     r_min: f32,
-    irradiance: vec4f,             // E_k (rgb)
+    irradiance: vec3f,             // E_k (rgb)
+    instance: u32,                 // the instance it lies on (temporal records can move with it)
     rotation_gradient: array<vec4f, 3>,     // per channel: grad_r (xyz)
     translation_gradient: array<vec4f, 3>,  // per channel: grad_t (xyz)
 }
@@ -69,7 +70,7 @@ fn record_in_front(r: Record, p: vec3f, n: vec3f, accuracy: f32) -> bool {
 fn record_irradiance_at(r: Record, p: vec3f, n: vec3f) -> vec3f {
     let axis = cross(r.normal, n);
     let d = p - r.position;
-    var e = r.irradiance.xyz;
+    var e = r.irradiance;
     e.x += dot(axis, r.rotation_gradient[0].xyz) + dot(d, r.translation_gradient[0].xyz);
     e.y += dot(axis, r.rotation_gradient[1].xyz) + dot(d, r.translation_gradient[1].xyz);
     e.z += dot(axis, r.rotation_gradient[2].xyz) + dot(d, r.translation_gradient[2].xyz);
@@ -83,5 +84,5 @@ struct RecordSite {
     normal: vec3f,             // shading normal: the record's hemisphere
     seed: u32,                 // scrambles the plane's light samples
     geometric_normal: vec3f,   // offsets ray origins off the surface
-    _pad: u32,
+    instance: u32,             // the instance it lies on
 }

@@ -121,6 +121,15 @@ fn direct_irradiance(s: Surface, seed: u32) -> vec3f {
     return direct_irradiance_samples(s, seed, scene_info.light_samples);
 }
 
+// Sample k of a rect light (scrambled Sobol point on the quad).
+fn rect_light_point(light: Light, k: u32, light_seed: u32) -> vec3f {
+    let xi = sobol_2d(k, light_seed);
+    return light.a.xyz + xi.x * light.b.xyz + xi.y * light.c.xyz;
+}
+
+// Scrambles the environment's directions (with the surface's seed).
+const ENVIRONMENT_SEED: u32 = 0xe17u;
+
 // Same with `count` samples per area light and for the environment (secondary hits use
 // fewer than camera pixels: the hemisphere sum averages their noise).
 fn direct_irradiance_samples(s: Surface, seed: u32, count: u32) -> vec3f {
@@ -162,8 +171,7 @@ fn direct_irradiance_samples(s: Surface, seed: u32, count: u32) -> vec3f {
             var sum = vec3f(0.0);
             let light_seed = hash_combine(seed, li);
             for (var k = 0u; k < count; k++) {
-                let xi = sobol_2d(k, light_seed);
-                let q = light.a.xyz + xi.x * eu + xi.y * ev;
+                let q = rect_light_point(light, k, light_seed);
                 let to_q = q - s.position;
                 let d2 = dot(to_q, to_q);
                 let l = to_q * inverseSqrt(d2);
@@ -185,7 +193,7 @@ fn direct_irradiance_samples(s: Surface, seed: u32, count: u32) -> vec3f {
     if any(env != vec3f(0.0)) {
         let frame = orthonormal_basis(n);
         var unoccluded = 0u;
-        let env_seed = hash_combine(seed, 0xe17u);
+        let env_seed = hash_combine(seed, ENVIRONMENT_SEED);
         for (var k = 0u; k < count; k++) {
             let dir = frame * cosine_hemisphere(sobol_2d(k, env_seed));
             if dot(dir, ng) > 0.0 && visible(s, dir, true) {

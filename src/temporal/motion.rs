@@ -1,0 +1,203 @@
+//! How instances move from one frame to the next, and records that move with them.
+//!
+//! The thesis keeps every record at its world position (seed 000 Fig. 5, decision 9): a
+//! record on a moving object stays in the air where the object was, and the object's new
+//! surface needs new records every frame. [`RecordAnchor::Instance`] instead carries a
+//! record rigidly with the instance it lies on (its position, normal and gradients move
+//! with the instance's transform); its reprojected plane (E(t+1)) is then seen from where
+//! the record will be at t+1. Records on instances that do not move are unaffected.
+
+use crate::records::Record;
+use crate::scene::Scene;
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat3, Mat4, Vec3};
+
+/// Where temporal records stay while the scene moves (CLI `--record-anchor`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum RecordAnchor {
+    /// At their world position, as in the thesis (decision 9). The default.
+    World,
+    /// On the instance they lie on: records move rigidly with it.
+    Instance,
+}
+
+/// How one instance moves from frame t to t+1 (mirror of WGSL `InstanceMotion` in
+/// `plane_reproject.wgsl`, 144 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct InstanceMotion {
+    /// World at t to world at t+1 for points on the instance (column-major).
+    pub to_next: [[f32; 4]; 4],
+    /// Its inverse.
+    pub from_next: [[f32; 4]; 4],
+    /// 1 when the instance moves between t and t+1, else 0.
+    pub moves: u32,
+    pub _pad: [u32; 3],
+}
+
+/// The motion of every instance of `now` (the scene at t) to `next` (the same scene at
+/// t+1), in instance order.
+pub fn instance_motions(now: &Scene, next: &Scene) -> Vec<InstanceMotion> {
+    now.instances
+        .iter()
+        .zip(&next.instances)
+        .map(|(a, b)| {
+            let moves = a.transform != b.transform;
+            let to_next = if moves {
+                b.transform * a.transform.inverse()
+            } else {
+                Mat4::IDENTITY
+            };
+            InstanceMotion {
+                to_next: to_next.to_cols_array_2d(),
+                from_next: to_next.inverse().to_cols_array_2d(),
+                moves: u32::from(moves),
+                _pad: [0; 3],
+            }
+        })
+        .collect()
+}
+
+/// World box of an instance that moves between t and t+1, over both frames (mirror of
+/// WGSL `MovingBounds` in `plane_reproject.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct MovingBounds {
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+}
+
+/// The boxes of the instances that move from `now` to `next`, each covering the instance
+/// at both frames (slightly enlarged: the reprojection's shadow test must be
+/// conservative).
+pub fn moving_bounds(now: &Scene, next: &Scene) -> Vec<MovingBounds> {
+    let mut out = Vec::new();
+    for (a, b) in now.instances.iter().zip(&next.instances) {
+        if a.transform == b.transform {
+            continue;
+        }
+        let Some(mesh) = now.meshes.get(a.mesh as usize) else {
+            continue;
+        };
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for p in &mesh.positions {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        if lo.x > hi.x {
+            continue;
+        }
+        let (mut wlo, mut whi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for m in [a.transform, b.transform] {
+            for c in 0..8 {
+                let corner = Vec3::new(
+                    if c & 1 == 0 { lo.x } else { hi.x },
+                    if c & 2 == 0 { lo.y } else { hi.y },
+                    if c & 4 == 0 { lo.z } else { hi.z },
+                );
+                let w = m.transform_point3(corner);
+                wlo = wlo.min(w);
+                whi = whi.max(w);
+            }
+        }
+        let margin = 1e-4 * (whi - wlo).max_element().max(1e-3);
+        out.push(MovingBounds {
+            lo: (wlo - margin).extend(0.0).into(),
+            hi: (whi + margin).extend(0.0).into(),
+        });
+    }
+    out
+}
+
+/// Whether the lights (and the environment) are the same at both frames.
+pub fn lights_unchanged(now: &Scene, next: &Scene) -> bool {
+    now.lights == next.lights && now.environment == next.environment
+}
+
+fn rgb(v: [f32; 4]) -> Vec3 {
+    Vec3::new(v[0], v[1], v[2])
+}
+
+fn rgb0(v: Vec3) -> [f32; 4] {
+    [v.x, v.y, v.z, 0.0]
+}
+
+/// `record` carried by the affine map `m` (a rigid motion, possibly with uniform scale):
+/// position and normal move with it; the rotational gradient turns with its rotation
+/// (`(n_k x n).grad_r` is invariant under a rotation of all three); the translational
+/// gradient, a covector (`grad_t . dp`), maps by the inverse transpose; R and R_min scale
+/// with it. Irradiance is unchanged. The identity returns `record` bit for bit.
+pub fn move_record(record: &Record, m: &Mat4) -> Record {
+    if *m == Mat4::IDENTITY {
+        return *record;
+    }
+    let linear = Mat3::from_mat4(*m);
+    let scale = linear.determinant().abs().cbrt().max(f32::MIN_POSITIVE);
+    let rotation = linear * (1.0 / scale);
+    let covector = linear.inverse().transpose();
+    let mut r = *record;
+    r.position = m.transform_point3(record.position.into()).into();
+    r.normal = (rotation * Vec3::from(record.normal))
+        .normalize_or_zero()
+        .into();
+    r.radius = record.radius * scale;
+    r.r_min = record.r_min * scale;
+    for c in 0..3 {
+        r.rotation_gradient[c] = rgb0(rotation * rgb(record.rotation_gradient[c]));
+        r.translation_gradient[c] = rgb0(covector * rgb(record.translation_gradient[c]));
+    }
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Quat;
+
+    fn record() -> Record {
+        Record {
+            position: [1.0, 2.0, 3.0],
+            radius: 0.5,
+            normal: [0.0, 1.0, 0.0],
+            r_min: 0.1,
+            irradiance: [1.0, 2.0, 3.0],
+            instance: 4,
+            rotation_gradient: [[0.1, 0.2, 0.3, 0.0]; 3],
+            translation_gradient: [[0.3, -0.2, 0.1, 0.0]; 3],
+        }
+    }
+
+    /// Irradiance the record extrapolates to (p, n) (decision 3), red channel.
+    fn extrapolate(r: &Record, p: Vec3, n: Vec3) -> f32 {
+        let axis = Vec3::from(r.normal).cross(n);
+        r.irradiance[0]
+            + axis.dot(rgb(r.rotation_gradient[0]))
+            + (p - Vec3::from(r.position)).dot(rgb(r.translation_gradient[0]))
+    }
+
+    #[test]
+    fn a_moved_record_extrapolates_to_moved_points_as_before() {
+        let m = Mat4::from_scale_rotation_translation(
+            Vec3::splat(1.5),
+            Quat::from_euler(glam::EulerRot::YXZ, 0.7, -0.3, 0.2),
+            Vec3::new(-2.0, 0.5, 4.0),
+        );
+        let r = record();
+        let moved = move_record(&r, &m);
+        let p = Vec3::new(1.2, 2.1, 2.7);
+        let n = Vec3::new(0.1, 0.98, -0.1).normalize();
+        let before = extrapolate(&r, p, n);
+        let rotation = Mat3::from_mat4(m) * (1.0 / 1.5);
+        let after = extrapolate(&moved, m.transform_point3(p), rotation * n);
+        assert!((before - after).abs() < 1e-4, "{before} vs {after}");
+        assert!((moved.radius - 0.75).abs() < 1e-6);
+        assert_eq!(moved.irradiance, r.irradiance);
+    }
+
+    #[test]
+    fn the_identity_leaves_a_record_unchanged() {
+        let r = record();
+        let same = move_record(&r, &Mat4::IDENTITY);
+        assert_eq!(bytemuck::bytes_of(&same), bytemuck::bytes_of(&r));
+    }
+}
