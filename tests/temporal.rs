@@ -287,9 +287,8 @@ fn reprojection_reuse_and_anchored_records_match_the_cpu_reference() {
         s.instances[1].transform = m * base;
         s
     };
-    let next = moved(
-        Mat4::from_translation(Vec3::new(0.1, 0.0, -0.05)) * Mat4::from_rotation_y(0.2),
-    );
+    let next =
+        moved(Mat4::from_translation(Vec3::new(0.1, 0.0, -0.05)) * Mat4::from_rotation_y(0.2));
     for anchored in [false, true] {
         let (_, total, differ, changed) = reproject_against_cpu(&scene, &next, anchored);
         assert!(changed > 0, "the motion should change some cells");
@@ -305,8 +304,8 @@ fn slide_cube(renderer: &Renderer, anchor: RecordAnchor) -> (u32, TemporalCache,
         anchor,
         ..TemporalSettings::default()
     };
-    let mut temporal = TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings)
-        .expect("temporal cache");
+    let mut temporal =
+        TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings).expect("temporal cache");
     let scenes: Vec<_> = (0..=10)
         .map(|t| cube_moved(&scene, base, 0.05 * t as f32))
         .collect();
@@ -357,7 +356,10 @@ fn anchored_records_move_with_their_instance() {
         let expected = (m9 * m0.inverse()).transform_point3(r.record.position());
         let at_9 = cache.record_at(id, 9).position();
         assert!((at_9 - expected).length() < 1e-4, "{at_9} vs {expected}");
-        assert!((at_9 - r.record.position()).length() > 0.4, "record did not move");
+        assert!(
+            (at_9 - r.record.position()).length() > 0.4,
+            "record did not move"
+        );
         checked += 1;
     }
     assert!(checked > 0, "no record of the cube lived to frame 9");

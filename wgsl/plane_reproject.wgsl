@@ -154,7 +154,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             to_point = (m.from_next * vec4f(probe.position, 1.0)).xyz - origin;
         }
     }
-    let s = surface_at(Hit(0.0, h.instance, h.triangle, h.u, h.v), normalize(view));
+    let s = surface_facing(probe, view);
     let seed = hash_combine(site.seed, pixel);
     // Re-shading is the costly part (shadow rays at t+1); skip it where nothing that
     // lights this hit has changed.

@@ -138,7 +138,11 @@ impl TemporalRecord {
         lerp(&mut r.irradiance, to.irradiance, f);
         for c in 0..3 {
             lerp(&mut r.rotation_gradient[c], to.rotation_gradient[c], f);
-            lerp(&mut r.translation_gradient[c], to.translation_gradient[c], f);
+            lerp(
+                &mut r.translation_gradient[c],
+                to.translation_gradient[c],
+                f,
+            );
         }
         r
     }

@@ -3,11 +3,11 @@
 //! in the scene at t+1, projected onto the record's plane with the same (depth bits,
 //! sample index) keys, and holes filled from the deepest neighbour.
 
+use super::motion::InstanceMotion;
 use crate::direct::reference::{DirectReference, offset_ray_origin};
 use crate::records::reference::RecordReference;
 use crate::records::{PlaneMode, PlaneSample, RecordSite};
 use crate::sampling::{hash_combine, orthonormal_basis};
-use super::motion::InstanceMotion;
 use glam::{Mat4, Vec3};
 use std::f32::consts::PI;
 

@@ -6,6 +6,9 @@
 //! neighbour). The resulting plane goes through the ordinary record reduction
 //! ([`crate::records::RecordPass::compute`] with a [`crate::records::Lookahead`]).
 
+use super::motion::{
+    InstanceMotion, MovingBounds, instance_motions, lights_unchanged, moving_bounds,
+};
 use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
@@ -13,7 +16,6 @@ use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
 use crate::records::{CacheSettings, PlaneMode};
 use crate::scene::Scene;
-use super::motion::{InstanceMotion, MovingBounds, instance_motions, lights_unchanged, moving_bounds};
 use bytemuck::{Pod, Zeroable};
 
 /// Largest plane the reprojection keys can index (14 bits of sample index,
@@ -169,9 +171,7 @@ impl ReprojectionPass {
                 moving_count: next.moving_count,
             },
         );
-        let bind = self
-            .reproject
-            .bind(
+        let bind = self.reproject.bind(
             ctx,
             &[
                 &params,

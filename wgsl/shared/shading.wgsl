@@ -47,6 +47,19 @@ fn surface_at(hit: Hit, ray_dir: vec3f) -> Surface {
     return s;
 }
 
+// `s` (from `surface_at(hit, d)`) as `surface_at(hit, ray_dir)` would give it: only the
+// side it is seen from changes, so the triangle and instance need not be loaded again.
+fn surface_facing(s: Surface, ray_dir: vec3f) -> Surface {
+    let ng = select(-s.geometric_normal, s.geometric_normal, s.front_face);
+    var out = s;
+    out.front_face = dot(ng, ray_dir) < 0.0;
+    if out.front_face != s.front_face {
+        out.geometric_normal = -s.geometric_normal;
+        out.shading_normal = -s.shading_normal;
+    }
+    return out;
+}
+
 fn srgb_to_linear(c: f32) -> f32 {
     return select(pow((c + 0.055) / 1.055, 2.4), c / 12.92, c <= 0.04045);
 }
