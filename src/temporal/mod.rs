@@ -275,6 +275,7 @@ impl TemporalCache {
     /// records never expire (dt_max is lifted: nothing can change later).
     /// `placement_only`: the first pass of interpolated gradients (records only: no direct
     /// light, no images in the returned frame).
+    #[allow(clippy::too_many_arguments)]
     pub fn render_frame(
         &mut self,
         renderer: &Renderer,
