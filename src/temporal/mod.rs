@@ -473,12 +473,21 @@ impl TemporalCache {
     /// towards its successor when it has one, else extrapolated), where it is at frame `t`
     /// (which must have been rendered).
     pub fn record_at(&self, id: u32, t: u32) -> Record {
-        let transforms = self
-            .frames
+        self.record_at_with(id, t, self.transforms_of_frame(t))
+    }
+
+    /// Every instance's transform at rendered frame `t` (empty if it was not rendered).
+    fn transforms_of_frame(&self, t: u32) -> &[Mat4] {
+        self.frames
             .iter()
             .find(|f| f.frame == t)
             .map(|f| f.transforms.as_slice())
-            .unwrap_or(&[]);
+            .unwrap_or(&[])
+    }
+
+    /// [`TemporalCache::record_at`] with frame `t`'s instance transforms already looked up
+    /// (one lookup per frame, not per record).
+    fn record_at_with(&self, id: u32, t: u32, transforms: &[Mat4]) -> Record {
         let r = &self.history[id as usize];
         let at_birth_place = match (self.settings.gradients, r.successor) {
             (TemporalGradients::Interpolated, Some(l)) => {
@@ -486,10 +495,8 @@ impl TemporalCache {
                 // The successor as it would be at this record's place at its first frame
                 // (the same place on the instance).
                 if let (Some(mine), Some(its)) = (r.anchor, successor.anchor) {
-                    let back = mine.transform * its.transform.inverse();
-                    if its.transform != mine.transform {
-                        successor.record = motion::move_record(&successor.record, &back);
-                    }
+                    successor.record =
+                        motion::move_record(&successor.record, &its.motion_to(mine.transform));
                 }
                 r.interpolated(t, &successor)
             }
@@ -514,7 +521,11 @@ impl TemporalCache {
             .find(|f| f.frame == t)
             .map(|f| f.ids.clone())
             .ok_or_else(|| Error::Usage(format!("frame {t} was not rendered by the first pass")))?;
-        let records: Vec<Record> = ids.iter().map(|&id| self.record_at(id, t)).collect();
+        let transforms = self.transforms_of_frame(t);
+        let records: Vec<Record> = ids
+            .iter()
+            .map(|&id| self.record_at_with(id, t, transforms))
+            .collect();
         self.frame_records.upload(&renderer.ctx, &records)?;
         let (frame, _) = renderer.render_cached_frame(
             scene,
@@ -545,11 +556,12 @@ impl TemporalCache {
     }
 
     fn records_with_lifespans(&self, ids: &[u32], t: u32) -> (Vec<Record>, Vec<u32>) {
+        let transforms = self.transforms_of_frame(t);
         ids.iter()
             .map(|&id| {
                 let r = &self.history[id as usize];
                 let lifespan = r.last_frame.saturating_sub(r.birth).saturating_add(1);
-                (self.record_at(id, t), lifespan)
+                (self.record_at_with(id, t, transforms), lifespan)
             })
             .unzip()
     }
