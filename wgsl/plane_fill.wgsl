@@ -1,4 +1,4 @@
-// Temporal reprojection, step 2 of 2: read the reprojected plane back into plane samples.
+// Temporal reprojection, step 3 of 3: read the reprojected plane back into plane samples.
 // A cell that received a sample takes that sample (radiance at t+1, its new depth); an
 // empty cell (a hole opened by motion) takes the deepest of its eight neighbours, the
 // local background (seed 000 section V-a, thesis 5.3: "the neighbouring value with the

@@ -1,8 +1,7 @@
-// Temporal reprojection, step 1 of 2 (seed 000 section IV-G, thesis 5.2.4; algorithms.md
+// Temporal reprojection, step 1 of 3 (seed 000 section IV-G, thesis 5.2.4; algorithms.md
 // 4.3): estimate a new record's plane at the next frame. Bound with the scene of frame
 // t+1 at group 0: each plane sample's hit (instance, triangle, u, v) is rebuilt there,
-// which moves it with its instance's transform, and re-shaded with the lights of t+1
-// (shadow rays in the t+1 scene). The moved point is projected onto the record's plane
+// which moves it with its instance's transform. The moved point is projected onto the record's plane
 // (the record keeps its world position and frame) and written into that pixel's cell
 // with a depth test: the smallest (depth bits, sample index) key wins whatever the thread
 // order (stored complemented, atomicMax on cells cleared to 0, so no fill pass is needed).
@@ -11,19 +10,14 @@
 // the moved point is seen from the record's place at t+1 and projected in the record's
 // frame carried along, i.e. after undoing the record's own motion. One invocation per
 // (sample, record).
-//!include shared/shading.wgsl
-//!include shared/records.wgsl
-
-struct ReprojectParams {
-    resolution: u32,
-    count: u32,
-    light_samples: u32,
-    stretched: u32,      // 1: border pixels reach infinity (decision 6)
-    half_extent: f32,    // tan(fov / 2): the plane spans [-s, s]^2 at z = 1
-    anchored: u32,       // 1: records move with their instance (`motion`)
-    reuse_shading: u32,  // 1: lights unchanged from t to t+1 and `moving` lists every mover
-    moving_count: u32,
-}
+// Its radiance at t+1 is the radiance traced at t where nothing that lights it can have
+// changed; the other samples that land in a cell are appended to `reshade`, and step 2
+// (plane_reshade.wgsl) re-shades them with the lights of t+1 in a dense dispatch. On a
+// CPU-like SIMD device a branchy per-sample re-shade costs the whole SIMD row whenever
+// one lane needs it; the list keeps every lane busy. The list's order depends on thread
+// timing, but every entry is computed on its own and written to its own sample, so the
+// result does not.
+//!include shared/reprojection.wgsl
 
 @group(1) @binding(0) var<uniform> params: ReprojectParams;
 @group(1) @binding(1) var<storage, read> sites: array<RecordSite>;
@@ -33,6 +27,26 @@ struct ReprojectParams {
 @group(1) @binding(5) var<storage, read> motion: array<InstanceMotion>;
 @group(1) @binding(6) var<storage, read> moving: array<MovingBounds>;
 @group(1) @binding(7) var<storage, read> traced: array<PlaneSample>;   // the plane at t
+@group(1) @binding(8) var<storage, read_write> reshade: ReshadeList;
+@group(1) @binding(9) var<storage, read_write> reshade_groups: array<atomic<u32>, 3>;
+
+// Samples whose radiance at t+1 must be re-shaded (step 2).
+struct ReshadeList {
+    count: atomic<u32>,
+    samples: array<u32>,
+}
+
+// Workgroups of plane_reshade.wgsl (64 invocations each) as an indirect dispatch
+// (x, y, 1), x at most 65535; `reshade_groups` starts at (0, 1, 1). Slots are handed out
+// contiguously, so each group's first slot raises the counts; the maxima are reached
+// whatever the thread order.
+fn count_reshade_slot(slot: u32) {
+    if slot % 64u == 0u {
+        let group = slot / 64u;
+        atomicMax(&reshade_groups[0], min(group + 1u, 65535u));
+        atomicMax(&reshade_groups[1], group / 65535u + 1u);
+    }
+}
 
 // World box of an instance that moves between t and t+1, over both frames (Rust:
 // temporal::motion::MovingBounds).
@@ -104,16 +118,6 @@ fn shadows_may_change(s: Surface, seed: u32, count: u32) -> bool {
     return false;
 }
 
-// How an instance moves from t to t+1 (Rust: temporal::motion::InstanceMotion).
-struct InstanceMotion {
-    to_next: mat4x4f,     // world at t -> world at t+1, for points on the instance
-    from_next: mat4x4f,   // its inverse
-    moves: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-
 // Plane pixel of plane coordinate x in [-s, s] (clamped into the border pixels when they
 // are stretched); -1 outside an unstretched plane.
 fn plane_index(x: f32) -> i32 {
@@ -142,42 +146,30 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         return;
     }
     let frame = orthonormal_basis(site.normal);
-    let origin = offset_ray_origin(site.position, site.geometric_normal);
-    // Where the hit point is at t+1 (its triangle, moved with its instance).
-    let probe = surface_at(Hit(0.0, h.instance, h.triangle, h.u, h.v), site.normal);
-    var to_point = probe.position - origin;
-    var view = to_point;
-    if params.anchored != 0u {
-        let m = motion[site.instance];
-        if m.moves != 0u {
-            view = probe.position - (m.to_next * vec4f(origin, 1.0)).xyz;
-            to_point = (m.from_next * vec4f(probe.position, 1.0)).xyz - origin;
-        }
-    }
-    let s = surface_facing(probe, view);
-    let seed = hash_combine(site.seed, pixel);
-    // Re-shading is the costly part (shadow rays at t+1); skip it where nothing that
-    // lights this hit has changed.
-    let still = motion[h.instance].moves == 0u
-        && (params.anchored == 0u || motion[site.instance].moves == 0u);
-    var radiance: vec3f;
-    if params.reuse_shading != 0u && still && !shadows_may_change(s, seed, params.light_samples) {
-        radiance = traced[sample].radiance;
-    } else {
-        let e = direct_irradiance_samples(s, seed, params.light_samples);
-        radiance = surface_albedo(s) * (1.0 / PI) * e + indirect_emission(s);
-    }
+    let m = moved_hit(site, h, pixel);
     // Tangent-frame coordinates of the moved point (frame columns are t, b, n).
-    let local = vec3f(dot(to_point, frame[0]), dot(to_point, frame[1]), dot(to_point, frame[2]));
-    moved[sample] = vec4f(radiance, local.z);
+    let local = vec3f(dot(m.to_point, frame[0]), dot(m.to_point, frame[1]), dot(m.to_point, frame[2]));
+    moved[sample] = vec4f(0.0, 0.0, 0.0, local.z);
     if local.z <= 0.0 {
         return;   // moved below the record's tangent plane: out of its hemisphere
     }
     let ix = plane_index(local.x / local.z);
     let iy = plane_index(local.y / local.z);
     if ix < 0 || iy < 0 {
-        return;
+        return;   // off the plane: no cell will read this sample
     }
     let cell = base + u32(iy) * res + u32(ix);
     atomicMax(&cells[cell], ~reprojection_key(local.z, pixel));
+    // Re-shading is the costly part (shadow rays at t+1); skip it where nothing that
+    // lights this hit has changed.
+    let still = motion[h.instance].moves == 0u
+        && (params.anchored == 0u || motion[site.instance].moves == 0u);
+    if params.reuse_shading != 0u && still
+        && !shadows_may_change(m.surface, m.seed, params.light_samples) {
+        moved[sample] = vec4f(traced[sample].radiance, local.z);
+    } else {
+        let slot = atomicAdd(&reshade.count, 1u);
+        reshade.samples[slot] = sample;
+        count_reshade_slot(slot);
+    }
 }

@@ -110,6 +110,26 @@ impl ComputePass {
         cpass.set_bind_group(1, pass, &[]);
         cpass.dispatch_workgroups(groups[0], groups[1], groups[2]);
     }
+
+    /// Records one dispatch into `encoder` whose workgroup counts an earlier pass wrote
+    /// into `groups` (three u32, x y z; the buffer has `INDIRECT` usage).
+    pub fn record_indirect(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        scene: &wgpu::BindGroup,
+        pass: &wgpu::BindGroup,
+        groups: &wgpu::Buffer,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(self.name),
+            timestamp_writes: timestamps,
+        });
+        cpass.set_pipeline(&self.pipeline);
+        cpass.set_bind_group(0, scene, &[]);
+        cpass.set_bind_group(1, pass, &[]);
+        cpass.dispatch_workgroups_indirect(groups, 0);
+    }
 }
 
 /// Workgroup counts covering a `width x height` image with 8x8 groups.

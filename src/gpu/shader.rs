@@ -57,6 +57,14 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/plane_reproject.wgsl"),
     ),
     (
+        "shared/reprojection.wgsl",
+        include_str!("../../wgsl/shared/reprojection.wgsl"),
+    ),
+    (
+        "plane_reshade.wgsl",
+        include_str!("../../wgsl/plane_reshade.wgsl"),
+    ),
+    (
         "plane_fill.wgsl",
         include_str!("../../wgsl/plane_fill.wgsl"),
     ),

@@ -1,9 +1,10 @@
 //! The E(t+1) estimate of new records (seed 000 section IV-G, thesis 5.2.4, algorithms.md
-//! 4.3) as two compute passes recorded right after a batch's hemisphere planes:
-//! `plane_reproject` (bound to the scene at t+1: move each plane hit with its instance,
-//! re-shade it with the lights at t+1, project it onto the record's plane with a depth
-//! test) and `plane_fill` (take each cell's nearest sample, fill holes from the deepest
-//! neighbour). The resulting plane goes through the ordinary record reduction
+//! 4.3) as three compute passes recorded right after a batch's hemisphere planes, bound
+//! to the scene at t+1: `plane_reproject` (move each plane hit with its instance, project
+//! it onto the record's plane with a depth test, keep the radiance traced at t where its
+//! lighting cannot have changed and list the other samples), `plane_reshade` (re-shade
+//! the listed samples with the lights at t+1, an indirect dispatch sized by the list) and
+//! `plane_fill` (take each cell's nearest sample, fill holes from the deepest neighbour). The resulting plane goes through the ordinary record reduction
 //! ([`crate::records::RecordPass::compute`] with a [`crate::records::Lookahead`]).
 
 use super::motion::{
@@ -17,6 +18,7 @@ use crate::gpu::timer::PassTimer;
 use crate::records::{CacheSettings, PlaneMode};
 use crate::scene::Scene;
 use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
 
 /// Largest plane the reprojection keys can index (14 bits of sample index,
 /// `REPROJECTION_INDEX_BITS` in `wgsl/shared/records.wgsl`).
@@ -97,9 +99,10 @@ impl<'a> NextFrame<'a> {
     }
 }
 
-/// The `plane_reproject` and `plane_fill` passes.
+/// The `plane_reproject`, `plane_reshade` and `plane_fill` passes.
 pub struct ReprojectionPass {
     reproject: ComputePass,
+    reshade: ComputePass,
     fill: ComputePass,
 }
 
@@ -117,6 +120,20 @@ impl ReprojectionPass {
                     StorageReadWrite,
                     StorageReadWrite,
                     StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
+            )?,
+            reshade: ComputePass::new(
+                ctx,
+                "plane_reshade.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
                     StorageRead,
                     StorageRead,
                 ],
@@ -158,7 +175,18 @@ impl ReprojectionPass {
         let moved = ctx.storage_buffer_sized("reprojected samples", cells_count * 16)?;
         // Cells hold complemented keys: 0 is empty (`plane_reproject.wgsl`).
         enc.clear_buffer(&cells, 0, None);
-        let params = ctx.uniform_buffer(
+        // The samples to re-shade: a count, then at most one entry per sample.
+        let reshade = ctx.storage_buffer_sized("samples to re-shade", 4 + cells_count * 4)?;
+        enc.clear_buffer(&reshade, 0, Some(4));
+        // Workgroups of `plane_reshade` (x, y, z), raised by `plane_reproject`.
+        let reshade_groups = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("re-shade workgroups"),
+                contents: bytemuck::cast_slice(&[0u32, 1, 1]),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+            });
+        let reproject_params = ctx.uniform_buffer(
             "reproject params",
             &ReprojectParams {
                 resolution: res,
@@ -174,7 +202,7 @@ impl ReprojectionPass {
         let bind = self.reproject.bind(
             ctx,
             &[
-                &params,
+                &reproject_params,
                 sites,
                 hits,
                 &cells,
@@ -182,6 +210,8 @@ impl ReprojectionPass {
                 &next.motion,
                 &next.moving,
                 traced,
+                &reshade,
+                &reshade_groups,
             ],
         );
         let groups = [res.div_ceil(8), res.div_ceil(8), count];
@@ -191,6 +221,24 @@ impl ReprojectionPass {
             &bind,
             groups,
             timer.next("temporal: reprojection"),
+        );
+        let bind = self.reshade.bind(
+            ctx,
+            &[
+                &reproject_params,
+                sites,
+                hits,
+                &moved,
+                &next.motion,
+                &reshade,
+            ],
+        );
+        self.reshade.record_indirect(
+            enc,
+            &next.scene.bind_group,
+            &bind,
+            &reshade_groups,
+            timer.next("temporal: re-shading"),
         );
         let params = ctx.uniform_buffer(
             "fill params",

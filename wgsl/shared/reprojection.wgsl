@@ -1,0 +1,53 @@
+// Shared by the two reprojection passes (plane_reproject.wgsl, plane_reshade.wgsl): their
+// parameters, how instances move from t to t+1, and where a plane sample's hit is at t+1.
+// Both passes are bound to the scene of frame t+1 at group 0 and declare `params` (a
+// ReprojectParams uniform) and `motion` (one InstanceMotion per instance) at group 1.
+//!include shared/shading.wgsl
+//!include shared/records.wgsl
+
+struct ReprojectParams {
+    resolution: u32,
+    count: u32,
+    light_samples: u32,
+    stretched: u32,      // 1: border pixels reach infinity (decision 6)
+    half_extent: f32,    // tan(fov / 2): the plane spans [-s, s]^2 at z = 1
+    anchored: u32,       // 1: records move with their instance (`motion`)
+    reuse_shading: u32,  // 1: lights unchanged from t to t+1 and `moving` lists every mover
+    moving_count: u32,
+}
+
+// How an instance moves from t to t+1 (Rust: temporal::motion::InstanceMotion).
+struct InstanceMotion {
+    to_next: mat4x4f,     // world at t -> world at t+1, for points on the instance
+    from_next: mat4x4f,   // its inverse
+    moves: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// A plane sample's hit at t+1, as the record sees it.
+struct MovedHit {
+    surface: Surface,     // rebuilt at t+1, facing the record
+    to_point: vec3f,      // record -> hit, in the record's frame at t (for the projection)
+    seed: u32,            // the light-sample seed the plane pass used for this sample
+}
+
+// Rebuilds hit `h` of sample `pixel` of the record at `site` in the scene at t+1: its
+// triangle moved with its instance. With `anchored`, the record moves too: the hit is seen
+// from the record's place at t+1 and taken back by the record's own motion, so that it is
+// projected in the record's frame carried along.
+fn moved_hit(site: RecordSite, h: PlaneHit, pixel: u32) -> MovedHit {
+    let origin = offset_ray_origin(site.position, site.geometric_normal);
+    let probe = surface_at(Hit(0.0, h.instance, h.triangle, h.u, h.v), site.normal);
+    var to_point = probe.position - origin;
+    var view = to_point;
+    if params.anchored != 0u {
+        let m = motion[site.instance];
+        if m.moves != 0u {
+            view = probe.position - (m.to_next * vec4f(origin, 1.0)).xyz;
+            to_point = (m.from_next * vec4f(probe.position, 1.0)).xyz - origin;
+        }
+    }
+    return MovedHit(surface_facing(probe, view), to_point, hash_combine(site.seed, pixel));
+}
