@@ -161,9 +161,9 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let cell = base + u32(iy) * res + u32(ix);
     atomicMax(&cells[cell], ~reprojection_key(local.z, pixel));
     // Re-shading is the costly part (shadow rays at t+1); skip it where nothing that
-    // lights this hit has changed.
-    let still = motion[h.instance].moves == 0u
-        && (params.anchored == 0u || motion[site.instance].moves == 0u);
+    // lights this hit has changed. Diffuse radiance does not depend on where it is seen
+    // from, so a record that moves keeps it too, as long as it sees the same side.
+    let still = motion[h.instance].moves == 0u && m.same_side;
     if params.reuse_shading != 0u && still
         && !shadows_may_change(m.surface, m.seed, params.light_samples) {
         moved[sample] = vec4f(traced[sample].radiance, local.z);

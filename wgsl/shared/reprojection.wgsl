@@ -31,6 +31,10 @@ struct MovedHit {
     surface: Surface,     // rebuilt at t+1, facing the record
     to_point: vec3f,      // record -> hit, in the record's frame at t (for the projection)
     seed: u32,            // the light-sample seed the plane pass used for this sample
+    // The hit is seen from the same side of its surface as at t. Always so when the
+    // record does not move; a record that moves with its instance could cross the plane
+    // of a surface it sees (the side decides which normal is lit).
+    same_side: bool,
 }
 
 // Rebuilds hit `h` of sample `pixel` of the record at `site` in the scene at t+1: its
@@ -42,12 +46,21 @@ fn moved_hit(site: RecordSite, h: PlaneHit, pixel: u32) -> MovedHit {
     let probe = surface_at(Hit(0.0, h.instance, h.triangle, h.u, h.v), site.normal);
     var to_point = probe.position - origin;
     var view = to_point;
+    var same_side = true;
     if params.anchored != 0u {
         let m = motion[site.instance];
         if m.moves != 0u {
             view = probe.position - (m.to_next * vec4f(origin, 1.0)).xyz;
             to_point = (m.from_next * vec4f(probe.position, 1.0)).xyz - origin;
+            // The plane pass decided the side with the cell's ray direction, parallel to
+            // `probe.position - origin` up to rounding (for a hit that does not move):
+            // only a clear sign counts as the same side.
+            let ng = probe.geometric_normal;
+            let before = dot(ng, normalize(probe.position - origin));
+            let after = dot(ng, normalize(view));
+            same_side = before * after > 0.0 && abs(before) > 1.0e-4 && abs(after) > 1.0e-4;
         }
     }
-    return MovedHit(surface_facing(probe, view), to_point, hash_combine(site.seed, pixel));
+    let seed = hash_combine(site.seed, pixel);
+    return MovedHit(surface_facing(probe, view), to_point, seed, same_side);
 }
