@@ -11,13 +11,15 @@
 // frame carried along, i.e. after undoing the record's own motion. One invocation per
 // (sample, record).
 // Its radiance at t+1 is the radiance traced at t where nothing that lights it can have
-// changed; the other samples that land in a cell are appended to `reshade`, and step 2
+// changed; the other samples that land in a cell are appended to `work`, and step 2
 // (plane_reshade.wgsl) re-shades them with the lights of t+1 in a dense dispatch. On a
 // CPU-like SIMD device a branchy per-sample re-shade costs the whole SIMD row whenever
 // one lane needs it; the list keeps every lane busy. The list's order depends on thread
 // timing, but every entry is computed on its own and written to its own sample, so the
 // result does not.
 //!include shared/reprojection.wgsl
+//!include shared/movers.wgsl
+//!include shared/work_list.wgsl
 
 @group(1) @binding(0) var<uniform> params: ReprojectParams;
 @group(1) @binding(1) var<storage, read> sites: array<RecordSite>;
@@ -27,96 +29,8 @@
 @group(1) @binding(5) var<storage, read> motion: array<InstanceMotion>;
 @group(1) @binding(6) var<storage, read> moving: array<MovingBounds>;
 @group(1) @binding(7) var<storage, read> traced: array<PlaneSample>;   // the plane at t
-@group(1) @binding(8) var<storage, read_write> reshade: ReshadeList;
-@group(1) @binding(9) var<storage, read_write> reshade_groups: array<atomic<u32>, 3>;
-
-// Samples whose radiance at t+1 must be re-shaded (step 2).
-struct ReshadeList {
-    count: atomic<u32>,
-    samples: array<u32>,
-}
-
-// Workgroups of plane_reshade.wgsl (64 invocations each) as an indirect dispatch
-// (x, y, 1), x at most 65535; `reshade_groups` starts at (0, 1, 1). Slots are handed out
-// contiguously, so each group's first slot raises the counts; the maxima are reached
-// whatever the thread order.
-fn count_reshade_slot(slot: u32) {
-    if slot % 64u == 0u {
-        let group = slot / 64u;
-        atomicMax(&reshade_groups[0], min(group + 1u, 65535u));
-        atomicMax(&reshade_groups[1], group / 65535u + 1u);
-    }
-}
-
-// World box of an instance that moves between t and t+1, over both frames (Rust:
-// temporal::motion::MovingBounds).
-struct MovingBounds {
-    lo: vec4f,
-    hi: vec4f,
-}
-
-// Whether the ray o + x d, x in [0, x_max], meets the box (slab test).
-fn segment_meets_box(o: vec3f, d: vec3f, x_max: f32, b: MovingBounds) -> bool {
-    // Axis-parallel rays: a huge finite inverse keeps the slabs free of NaN.
-    let inv = 1.0 / select(d, vec3f(1.0e-30), abs(d) < vec3f(1.0e-30));
-    let t0 = (b.lo.xyz - o) * inv;
-    let t1 = (b.hi.xyz - o) * inv;
-    let near = max(max(min(t0.x, t1.x), min(t0.y, t1.y)), max(min(t0.z, t1.z), 0.0));
-    let far = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), min(max(t0.z, t1.z), x_max));
-    return near <= far;
-}
-
-fn meets_a_mover(o: vec3f, d: vec3f, x_max: f32) -> bool {
-    for (var i = 0u; i < params.moving_count; i++) {
-        if segment_meets_box(o, d, x_max, moving[i]) {
-            return true;
-        }
-    }
-    return false;
-}
-
-// Whether any shadow ray `direct_irradiance_samples(s, seed, count)` may trace passes
-// through the box of an instance that moves between t and t+1. When none does (and the
-// lights and s itself do not move), every shadow ray has the same outcome at t+1 as at t,
-// so the radiance traced at t is exactly the radiance at t+1. Conservative: it tests
-// every sample, including those the cosine tests would skip.
-fn shadows_may_change(s: Surface, seed: u32, count: u32) -> bool {
-    if params.moving_count == 0u {
-        return false;
-    }
-    let origin = offset_ray_origin(s.position, s.geometric_normal);
-    for (var li = 0u; li < scene_info.light_count; li++) {
-        let light = lights[li];
-        let kind = bitcast<u32>(light.a.w);
-        if kind == LIGHT_POINT || kind == LIGHT_SPOT {
-            if meets_a_mover(origin, light.a.xyz - origin, 1.0) {
-                return true;
-            }
-        } else if kind == LIGHT_SUN {
-            if meets_a_mover(origin, light.a.xyz, INF) {
-                return true;
-            }
-        } else if kind == LIGHT_RECT {
-            let light_seed = hash_combine(seed, li);
-            for (var k = 0u; k < count; k++) {
-                if meets_a_mover(origin, rect_light_point(light, k, light_seed) - origin, 1.0) {
-                    return true;
-                }
-            }
-        }
-    }
-    if any(scene_info.environment != vec3f(0.0)) {
-        let frame = orthonormal_basis(s.shading_normal);
-        let env_seed = hash_combine(seed, ENVIRONMENT_SEED);
-        for (var k = 0u; k < count; k++) {
-            let dir = frame * cosine_hemisphere(sobol_2d(k, env_seed));
-            if meets_a_mover(origin, dir, INF) {
-                return true;
-            }
-        }
-    }
-    return false;
-}
+@group(1) @binding(8) var<storage, read_write> work: WorkList;   // samples to re-shade
+@group(1) @binding(9) var<storage, read_write> work_groups: array<atomic<u32>, 3>;
 
 // Plane pixel of plane coordinate x in [-s, s] (clamped into the border pixels when they
 // are stretched); -1 outside an unstretched plane.
@@ -168,8 +82,6 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         && !shadows_may_change(m.surface, m.seed, params.light_samples) {
         moved[sample] = vec4f(traced[sample].radiance, local.z);
     } else {
-        let slot = atomicAdd(&reshade.count, 1u);
-        reshade.samples[slot] = sample;
-        count_reshade_slot(slot);
+        push_work(sample);
     }
 }

@@ -3,18 +3,14 @@
 // An indirect dispatch of 64-invocation groups over step 1's list, so every lane shades;
 // each entry writes only its own sample's radiance, so the list's order does not matter.
 //!include shared/reprojection.wgsl
-
-struct ReshadeList {
-    count: u32,
-    samples: array<u32>,
-}
+//!include shared/work_items.wgsl
 
 @group(1) @binding(0) var<uniform> params: ReprojectParams;
 @group(1) @binding(1) var<storage, read> sites: array<RecordSite>;
 @group(1) @binding(2) var<storage, read> hits: array<PlaneHit>;
 @group(1) @binding(3) var<storage, read_write> moved: array<vec4f>;   // radiance at t+1, depth
 @group(1) @binding(4) var<storage, read> motion: array<InstanceMotion>;
-@group(1) @binding(5) var<storage, read> reshade: ReshadeList;
+@group(1) @binding(5) var<storage, read> work: WorkItems;   // samples to re-shade
 
 @compute @workgroup_size(64)
 fn main(
@@ -22,11 +18,10 @@ fn main(
     @builtin(num_workgroups) groups: vec3u,
     @builtin(local_invocation_index) lane: u32,
 ) {
-    let entry = (group.y * groups.x + group.x) * 64u + lane;
-    if entry >= reshade.count {
+    let sample = work_item(group, groups, lane);
+    if sample == NO_WORK {
         return;
     }
-    let sample = reshade.samples[entry];
     let plane_size = params.resolution * params.resolution;
     let pixel = sample % plane_size;
     let m = moved_hit(sites[sample / plane_size], hits[sample], pixel);

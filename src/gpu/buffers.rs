@@ -46,6 +46,21 @@ impl GpuContext {
         }))
     }
 
+    /// Creates the two buffers of a work list (`wgsl/shared/work_list.wgsl`) with room for
+    /// `capacity` items: the list (a count, then the items; created zeroed, so empty) and
+    /// the indirect dispatch size its items raise (x y z, starting at 0 1 1).
+    pub fn work_list(&self, label: &str, capacity: u64) -> Result<(wgpu::Buffer, wgpu::Buffer)> {
+        let list = self.storage_buffer_sized(label, 4 + capacity * 4)?;
+        let groups = self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::cast_slice(&[0u32, 1, 1]),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+            });
+        Ok((list, groups))
+    }
+
     /// Creates a uniform buffer holding one `T`.
     pub fn uniform_buffer<T: bytemuck::Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
         self.device

@@ -61,6 +61,18 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/shared/reprojection.wgsl"),
     ),
     (
+        "shared/movers.wgsl",
+        include_str!("../../wgsl/shared/movers.wgsl"),
+    ),
+    (
+        "shared/work_list.wgsl",
+        include_str!("../../wgsl/shared/work_list.wgsl"),
+    ),
+    (
+        "shared/work_items.wgsl",
+        include_str!("../../wgsl/shared/work_items.wgsl"),
+    ),
+    (
         "plane_reshade.wgsl",
         include_str!("../../wgsl/plane_reshade.wgsl"),
     ),

@@ -18,7 +18,6 @@ use crate::gpu::timer::PassTimer;
 use crate::records::{CacheSettings, PlaneMode};
 use crate::scene::Scene;
 use bytemuck::{Pod, Zeroable};
-use wgpu::util::DeviceExt;
 
 /// Largest plane the reprojection keys can index (14 bits of sample index,
 /// `REPROJECTION_INDEX_BITS` in `wgsl/shared/records.wgsl`).
@@ -175,17 +174,8 @@ impl ReprojectionPass {
         let moved = ctx.storage_buffer_sized("reprojected samples", cells_count * 16)?;
         // Cells hold complemented keys: 0 is empty (`plane_reproject.wgsl`).
         enc.clear_buffer(&cells, 0, None);
-        // The samples to re-shade: a count, then at most one entry per sample.
-        let reshade = ctx.storage_buffer_sized("samples to re-shade", 4 + cells_count * 4)?;
-        enc.clear_buffer(&reshade, 0, Some(4));
-        // Workgroups of `plane_reshade` (x, y, z), raised by `plane_reproject`.
-        let reshade_groups = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("re-shade workgroups"),
-                contents: bytemuck::cast_slice(&[0u32, 1, 1]),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
-            });
+        // The samples to re-shade, and the size of the dispatch that re-shades them.
+        let (reshade, reshade_groups) = ctx.work_list("samples to re-shade", cells_count)?;
         let reproject_params = ctx.uniform_buffer(
             "reproject params",
             &ReprojectParams {
