@@ -139,6 +139,15 @@ enum Command {
         /// position) or `instance` (carried with the instance they lie on).
         #[arg(long, default_value = "world", value_parser = ["world", "instance"])]
         record_anchor: String,
+        /// Experimental. `on`: a replacement traces again only the plane samples that
+        /// motion since its predecessor's birth may have changed (meant to give the same
+        /// images with fewer rays; long sequences still differ); `off`: it traces its
+        /// whole plane.
+        #[arg(long, default_value = "off", value_parser = ["on", "off"])]
+        plane_refresh: String,
+        /// Most MiB of retained planes for plane refresh; records beyond are traced.
+        #[arg(long, default_value_t = TemporalSettings::default().plane_budget_bytes >> 20)]
+        plane_budget_mib: u64,
         #[command(flatten)]
         cache: CacheArgs,
         /// Also write a lifespan map per frame (PNG pattern with `#`): record sites from
@@ -381,6 +390,8 @@ fn main() -> ExitCode {
             max_lifespan,
             temporal_gradients,
             record_anchor,
+            plane_refresh,
+            plane_budget_mib,
             cache,
             lifespan_map,
             stats,
@@ -405,6 +416,8 @@ fn main() -> ExitCode {
                 } else {
                     RecordAnchor::World
                 },
+                plane_refresh: plane_refresh == "on",
+                plane_budget_bytes: plane_budget_mib.saturating_mul(1 << 20),
             }),
             lifespan_map,
             stats,

@@ -82,6 +82,7 @@ fn gpu_planes_and_records_match_the_cpu_reference() {
         sites.len() as u32,
         &mut cache,
         None,
+        None,
         |_| {},
     )
     .expect("records");

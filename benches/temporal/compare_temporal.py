@@ -58,7 +58,8 @@ def main():
     rs = args.radsplat.resolve()
     common = ["--size", args.size, "-a", args.accuracy, "--plane-resolution",
               args.plane_resolution, "--quiet"]
-    run([rs, "animate", args.scene, "--frames", f"{a}..{min(a + 1, b)}", "-o",
+    # Long enough for replacements, so that the plane refresh passes are compiled too.
+    run([rs, "animate", args.scene, "--frames", f"{a}..{min(a + 4, b)}", "-o",
          out / "warmup_####.exr"] + common)
     rows = {}
     modes = [m for m in ("off", "on") if m in args.modes.split(",")]

@@ -61,6 +61,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/shared/reprojection.wgsl"),
     ),
     (
+        "shared/plane.wgsl",
+        include_str!("../../wgsl/shared/plane.wgsl"),
+    ),
+    (
         "shared/movers.wgsl",
         include_str!("../../wgsl/shared/movers.wgsl"),
     ),
@@ -71,6 +75,14 @@ const SOURCES: &[(&str, &str)] = &[
     (
         "shared/work_items.wgsl",
         include_str!("../../wgsl/shared/work_items.wgsl"),
+    ),
+    (
+        "plane_refresh.wgsl",
+        include_str!("../../wgsl/plane_refresh.wgsl"),
+    ),
+    (
+        "plane_retrace.wgsl",
+        include_str!("../../wgsl/plane_retrace.wgsl"),
     ),
     (
         "plane_reshade.wgsl",

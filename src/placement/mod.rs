@@ -166,6 +166,7 @@ impl PlacementPass {
                         n,
                         cache,
                         lookahead.as_deref_mut(),
+                        None,
                         |_| {},
                     )?);
                     splat_pass.splat(

@@ -107,6 +107,8 @@ pub struct Lookahead<'a> {
     pub reprojection: &'a crate::temporal::ReprojectionPass,
     /// Records at t+1, in step with the cache (`next.count == cache.count`).
     pub next: &'a mut RecordCache,
+    /// Keeps the sites and traced planes of the records computed.
+    pub capture: Option<&'a mut crate::temporal::plane_refresh::PlaneCapture>,
 }
 
 /// Settings of the irradiance cache (scene file `[cache]`, CLI flags).
@@ -400,7 +402,8 @@ impl RecordPass {
 
     /// Computes records for `count` sites (a buffer of [`RecordSite`]) and appends them to
     /// `cache`; `on_batch` is called after each batch with the number done. Returns the
-    /// per-pass GPU times.
+    /// per-pass GPU times. With `refresh`, the sites' planes are refreshed from retained
+    /// ones instead of traced ([`crate::temporal::plane_refresh`]).
     #[allow(clippy::too_many_arguments)]
     pub fn compute(
         &self,
@@ -410,6 +413,7 @@ impl RecordPass {
         count: u32,
         cache: &mut RecordCache,
         mut lookahead: Option<&mut Lookahead<'_>>,
+        refresh: Option<&crate::temporal::plane_refresh::PlaneRefresh<'_>>,
         mut on_batch: impl FnMut(u32),
     ) -> Result<Vec<(&'static str, f64)>> {
         cache.reserve(ctx, count)?;
@@ -420,7 +424,7 @@ impl RecordPass {
         // Temporal caching: the hits of each sample, for the estimate at t+1.
         let hits = ctx.storage_buffer_sized(
             "plane hits",
-            if lookahead.is_some() {
+            if lookahead.is_some() || refresh.is_some() {
                 batch_samples * 16
             } else {
                 16
@@ -456,7 +460,7 @@ impl RecordPass {
                     resolution: res,
                     count: n,
                     light_samples: self.settings.plane_light_samples,
-                    record_hits: u32::from(lookahead.is_some()),
+                    record_hits: u32::from(lookahead.is_some() || refresh.is_some()),
                 },
             );
             let reduce_params = ctx.uniform_buffer(
@@ -491,14 +495,32 @@ impl RecordPass {
                     &cache.buffer,
                 ],
             );
-            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 5);
-            self.plane.record(
-                &mut enc,
-                &scene.bind_group,
-                &plane_bind,
-                [res.div_ceil(8), res.div_ceil(8), n],
-                timer.next("hemisphere planes"),
-            );
+            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 10);
+            match refresh {
+                Some(r) => r.record(
+                    ctx,
+                    &mut enc,
+                    scene,
+                    &self.settings,
+                    &self.plane_table,
+                    &batch_sites,
+                    &samples,
+                    &hits,
+                    done,
+                    n,
+                    &mut timer,
+                )?,
+                None => self.plane.record(
+                    &mut enc,
+                    &scene.bind_group,
+                    &plane_bind,
+                    [res.div_ceil(8), res.div_ceil(8), n],
+                    timer.next("hemisphere planes"),
+                ),
+            }
+            if let Some(capture) = lookahead.as_deref_mut().and_then(|la| la.capture.as_deref_mut()) {
+                capture.capture(ctx, &mut enc, &batch_sites, &samples, &hits, cache.count, n, res)?;
+            }
             self.reduce.record(
                 &mut enc,
                 &scene.bind_group,

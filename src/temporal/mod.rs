@@ -10,6 +10,7 @@
 pub mod animation;
 pub mod estimate_error;
 pub mod motion;
+pub mod plane_refresh;
 pub mod reference;
 pub mod reprojection;
 
@@ -33,6 +34,12 @@ pub struct TemporalSettings {
     pub gradients: TemporalGradients,
     /// Where records stay while the scene moves (the thesis: world).
     pub anchor: RecordAnchor,
+    /// Replacements refresh their predecessor's plane (trace again only what motion may
+    /// have changed) instead of tracing it all. Experimental, off by default: exact in the
+    /// 8-frame test, but 60-frame cube sequences still differ from full tracing.
+    pub plane_refresh: bool,
+    /// Most bytes of retained planes (for `plane_refresh`); records beyond it are traced.
+    pub plane_budget_bytes: u64,
 }
 
 impl Default for TemporalSettings {
@@ -43,6 +50,8 @@ impl Default for TemporalSettings {
             max_lifespan: 20,
             gradients: TemporalGradients::Interpolated,
             anchor: RecordAnchor::World,
+            plane_refresh: false,
+            plane_budget_bytes: 512 << 20,
         }
     }
 }
@@ -102,6 +111,9 @@ pub struct TemporalRecord {
     pub successor: Option<u32>,
     /// The instance it moves with; None: it keeps its world position.
     pub anchor: Option<Anchor>,
+    /// Where its plane was traced from (its successor inherits it while the record has
+    /// not moved); None when it was computed without a next frame.
+    pub site: Option<RecordSite>,
 }
 
 fn lerp<const N: usize>(a: &mut [f32; N], b: [f32; N], f: f32) {
@@ -218,6 +230,8 @@ struct FrameRecords {
     ids: Vec<u32>,
     /// Every instance's transform at that frame (to place anchored records).
     transforms: Vec<Mat4>,
+    /// Its lights and environment (plane refresh needs them unchanged).
+    lights: (Vec<crate::scene::Light>, glam::Vec3),
 }
 
 /// Records that persist across the frames of an animation (temporal radiance caching).
@@ -225,6 +239,9 @@ pub struct TemporalCache {
     pub settings: TemporalSettings,
     pass: RecordPass,
     reprojection: ReprojectionPass,
+    refresh: plane_refresh::RefreshPass,
+    /// Retained planes of live records (plane refresh).
+    planes: plane_refresh::PlaneStore,
     /// Every record ever created (ids are indices).
     pub history: Vec<TemporalRecord>,
     /// Ids of the records used in the last frame, in frame order.
@@ -251,6 +268,11 @@ impl TemporalCache {
             settings: settings.clone(),
             pass: RecordPass::new(ctx, cache)?,
             reprojection: ReprojectionPass::new(ctx)?,
+            refresh: plane_refresh::RefreshPass::new(ctx)?,
+            planes: plane_refresh::PlaneStore::new(
+                settings.plane_budget_bytes,
+                cache.plane_resolution,
+            ),
             history: Vec::new(),
             alive: Vec::new(),
             frames: Vec::new(),
@@ -263,6 +285,11 @@ impl TemporalCache {
 
     pub fn cache_settings(&self) -> &CacheSettings {
         &self.pass.settings
+    }
+
+    /// How many live records keep their traced plane (for plane refresh).
+    pub fn retained_planes(&self) -> usize {
+        self.planes.planes.len()
     }
 
     /// Ids of the records used in the last frame, in frame order.
@@ -302,7 +329,7 @@ impl TemporalCache {
         // Expiry: keep what is still valid, replace expired records that covered pixels
         // in their last frame, delete the others (seed 000 section V-c).
         let mut kept = Vec::new();
-        let mut replace = Vec::new();
+        let mut replace: Vec<u32> = Vec::new();
         for (i, &id) in self.alive.iter().enumerate() {
             let rec = &self.history[id as usize];
             if t <= rec.last_frame {
@@ -311,6 +338,7 @@ impl TemporalCache {
                 replace.push(id);
             } else {
                 stats.deleted += 1;
+                self.planes.planes.remove(&id);
             }
         }
         stats.kept = kept.len() as u32;
@@ -325,33 +353,85 @@ impl TemporalCache {
         self.next_records.count = self.frame_records.count;
 
         // Replacements at the same place: where the record is now (its world position,
-        // or carried by its instance).
-        let sites: Vec<RecordSite> = replace
-            .iter()
-            .map(|&id| {
-                let r = self.world_record(self.history[id as usize].record, id, &transforms);
-                RecordSite {
-                    position: r.position,
-                    r_min: r.r_min,
-                    normal: r.normal,
-                    seed: crate::sampling::hash_combine(id, t),
-                    geometric_normal: r.normal,
-                    instance: r.instance,
+        // or carried by its instance). A record that has not moved hands on its site
+        // (position, frame, seed), so its plane can be refreshed rather than traced when
+        // the lights are as they were (plane_refresh.rs). Replacements go in order of
+        // birth, so that runs of refreshable ones share what moved since.
+        let lights = (scenes.scene.lights.clone(), scenes.scene.environment);
+        replace.sort_by_key(|&id| (self.history[id as usize].birth, id));
+        let mut runs: Vec<(Option<u32>, Vec<RecordSite>, Vec<u32>)> = Vec::new();
+        for &id in &replace {
+            let rec = &self.history[id as usize];
+            let unmoved = rec
+                .anchor
+                .is_none_or(|a| transforms.get(a.instance as usize) == Some(&a.transform));
+            let site = match rec.site {
+                Some(site) if unmoved => site,
+                inherited => {
+                    let r = self.world_record(rec.record, id, &transforms);
+                    RecordSite {
+                        position: r.position,
+                        r_min: r.r_min,
+                        normal: r.normal,
+                        seed: inherited.map_or(crate::sampling::hash_combine(id, t), |s| s.seed),
+                        geometric_normal: r.normal,
+                        instance: r.instance,
+                    }
                 }
-            })
-            .collect();
+            };
+            let refreshable = self.settings.plane_refresh
+                && unmoved
+                && rec.site.is_some()
+                && self.planes.planes.contains_key(&id)
+                && self
+                    .frames
+                    .iter()
+                    .find(|f| f.frame == rec.birth)
+                    .is_some_and(|f| f.lights == lights);
+            let key = refreshable.then_some(rec.birth);
+            match runs.last_mut() {
+                Some((k, sites, ids)) if *k == key => {
+                    sites.push(site);
+                    ids.push(id);
+                }
+                _ => runs.push((key, vec![site], vec![id])),
+            }
+        }
         let anchored = self.settings.anchor == RecordAnchor::Instance;
+        let mut capture = plane_refresh::PlaneCapture {
+            planes: self.settings.plane_refresh,
+            budget: self.planes.free(),
+            ..Default::default()
+        };
         let mut lookahead = match scenes.next {
             Some((next, next_cpu)) => Some(Lookahead {
                 next_frame: NextFrame::new(ctx, &next.gpu, scenes.scene, next_cpu, anchored)?,
                 reprojection: &self.reprojection,
                 next: &mut self.next_records,
+                capture: Some(&mut capture),
             }),
             None => None,
         };
         let mut times = Vec::new();
-        if !sites.is_empty() {
-            let buf = ctx.storage_buffer("replacement sites", &sites)?;
+        for (birth, sites, ids) in &runs {
+            let buf = ctx.storage_buffer("replacement sites", sites)?;
+            let span;
+            let refresh = match birth {
+                Some(birth) => {
+                    let then = self
+                        .frames
+                        .iter()
+                        .find(|f| f.frame == *birth)
+                        .map_or(&[][..], |f| f.transforms.as_slice());
+                    span = plane_refresh::SpanMotion::new(ctx, scenes.scene, &[then, &transforms])?;
+                    Some(plane_refresh::PlaneRefresh {
+                        pass: &self.refresh,
+                        planes: ids.iter().filter_map(|id| self.planes.planes.get(id)).collect(),
+                        motion: &span,
+                    })
+                }
+                None => None,
+            };
             times.extend(self.pass.compute(
                 ctx,
                 &scenes.now.gpu,
@@ -359,8 +439,12 @@ impl TemporalCache {
                 sites.len() as u32,
                 &mut self.frame_records,
                 lookahead.as_mut(),
+                refresh.as_ref(),
                 |_| {},
             )?);
+        }
+        for id in &replace {
+            self.planes.planes.remove(id);
         }
         let before_new = self.frame_records.count;
         let (mut frame, coverage) = renderer.render_cached_frame(
@@ -377,6 +461,7 @@ impl TemporalCache {
             progress,
         )?;
         stats.new = self.frame_records.count - before_new;
+        drop(lookahead);
 
         // The records computed this frame (replacements and new ones) and their estimates.
         // Only these come back from the GPU (one wait); kept records are on the CPU.
@@ -399,11 +484,38 @@ impl TemporalCache {
         if records.len() != computed || nexts.len() != computed {
             return Err(Error::Gpu("internal: record readback incomplete".into()));
         }
+        // Sites of the computed records (by cache index), for their successors.
+        let site_bytes = std::mem::size_of::<RecordSite>() as u64;
+        let batches: Vec<_> = capture
+            .site_batches
+            .iter()
+            .map(|(_, n, b)| (b, 0..u64::from(*n) * site_bytes))
+            .collect();
+        let mut sites_at = vec![None; computed];
+        if !batches.is_empty() {
+            let read = ctx.read_buffer_ranges::<RecordSite>(&batches)?;
+            for ((index, _, _), sites) in capture.site_batches.iter().zip(read) {
+                for (k, site) in sites.into_iter().enumerate() {
+                    if let Some(slot) = (*index as usize + k)
+                        .checked_sub(first)
+                        .and_then(|j| sites_at.get_mut(j))
+                    {
+                        *slot = Some(site);
+                    }
+                }
+            }
+        }
+        let first_id = self.history.len();
+        for (index, plane) in capture.kept.drain(..) {
+            if let Some(j) = (index as usize).checked_sub(first) {
+                self.planes.planes.insert((first_id + j) as u32, plane);
+            }
+        }
         for (j, &old) in replace.iter().enumerate() {
             self.history[old as usize].successor = Some((self.history.len() + j) as u32);
         }
         let mut alive = kept;
-        for (&record, &next) in records.iter().zip(&nexts) {
+        for ((&record, &next), site) in records.iter().zip(&nexts).zip(sites_at) {
             let (e0, e1) = (luminance(record.irradiance), luminance(next.irradiance));
             let tau = if e0 > 0.0 {
                 e1 / e0
@@ -432,6 +544,7 @@ impl TemporalCache {
                 tau,
                 successor: None,
                 anchor,
+                site,
             });
             alive.push(id);
         }
@@ -439,6 +552,7 @@ impl TemporalCache {
             frame: t,
             ids: alive.clone(),
             transforms,
+            lights,
         });
         self.alive = alive;
         self.coverage = coverage;

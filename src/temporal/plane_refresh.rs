@@ -1,0 +1,325 @@
+//! Plane refresh: a record that replaces an expired one at the same place (seed 000
+//! section IV-D) traces again only the plane samples that something could have changed
+//! since its predecessor was computed. The replacement keeps its predecessor's site and
+//! seed, so every other sample would be traced to the same hit and shaded with the same
+//! shadow rays: the refreshed plane is the bytes a full trace would give, for a fraction of
+//! the rays. Two compute passes over a copy of the retained plane: `plane_refresh` lists
+//! the samples whose ray or shadow rays may meet the box of an instance that moved during
+//! the span (or that hit one), `plane_retrace` traces the listed samples again (an indirect
+//! dispatch). It applies when the lights did not change during the span and the record
+//! itself did not move; [`PlaneStore`] keeps the planes, within a memory budget.
+
+use super::motion::MovingBounds;
+use crate::Result;
+use crate::gpu::GpuContext;
+use crate::gpu::pipeline::{Binding, ComputePass};
+use crate::gpu::scene_buffers::GpuScene;
+use crate::gpu::timer::PassTimer;
+use crate::records::{CacheSettings, RecordSite};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+use std::collections::HashMap;
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct RefreshParams {
+    resolution: u32,
+    count: u32,
+    light_samples: u32,
+    moving_count: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct PlaneParams {
+    resolution: u32,
+    count: u32,
+    light_samples: u32,
+    record_hits: u32,
+}
+
+/// Bytes of one retained plane at resolution `res`: its samples, then its hits.
+fn plane_bytes(res: u32) -> u64 {
+    u64::from(res) * u64::from(res) * 16
+}
+
+/// What moved during a span of frames, on the GPU.
+pub struct SpanMotion {
+    /// [`MovingBounds`] of each instance that moved (covering every frame of the span).
+    moving: wgpu::Buffer,
+    moving_count: u32,
+    /// Per instance, 1 when it moved during the span.
+    moved: wgpu::Buffer,
+}
+
+impl SpanMotion {
+    /// The motion of `scene`'s instances over the frames whose instance transforms are
+    /// `frames` (one transform per instance each).
+    pub fn new(ctx: &GpuContext, scene: &crate::scene::Scene, frames: &[&[Mat4]]) -> Result<Self> {
+        let (bounds, moved) = span_bounds(scene, frames);
+        let moving = if bounds.is_empty() {
+            ctx.storage_buffer("span movers", &[MovingBounds::zeroed()])?
+        } else {
+            ctx.storage_buffer("span movers", &bounds)?
+        };
+        Ok(Self {
+            moving,
+            moving_count: bounds.len() as u32,
+            moved: ctx.storage_buffer("span moved instances", &moved)?,
+        })
+    }
+}
+
+/// The world boxes of the instances of `scene` whose transform changes across `frames`,
+/// each covering the instance at every one of them (slightly enlarged, so that the tests
+/// stay conservative), and a per-instance moved flag.
+pub fn span_bounds(scene: &crate::scene::Scene, frames: &[&[Mat4]]) -> (Vec<MovingBounds>, Vec<u32>) {
+    let mut bounds = Vec::new();
+    let mut moved = vec![0u32; scene.instances.len().max(1)];
+    for (i, inst) in scene.instances.iter().enumerate() {
+        let first = frames.first().and_then(|f| f.get(i));
+        if frames.iter().all(|f| f.get(i) == first) {
+            continue;
+        }
+        moved[i] = 1;
+        let Some(mesh) = scene.meshes.get(inst.mesh as usize) else {
+            continue;
+        };
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for p in &mesh.positions {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        if lo.x > hi.x {
+            continue;
+        }
+        let (mut wlo, mut whi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for m in frames.iter().filter_map(|f| f.get(i)) {
+            for c in 0..8 {
+                let corner = Vec3::new(
+                    if c & 1 == 0 { lo.x } else { hi.x },
+                    if c & 2 == 0 { lo.y } else { hi.y },
+                    if c & 4 == 0 { lo.z } else { hi.z },
+                );
+                let w = m.transform_point3(corner);
+                wlo = wlo.min(w);
+                whi = whi.max(w);
+            }
+        }
+        let margin = 1e-4 * (whi - wlo).max_element().max(1e-3);
+        bounds.push(MovingBounds {
+            lo: (wlo - margin).extend(0.0).into(),
+            hi: (whi + margin).extend(0.0).into(),
+        });
+    }
+    (bounds, moved)
+}
+
+/// Replacements whose planes are refreshed rather than traced: one retained plane per
+/// site (in site order) and what moved since those planes were traced.
+pub struct PlaneRefresh<'a> {
+    pub pass: &'a RefreshPass,
+    pub planes: Vec<&'a wgpu::Buffer>,
+    pub motion: &'a SpanMotion,
+}
+
+/// The `plane_refresh` and `plane_retrace` passes.
+pub struct RefreshPass {
+    select: ComputePass,
+    retrace: ComputePass,
+}
+
+impl RefreshPass {
+    pub fn new(ctx: &GpuContext) -> Result<Self> {
+        use Binding::*;
+        Ok(Self {
+            select: ComputePass::new(
+                ctx,
+                "plane_refresh.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
+            )?,
+            retrace: ComputePass::new(
+                ctx,
+                "plane_retrace.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                    StorageRead,
+                ],
+            )?,
+        })
+    }
+}
+
+impl PlaneRefresh<'_> {
+    /// Records the refreshed planes of sites `first..first + count` (bound as
+    /// `batch_sites`) into `samples` and `hits` (batch buffers of `count` planes).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        settings: &CacheSettings,
+        plane_table: &wgpu::Buffer,
+        batch_sites: &wgpu::Buffer,
+        samples: &wgpu::Buffer,
+        hits: &wgpu::Buffer,
+        first: u32,
+        count: u32,
+        timer: &mut PassTimer,
+    ) -> Result<()> {
+        let res = settings.plane_resolution;
+        let bytes = plane_bytes(res);
+        for j in 0..count {
+            let Some(plane) = self.planes.get((first + j) as usize) else {
+                return Err(crate::Error::Usage(format!(
+                    "plane refresh: no retained plane for site {}",
+                    first + j
+                )));
+            };
+            enc.copy_buffer_to_buffer(plane, 0, samples, u64::from(j) * bytes, bytes);
+            enc.copy_buffer_to_buffer(plane, bytes, hits, u64::from(j) * bytes, bytes);
+        }
+        let cells = u64::from(count) * u64::from(res * res);
+        let (work, work_groups) = ctx.work_list("samples to trace again", cells)?;
+        let params = ctx.uniform_buffer(
+            "refresh params",
+            &RefreshParams {
+                resolution: res,
+                count,
+                light_samples: settings.plane_light_samples,
+                moving_count: self.motion.moving_count,
+            },
+        );
+        let bind = self.pass.select.bind(
+            ctx,
+            &[
+                &params,
+                batch_sites,
+                plane_table,
+                hits,
+                &self.motion.moving,
+                &self.motion.moved,
+                &work,
+                &work_groups,
+            ],
+        );
+        self.pass.select.record(
+            enc,
+            &scene.bind_group,
+            &bind,
+            [res.div_ceil(8), res.div_ceil(8), count],
+            timer.next("plane refresh: select"),
+        );
+        let params = ctx.uniform_buffer(
+            "retrace params",
+            &PlaneParams {
+                resolution: res,
+                count,
+                light_samples: settings.plane_light_samples,
+                record_hits: 1,
+            },
+        );
+        let bind = self
+            .pass
+            .retrace
+            .bind(ctx, &[&params, batch_sites, plane_table, samples, hits, &work]);
+        self.pass.retrace.record_indirect(
+            enc,
+            &scene.bind_group,
+            &bind,
+            &work_groups,
+            timer.next("hemisphere planes"),
+        );
+        Ok(())
+    }
+}
+
+/// What the record pass keeps of the records it computes in a frame, by their index in
+/// the frame's cache: their sites (always: a replacement inherits its predecessor's) and,
+/// within the budget, their traced planes (for [`PlaneRefresh`]).
+#[derive(Default)]
+pub struct PlaneCapture {
+    /// Keep planes, not only sites.
+    pub planes: bool,
+    /// Bytes of planes this capture may still keep.
+    pub budget: u64,
+    /// (first cache index, count, their sites).
+    pub site_batches: Vec<(u32, u32, wgpu::Buffer)>,
+    /// (cache index, its plane: samples then hits).
+    pub kept: Vec<(u32, wgpu::Buffer)>,
+}
+
+impl PlaneCapture {
+    /// Records copies of a batch's sites and (within the budget) traced planes; call
+    /// between the plane pass and anything that overwrites `samples`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn capture(
+        &mut self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        batch_sites: &wgpu::Buffer,
+        samples: &wgpu::Buffer,
+        hits: &wgpu::Buffer,
+        first_index: u32,
+        count: u32,
+        res: u32,
+    ) -> Result<()> {
+        let site_bytes = u64::from(count) * std::mem::size_of::<RecordSite>() as u64;
+        let sites = ctx.storage_buffer_sized("captured sites", site_bytes)?;
+        enc.copy_buffer_to_buffer(batch_sites, 0, &sites, 0, site_bytes);
+        self.site_batches.push((first_index, count, sites));
+        if !self.planes {
+            return Ok(());
+        }
+        let bytes = plane_bytes(res);
+        for j in 0..count {
+            if self.budget < 2 * bytes {
+                break;
+            }
+            self.budget -= 2 * bytes;
+            let plane = ctx.storage_buffer_sized("retained plane", 2 * bytes)?;
+            enc.copy_buffer_to_buffer(samples, u64::from(j) * bytes, &plane, 0, bytes);
+            enc.copy_buffer_to_buffer(hits, u64::from(j) * bytes, &plane, bytes, bytes);
+            self.kept.push((first_index + j, plane));
+        }
+        Ok(())
+    }
+}
+
+/// Retained planes of live records, by record id, within a memory budget.
+pub struct PlaneStore {
+    pub planes: HashMap<u32, wgpu::Buffer>,
+    /// Most bytes of planes kept at once.
+    pub budget: u64,
+    bytes_per_plane: u64,
+}
+
+impl PlaneStore {
+    pub fn new(budget: u64, res: u32) -> Self {
+        Self {
+            planes: HashMap::new(),
+            budget,
+            bytes_per_plane: 2 * plane_bytes(res),
+        }
+    }
+
+    /// Bytes still free.
+    pub fn free(&self) -> u64 {
+        self.budget
+            .saturating_sub(self.planes.len() as u64 * self.bytes_per_plane)
+    }
+}

@@ -1,0 +1,43 @@
+// One hemisphere-plane sample (thesis section 4.4, algorithms.md 3.2), shared by the
+// plane pass (hemisphere_plane.wgsl) and the plane refresh's re-trace
+// (plane_retrace.wgsl), which must give the same bytes. The including pass declares
+// `plane: array<PlanePixel>` (the plane table) and a `params` uniform with a
+// `light_samples` field.
+//!include shared/shading.wgsl
+//!include shared/records.wgsl
+
+struct TracedSample {
+    sample: PlaneSample,
+    hit: PlaneHit,
+}
+
+// The direction of plane pixel `pixel` of the record at `site`, in world space.
+fn plane_direction(site: RecordSite, pixel: u32) -> vec3f {
+    let frame = orthonormal_basis(site.normal);
+    return normalize(frame * vec3f(plane[pixel].rot_center.zw, 1.0));
+}
+
+// One ray through plane pixel `pixel` of the record at `site`, its hit shaded with direct
+// light (shadow rays) plus emission not already sampled as a light. Misses add nothing:
+// the constant environment is sampled as a light by direct lighting (at the pixel and at
+// every plane hit), so counting it again here would double it (Ward's "count as zero any
+// samples that intersect a light source"; decision 7's "misses see the environment" holds
+// for an environment that is not a light).
+fn trace_plane_sample(site: RecordSite, pixel: u32) -> TracedSample {
+    let dir = plane_direction(site, pixel);
+    var out = TracedSample(PlaneSample(vec3f(0.0), -1.0), PlaneHit(NO_HIT, 0u, 0.0, 0.0));
+    // Directions below the geometric surface (shading normals differ from it) see the
+    // surface itself: no light, no distance.
+    if dot(dir, site.geometric_normal) > 0.0 {
+        let origin = offset_ray_origin(site.position, site.geometric_normal);
+        let hit = trace_closest(Ray(origin, 0.0, dir, INF));
+        if hit.instance != NO_HIT {
+            let s = surface_at(hit, dir);
+            let e = direct_irradiance_samples(s, hash_combine(site.seed, pixel), params.light_samples);
+            out.sample.radiance = surface_albedo(s) * (1.0 / PI) * e + indirect_emission(s);
+            out.sample.depth = hit.t * dot(dir, site.normal);
+            out.hit = PlaneHit(hit.instance, hit.triangle, hit.u, hit.v);
+        }
+    }
+    return out;
+}
