@@ -222,7 +222,10 @@ fn plane_refresh_gives_the_same_images_as_tracing_every_plane() {
     };
     let (refreshed, replaced, retained) = run(true);
     let (traced, replaced_traced, none_retained) = run(false);
-    assert!(replaced > 20, "only {replaced} replacements: nothing to refresh");
+    assert!(
+        replaced > 20,
+        "only {replaced} replacements: nothing to refresh"
+    );
     assert!(retained > 0 && none_retained == 0);
     assert_eq!(replaced, replaced_traced);
     for (t, (a, b)) in refreshed.iter().zip(&traced).enumerate() {

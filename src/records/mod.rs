@@ -518,8 +518,20 @@ impl RecordPass {
                     timer.next("hemisphere planes"),
                 ),
             }
-            if let Some(capture) = lookahead.as_deref_mut().and_then(|la| la.capture.as_deref_mut()) {
-                capture.capture(ctx, &mut enc, &batch_sites, &samples, &hits, cache.count, n, res)?;
+            if let Some(capture) = lookahead
+                .as_deref_mut()
+                .and_then(|la| la.capture.as_deref_mut())
+            {
+                capture.capture(
+                    ctx,
+                    &mut enc,
+                    &batch_sites,
+                    &samples,
+                    &hits,
+                    cache.count,
+                    n,
+                    res,
+                )?;
             }
             self.reduce.record(
                 &mut enc,

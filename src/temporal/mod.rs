@@ -426,7 +426,10 @@ impl TemporalCache {
                     span = plane_refresh::SpanMotion::new(ctx, scenes.scene, &[then, &transforms])?;
                     Some(plane_refresh::PlaneRefresh {
                         pass: &self.refresh,
-                        planes: ids.iter().filter_map(|id| self.planes.planes.get(id)).collect(),
+                        planes: ids
+                            .iter()
+                            .filter_map(|id| self.planes.planes.get(id))
+                            .collect(),
                         motion: &span,
                     })
                 }

@@ -73,7 +73,10 @@ impl SpanMotion {
 /// The world boxes of the instances of `scene` whose transform changes across `frames`,
 /// each covering the instance at every one of them (slightly enlarged, so that the tests
 /// stay conservative), and a per-instance moved flag.
-pub fn span_bounds(scene: &crate::scene::Scene, frames: &[&[Mat4]]) -> (Vec<MovingBounds>, Vec<u32>) {
+pub fn span_bounds(
+    scene: &crate::scene::Scene,
+    frames: &[&[Mat4]],
+) -> (Vec<MovingBounds>, Vec<u32>) {
     let mut bounds = Vec::new();
     let mut moved = vec![0u32; scene.instances.len().max(1)];
     for (i, inst) in scene.instances.iter().enumerate() {
@@ -233,10 +236,10 @@ impl PlaneRefresh<'_> {
                 record_hits: 1,
             },
         );
-        let bind = self
-            .pass
-            .retrace
-            .bind(ctx, &[&params, batch_sites, plane_table, samples, hits, &work]);
+        let bind = self.pass.retrace.bind(
+            ctx,
+            &[&params, batch_sites, plane_table, samples, hits, &work],
+        );
         self.pass.retrace.record_indirect(
             enc,
             &scene.bind_group,
