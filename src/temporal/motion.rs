@@ -71,42 +71,9 @@ pub struct MovingBounds {
 /// at both frames (slightly enlarged: the reprojection's shadow test must be
 /// conservative).
 pub fn moving_bounds(now: &Scene, next: &Scene) -> Vec<MovingBounds> {
-    let mut out = Vec::new();
-    for (a, b) in now.instances.iter().zip(&next.instances) {
-        if a.transform == b.transform {
-            continue;
-        }
-        let Some(mesh) = now.meshes.get(a.mesh as usize) else {
-            continue;
-        };
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for p in &mesh.positions {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
-        if lo.x > hi.x {
-            continue;
-        }
-        let (mut wlo, mut whi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for m in [a.transform, b.transform] {
-            for c in 0..8 {
-                let corner = Vec3::new(
-                    if c & 1 == 0 { lo.x } else { hi.x },
-                    if c & 2 == 0 { lo.y } else { hi.y },
-                    if c & 4 == 0 { lo.z } else { hi.z },
-                );
-                let w = m.transform_point3(corner);
-                wlo = wlo.min(w);
-                whi = whi.max(w);
-            }
-        }
-        let margin = 1e-4 * (whi - wlo).max_element().max(1e-3);
-        out.push(MovingBounds {
-            lo: (wlo - margin).extend(0.0).into(),
-            hi: (whi + margin).extend(0.0).into(),
-        });
-    }
-    out
+    let transforms = |s: &Scene| s.instances.iter().map(|i| i.transform).collect::<Vec<_>>();
+    let (a, b) = (transforms(now), transforms(next));
+    super::plane_refresh::span_bounds(now, &[&a, &b]).0
 }
 
 /// Whether the lights (and the environment) are the same at both frames.
