@@ -22,7 +22,7 @@ pub enum RecordAnchor {
 }
 
 /// How one instance moves from frame t to t+1 (mirror of WGSL `InstanceMotion` in
-/// `plane_reproject.wgsl`, 144 bytes).
+/// `shared/reprojection.wgsl`, 144 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct InstanceMotion {
@@ -59,21 +59,12 @@ pub fn instance_motions(now: &Scene, next: &Scene) -> Vec<InstanceMotion> {
 }
 
 /// World box of an instance that moves between t and t+1, over both frames (mirror of
-/// WGSL `MovingBounds` in `plane_reproject.wgsl`).
+/// WGSL `MovingBounds` in `shared/movers.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct MovingBounds {
     pub lo: [f32; 4],
     pub hi: [f32; 4],
-}
-
-/// The boxes of the instances that move from `now` to `next`, each covering the instance
-/// at both frames (slightly enlarged: the reprojection's shadow test must be
-/// conservative).
-pub fn moving_bounds(now: &Scene, next: &Scene) -> Vec<MovingBounds> {
-    let transforms = |s: &Scene| s.instances.iter().map(|i| i.transform).collect::<Vec<_>>();
-    let (a, b) = (transforms(now), transforms(next));
-    super::plane_refresh::span_bounds(now, &[&a, &b]).0
 }
 
 /// Whether the lights (and the environment) are the same at both frames.

@@ -46,8 +46,8 @@ fn plane_bytes(res: u32) -> u64 {
 /// What moved during a span of frames, on the GPU.
 pub struct SpanMotion {
     /// [`MovingBounds`] of each instance that moved (covering every frame of the span).
-    moving: wgpu::Buffer,
-    moving_count: u32,
+    pub(super) moving: wgpu::Buffer,
+    pub(super) moving_count: u32,
     /// Per instance, 1 when it moved during the span.
     moved: wgpu::Buffer,
 }
@@ -57,6 +57,7 @@ impl SpanMotion {
     /// `frames` (one transform per instance each).
     pub fn new(ctx: &GpuContext, scene: &crate::scene::Scene, frames: &[&[Mat4]]) -> Result<Self> {
         let (bounds, moved) = span_bounds(scene, frames);
+        // Bindings cannot be empty: the shaders read `moving_count` boxes.
         let moving = if bounds.is_empty() {
             ctx.storage_buffer("span movers", &[MovingBounds::zeroed()])?
         } else {

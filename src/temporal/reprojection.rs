@@ -7,9 +7,8 @@
 //! `plane_fill` (take each cell's nearest sample, fill holes from the deepest neighbour). The resulting plane goes through the ordinary record reduction
 //! ([`crate::records::RecordPass::compute`] with a [`crate::records::Lookahead`]).
 
-use super::motion::{
-    InstanceMotion, MovingBounds, instance_motions, lights_unchanged, moving_bounds,
-};
+use super::motion::{InstanceMotion, instance_motions, lights_unchanged};
+use super::plane_refresh::SpanMotion;
 use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
@@ -55,13 +54,12 @@ pub struct NextFrame<'a> {
     pub scene: &'a GpuScene,
     /// One [`InstanceMotion`] per instance, from t to t+1.
     motion: wgpu::Buffer,
-    /// [`MovingBounds`] of the instances that move.
-    moving: wgpu::Buffer,
+    /// The instances that move from t to t+1 and their boxes over both frames.
+    movers: SpanMotion,
     /// Records move with the instance they lie on ([`super::RecordAnchor::Instance`]).
     pub anchored: bool,
     /// Hits whose lighting cannot have changed keep the radiance traced at t.
     pub reuse_shading: bool,
-    moving_count: u32,
 }
 
 impl<'a> NextFrame<'a> {
@@ -75,25 +73,20 @@ impl<'a> NextFrame<'a> {
         anchored: bool,
     ) -> Result<Self> {
         let motions = instance_motions(now, next);
-        let bounds = moving_bounds(now, next);
+        let transforms = |s: &Scene| s.instances.iter().map(|i| i.transform).collect::<Vec<_>>();
+        let movers = SpanMotion::new(ctx, now, &[&transforms(now), &transforms(next)])?;
         let motion = if motions.is_empty() {
             ctx.storage_buffer("instance motion", &[InstanceMotion::zeroed()])?
         } else {
             ctx.storage_buffer("instance motion", &motions)?
         };
-        // Bindings cannot be empty: the shader reads `moving_count` boxes.
-        let moving = if bounds.is_empty() {
-            ctx.storage_buffer("moving bounds", &[MovingBounds::zeroed()])?
-        } else {
-            ctx.storage_buffer("moving bounds", &bounds)?
-        };
         Ok(Self {
             scene,
             motion,
-            moving,
             anchored,
-            moving_count: bounds.len() as u32,
-            reuse_shading: lights_unchanged(now, next) && bounds.len() <= MAX_MOVING_FOR_REUSE,
+            reuse_shading: lights_unchanged(now, next)
+                && movers.moving_count as usize <= MAX_MOVING_FOR_REUSE,
+            movers,
         })
     }
 }
@@ -186,7 +179,7 @@ impl ReprojectionPass {
                 half_extent: (settings.plane_fov_degrees.to_radians() * 0.5).tan(),
                 anchored: u32::from(next.anchored),
                 reuse_shading: u32::from(next.reuse_shading),
-                moving_count: next.moving_count,
+                moving_count: next.movers.moving_count,
             },
         );
         let bind = self.reproject.bind(
@@ -198,7 +191,7 @@ impl ReprojectionPass {
                 &cells,
                 &moved,
                 &next.motion,
-                &next.moving,
+                &next.movers.moving,
                 traced,
                 &reshade,
                 &reshade_groups,
