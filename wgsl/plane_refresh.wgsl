@@ -2,8 +2,8 @@
 // trace again. A replacement sits at its predecessor's place (seed 000 section IV-D) with
 // the same site and seed, so its plane would be the predecessor's plane traced again,
 // except where something moved since the predecessor's birth: `moving` holds the boxes
-// of the instances that moved during that span (each covering every frame of it), and
-// the lights did not change (the caller checks). A sample is listed for step 2
+// of the instances that moved during that span (each at the predecessor's frame and at
+// this one: frames between do not matter), and the lights did not change (the caller checks). A sample is listed for step 2
 // (plane_retrace.wgsl) when its ray, up to its hit (or without end for a miss), meets
 // such a box, when it hit an instance that moved, or when one of its shadow rays may meet
 // such a box; every other sample would be traced to the same hit and shaded with the same

@@ -423,7 +423,7 @@ impl TemporalCache {
                         .iter()
                         .find(|f| f.frame == *birth)
                         .map_or(&[][..], |f| f.transforms.as_slice());
-                    span = plane_refresh::SpanMotion::new(ctx, scenes.scene, &[then, &transforms])?;
+                    span = plane_refresh::SpanMotion::new(ctx, scenes.scene, then, &transforms)?;
                     Some(plane_refresh::PlaneRefresh {
                         pass: &self.refresh,
                         planes: ids

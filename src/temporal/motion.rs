@@ -58,13 +58,82 @@ pub fn instance_motions(now: &Scene, next: &Scene) -> Vec<InstanceMotion> {
         .collect()
 }
 
-/// World box of an instance that moves between t and t+1, over both frames (mirror of
-/// WGSL `MovingBounds` in `shared/movers.wgsl`).
+/// An instance that moves over a span of frames, as its box in its own space and the
+/// world-to-instance transforms at the span's first and last frames (mirror of WGSL
+/// `MovingBounds` in `shared/movers.wgsl`, 160 bytes). A ray meets the instance at either
+/// end only if it meets this box at that end: the test follows the instance's rotation
+/// instead of boxing both ends in one world box (which only serves as a quick reject).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct MovingBounds {
+    /// World box around the instance box at both ends.
+    pub world_lo: [f32; 4],
+    pub world_hi: [f32; 4],
+    /// The instance's mesh box in its own space, slightly enlarged.
     pub lo: [f32; 4],
     pub hi: [f32; 4],
+    /// Rows of the affine world-to-instance transform at the span's first frame, then at
+    /// its last.
+    pub to_instance: [[[f32; 4]; 3]; 2],
+}
+
+impl MovingBounds {
+    /// The mesh box `lo..hi` (instance space) of an instance whose transforms are `start`
+    /// and `end` at the span's two ends. The box is enlarged by a relative margin so that
+    /// rounding in the world-to-instance transform cannot make the test miss a ray the
+    /// trace would find; a transform with no finite inverse gives a box every ray meets.
+    pub fn new(lo: Vec3, hi: Vec3, start: &Mat4, end: &Mat4) -> Self {
+        let rows = |m: &Mat4| {
+            let inv = m.inverse();
+            let t = inv.transpose();
+            [
+                t.x_axis.to_array(),
+                t.y_axis.to_array(),
+                t.z_axis.to_array(),
+            ]
+        };
+        let (a, b) = (rows(start), rows(end));
+        let finite = |r: &[[f32; 4]; 3]| r.iter().flatten().all(|v| v.is_finite());
+        if !(finite(&a) && finite(&b)) {
+            let identity = [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0],
+            ];
+            return Self {
+                world_lo: [-1e30, -1e30, -1e30, 0.0],
+                world_hi: [1e30, 1e30, 1e30, 0.0],
+                lo: [-1e30, -1e30, -1e30, 0.0],
+                hi: [1e30, 1e30, 1e30, 0.0],
+                to_instance: [identity; 2],
+            };
+        }
+        let margin = 1e-3 * (hi - lo).max_element().max(1e-3);
+        let (lo, hi) = (lo - margin, hi + margin);
+        let (mut wlo, mut whi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for m in [start, end] {
+            for c in 0..8 {
+                let corner = Vec3::new(
+                    if c & 1 == 0 { lo.x } else { hi.x },
+                    if c & 2 == 0 { lo.y } else { hi.y },
+                    if c & 4 == 0 { lo.z } else { hi.z },
+                );
+                let w = m.transform_point3(corner);
+                wlo = wlo.min(w);
+                whi = whi.max(w);
+            }
+        }
+        // The corners went through the forward transform, the rays go through its
+        // inverse: a second margin keeps the world box around the instance box.
+        let world_margin = 1e-3 * (whi - wlo).max_element().max(1e-3);
+        Self {
+            world_lo: (wlo - world_margin).extend(0.0).into(),
+            world_hi: (whi + world_margin).extend(0.0).into(),
+            lo: lo.extend(0.0).into(),
+            hi: hi.extend(0.0).into(),
+            to_instance: [a, b],
+        }
+    }
 }
 
 /// Whether the lights (and the environment) are the same at both frames.
@@ -111,6 +180,49 @@ pub fn move_record(record: &Record, m: &Mat4) -> Record {
 mod tests {
     use super::*;
     use glam::Quat;
+
+    /// The mover box follows the instance: points of the mesh at either end of the span
+    /// map back into the instance box and lie in the world box, and a point beside the
+    /// turned cube (inside the world box) is outside the instance box.
+    #[test]
+    fn moving_bounds_follow_the_instance_at_both_ends() {
+        let (lo, hi) = (Vec3::splat(-0.5), Vec3::splat(0.5));
+        let start = Mat4::from_translation(Vec3::new(1.0, 0.0, 0.0));
+        let end = Mat4::from_rotation_translation(
+            Quat::from_rotation_y(std::f32::consts::FRAC_PI_4),
+            Vec3::new(1.5, 0.0, 0.0),
+        );
+        let m = MovingBounds::new(lo, hi, &start, &end);
+        let to_instance = |rows: &[[f32; 4]; 3], p: Vec3| {
+            Vec3::from_array(rows.map(|r| r[0] * p.x + r[1] * p.y + r[2] * p.z + r[3]))
+        };
+        let inside =
+            |p: Vec3, lo: [f32; 4], hi: [f32; 4]| (0..3).all(|c| p[c] >= lo[c] && p[c] <= hi[c]);
+        for (k, transform) in [start, end].iter().enumerate() {
+            for c in 0..8 {
+                let corner = Vec3::new(
+                    if c & 1 == 0 { -0.5 } else { 0.5 },
+                    if c & 2 == 0 { -0.5 } else { 0.5 },
+                    if c & 4 == 0 { -0.5 } else { 0.5 },
+                );
+                let world = transform.transform_point3(corner);
+                assert!(inside(to_instance(&m.to_instance[k], world), m.lo, m.hi));
+                assert!(inside(world, m.world_lo, m.world_hi));
+            }
+        }
+        // Beside a face of the turned cube, within the world box: the end's instance
+        // box does not hold it.
+        let p = Vec3::new(1.5 + 0.45, 0.0, 0.45);
+        assert!(inside(p, m.world_lo, m.world_hi));
+        assert!(!inside(to_instance(&m.to_instance[1], p), m.lo, m.hi));
+        // A transform without an inverse gives a box every point is in.
+        let flat = MovingBounds::new(lo, hi, &start, &Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0)));
+        assert!(inside(
+            to_instance(&flat.to_instance[0], Vec3::splat(1e6)),
+            flat.lo,
+            flat.hi
+        ));
+    }
 
     fn record() -> Record {
         Record {

@@ -45,7 +45,7 @@ fn plane_bytes(res: u32) -> u64 {
 
 /// What moved during a span of frames, on the GPU.
 pub struct SpanMotion {
-    /// [`MovingBounds`] of each instance that moved (covering every frame of the span).
+    /// [`MovingBounds`] of each instance that moved between the span's two ends.
     pub(super) moving: wgpu::Buffer,
     pub(super) moving_count: u32,
     /// Per instance, 1 when it moved during the span.
@@ -53,10 +53,15 @@ pub struct SpanMotion {
 }
 
 impl SpanMotion {
-    /// The motion of `scene`'s instances over the frames whose instance transforms are
-    /// `frames` (one transform per instance each).
-    pub fn new(ctx: &GpuContext, scene: &crate::scene::Scene, frames: &[&[Mat4]]) -> Result<Self> {
-        let (bounds, moved) = span_bounds(scene, frames);
+    /// The motion of `scene`'s instances between the frames whose instance transforms
+    /// are `start` and `end` (one transform per instance each).
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &crate::scene::Scene,
+        start: &[Mat4],
+        end: &[Mat4],
+    ) -> Result<Self> {
+        let (bounds, moved) = span_bounds(scene, start, end);
         // Bindings cannot be empty: the shaders read `moving_count` boxes.
         let moving = if bounds.is_empty() {
             ctx.storage_buffer("span movers", &[MovingBounds::zeroed()])?
@@ -71,18 +76,22 @@ impl SpanMotion {
     }
 }
 
-/// The world boxes of the instances of `scene` whose transform changes across `frames`,
-/// each covering the instance at every one of them (slightly enlarged, so that the tests
-/// stay conservative), and a per-instance moved flag.
+/// The instances of `scene` whose transform differs between `start` and `end` (one
+/// transform per instance each, at the two ends of a span of frames) as
+/// [`MovingBounds`], and a per-instance moved flag. What happens between the two ends
+/// does not matter: a plane traced at the start is compared with the scene at the end.
 pub fn span_bounds(
     scene: &crate::scene::Scene,
-    frames: &[&[Mat4]],
+    start: &[Mat4],
+    end: &[Mat4],
 ) -> (Vec<MovingBounds>, Vec<u32>) {
     let mut bounds = Vec::new();
     let mut moved = vec![0u32; scene.instances.len().max(1)];
     for (i, inst) in scene.instances.iter().enumerate() {
-        let first = frames.first().and_then(|f| f.get(i));
-        if frames.iter().all(|f| f.get(i) == first) {
+        let (Some(a), Some(b)) = (start.get(i), end.get(i)) else {
+            continue;
+        };
+        if a == b {
             continue;
         }
         moved[i] = 1;
@@ -97,24 +106,7 @@ pub fn span_bounds(
         if lo.x > hi.x {
             continue;
         }
-        let (mut wlo, mut whi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for m in frames.iter().filter_map(|f| f.get(i)) {
-            for c in 0..8 {
-                let corner = Vec3::new(
-                    if c & 1 == 0 { lo.x } else { hi.x },
-                    if c & 2 == 0 { lo.y } else { hi.y },
-                    if c & 4 == 0 { lo.z } else { hi.z },
-                );
-                let w = m.transform_point3(corner);
-                wlo = wlo.min(w);
-                whi = whi.max(w);
-            }
-        }
-        let margin = 1e-4 * (whi - wlo).max_element().max(1e-3);
-        bounds.push(MovingBounds {
-            lo: (wlo - margin).extend(0.0).into(),
-            hi: (whi + margin).extend(0.0).into(),
-        });
+        bounds.push(MovingBounds::new(lo, hi, a, b));
     }
     (bounds, moved)
 }

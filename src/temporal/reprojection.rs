@@ -54,7 +54,7 @@ pub struct NextFrame<'a> {
     pub scene: &'a GpuScene,
     /// One [`InstanceMotion`] per instance, from t to t+1.
     motion: wgpu::Buffer,
-    /// The instances that move from t to t+1 and their boxes over both frames.
+    /// The instances that move from t to t+1, with their boxes at both frames.
     movers: SpanMotion,
     /// Records move with the instance they lie on ([`super::RecordAnchor::Instance`]).
     pub anchored: bool,
@@ -74,7 +74,7 @@ impl<'a> NextFrame<'a> {
     ) -> Result<Self> {
         let motions = instance_motions(now, next);
         let transforms = |s: &Scene| s.instances.iter().map(|i| i.transform).collect::<Vec<_>>();
-        let movers = SpanMotion::new(ctx, now, &[&transforms(now), &transforms(next)])?;
+        let movers = SpanMotion::new(ctx, now, &transforms(now), &transforms(next))?;
         let motion = if motions.is_empty() {
             ctx.storage_buffer("instance motion", &[InstanceMotion::zeroed()])?
         } else {

@@ -1,30 +1,68 @@
-// Instances that move over a span of frames, as world boxes, and whether a ray or a
+// Instances that move over a span of frames, as boxes that turn with them, and whether a ray or a
 // point's shadow rays can meet one of them: the test behind every reuse of traced
 // radiance across frames (reprojection, plane refresh). The including pass declares
 // `moving: array<MovingBounds>` and a `params` uniform with a `moving_count` field.
 //!include shared/shading.wgsl
 
-// World box of an instance that moves over the span, covering it at every frame of the
-// span, slightly enlarged (Rust: temporal::motion::MovingBounds).
+// An instance that moves over the span: its mesh box in its own space (slightly
+// enlarged), a world box around that box at both ends, and the rows of its affine
+// world-to-instance transform at the span's first and last frames (Rust:
+// temporal::motion::MovingBounds). Only the two ends matter: what was traced at the start
+// is compared with the scene at the end.
 struct MovingBounds {
+    world_lo: vec4f,   // world box around both: a quick reject
+    world_hi: vec4f,
     lo: vec4f,
     hi: vec4f,
+    start: array<vec4f, 3>,
+    end: array<vec4f, 3>,
 }
 
-// Whether the ray o + x d, x in [0, x_max], meets the box (slab test).
-fn segment_meets_box(o: vec3f, d: vec3f, x_max: f32, b: MovingBounds) -> bool {
+// Whether the ray o + x d, x in [0, x_max], meets the box lo..hi (slab test).
+fn segment_meets_box(o: vec3f, d: vec3f, x_max: f32, lo: vec3f, hi: vec3f) -> bool {
     // Axis-parallel rays: a huge finite inverse keeps the slabs free of NaN.
     let inv = 1.0 / select(d, vec3f(1.0e-30), abs(d) < vec3f(1.0e-30));
-    let t0 = (b.lo.xyz - o) * inv;
-    let t1 = (b.hi.xyz - o) * inv;
+    let t0 = (lo - o) * inv;
+    let t1 = (hi - o) * inv;
     let near = max(max(min(t0.x, t1.x), min(t0.y, t1.y)), max(min(t0.z, t1.z), 0.0));
     let far = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), min(max(t0.z, t1.z), x_max));
     return near <= far;
 }
 
+// The segment o + x d, x in [0, x_max], in instance space (an affine map keeps x).
+fn segment_meets_instance_box(o: vec3f, d: vec3f, x_max: f32, r0: vec4f, r1: vec4f, r2: vec4f,
+                              lo: vec3f, hi: vec3f) -> bool {
+    let lo_o = vec3f(dot(r0.xyz, o) + r0.w, dot(r1.xyz, o) + r1.w, dot(r2.xyz, o) + r2.w);
+    let lo_d = vec3f(dot(r0.xyz, d), dot(r1.xyz, d), dot(r2.xyz, d));
+    return segment_meets_box(lo_o, lo_d, x_max, lo, hi);
+}
+
+// Whether the segment meets mover i's box at the start or at the end of the span. Reads
+// the world box first and the rest only when needed (loading the whole struct for every
+// segment costs lavapipe noticeably).
+fn segment_meets_mover(o: vec3f, d: vec3f, x_max: f32, i: u32) -> bool {
+    if !segment_meets_box(o, d, x_max, moving[i].world_lo.xyz, moving[i].world_hi.xyz) {
+        return false;
+    }
+    let lo = moving[i].lo.xyz;
+    let hi = moving[i].hi.xyz;
+    return segment_meets_instance_box(o, d, x_max, moving[i].start[0], moving[i].start[1], moving[i].start[2], lo, hi)
+        || segment_meets_instance_box(o, d, x_max, moving[i].end[0], moving[i].end[1], moving[i].end[2], lo, hi);
+}
+
 fn meets_a_mover(o: vec3f, d: vec3f, x_max: f32) -> bool {
     for (var i = 0u; i < params.moving_count; i++) {
-        if segment_meets_box(o, d, x_max, moving[i]) {
+        if segment_meets_mover(o, d, x_max, i) {
+            return true;
+        }
+    }
+    return false;
+}
+
+// Whether the box lo..hi overlaps the world box of some mover.
+fn box_meets_a_mover(lo: vec3f, hi: vec3f) -> bool {
+    for (var i = 0u; i < params.moving_count; i++) {
+        if all(lo <= moving[i].world_hi.xyz) && all(hi >= moving[i].world_lo.xyz) {
             return true;
         }
     }
@@ -53,6 +91,16 @@ fn shadows_may_change(s: Surface, seed: u32, count: u32) -> bool {
                 return true;
             }
         } else if kind == LIGHT_RECT {
+            // Every shadow ray lies in the pyramid from the origin to the rectangle: when
+            // the pyramid's box meets no mover's world box, none of them can.
+            let c0 = light.a.xyz;
+            let c1 = c0 + light.b.xyz;
+            let c2 = c0 + light.c.xyz;
+            let c3 = c1 + light.c.xyz;
+            if !box_meets_a_mover(min(min(origin, c0), min(min(c1, c2), c3)),
+                                  max(max(origin, c0), max(max(c1, c2), c3))) {
+                continue;
+            }
             let light_seed = hash_combine(seed, li);
             for (var k = 0u; k < count; k++) {
                 if meets_a_mover(origin, rect_light_point(light, k, light_seed) - origin, 1.0) {
