@@ -176,6 +176,10 @@ enum Command {
         size: Option<(u32, u32)>,
         #[command(flatten)]
         cache: CacheArgs,
+        /// Where records stay while objects move: `world` (the thesis's table) or
+        /// `instance` (records move with their instance; recomputed from the moved site).
+        #[arg(long, default_value = "world", value_parser = ["world", "instance"])]
+        record_anchor: String,
         /// Write the table as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -429,6 +433,7 @@ fn main() -> ExitCode {
             records,
             size,
             cache,
+            record_anchor,
             json,
         } => temporal_error(
             &scene,
@@ -436,6 +441,7 @@ fn main() -> ExitCode {
             records,
             size,
             &cache.settings(),
+            &record_anchor,
             json.as_deref(),
         ),
         Command::Info => info(),
@@ -1148,6 +1154,7 @@ fn temporal_error(
     records: usize,
     size: Option<(u32, u32)>,
     settings: &CacheSettings,
+    record_anchor: &str,
     json: Option<&Path>,
 ) -> Result<()> {
     use radsplat::temporal::estimate_error::estimate_error_table;
@@ -1157,7 +1164,8 @@ fn temporal_error(
     scene.set_frame(frame as f32);
     next.set_frame((frame + 1) as f32);
     let renderer = Renderer::new(GpuContext::new()?)?;
-    let table = estimate_error_table(&renderer, &scene, &next, settings, records)?;
+    let anchored = record_anchor == "instance";
+    let table = estimate_error_table(&renderer, &scene, &next, settings, records, anchored)?;
     println!(
         "{}: {} records placed at frame {frame}, E(t+1) estimate vs recomputed (RGB RMS relative error)",
         scene_path.display(),
@@ -1170,6 +1178,8 @@ fn temporal_error(
     for (name, s) in [
         ("reprojection", &table.reprojection),
         ("no reprojection", &table.no_reprojection),
+        ("  on movers: repr.", &table.on_movers_reprojection),
+        ("  on movers: none", &table.on_movers_no_reprojection),
     ] {
         println!(
             "{name:<18} {:>7.2}% {:>7.2}% {:>7.2}% {:>7.2}%",

@@ -2,9 +2,15 @@
 // A cell that received a sample takes that sample (radiance at t+1, its new depth); an
 // empty cell (a hole opened by motion) takes the deepest of its eight neighbours, the
 // local background (seed 000 section V-a, thesis 5.3: "the neighbouring value with the
-// highest depth"); with no filled neighbour it stays a miss. Reads only the reprojected
-// cells, never filled ones, so the result does not depend on thread order. The samples
-// then go through the ordinary record reduction to give E(t+1) and its gradients.
+// highest depth"). A hole wider than that (a record that moves with its instance sees
+// nearby surfaces shift by many cells: a record just above a floor sees rows of the floor
+// spread apart) keeps the sample traced at t in the same cell: with nothing known about
+// it at t+1, it is assumed unchanged, where a miss (black) would bias E(t+1), and so tau,
+// low (up to 30 % on records at the foot of a moving cube). `samples` holds the plane
+// traced at t on entry and the estimate at t+1 on exit; each invocation reads and writes
+// only its own cell there. Reads only the reprojected cells, never filled ones, so the
+// result does not depend on thread order. The samples then go through the ordinary record
+// reduction to give E(t+1) and its gradients.
 //!include shared/records.wgsl
 
 struct FillParams {
@@ -17,7 +23,7 @@ struct FillParams {
 @group(1) @binding(0) var<uniform> params: FillParams;
 @group(1) @binding(1) var<storage, read> cells: array<u32>;
 @group(1) @binding(2) var<storage, read> moved: array<vec4f>;
-@group(1) @binding(3) var<storage, read_write> samples: array<PlaneSample>;
+@group(1) @binding(3) var<storage, read_write> samples: array<PlaneSample>;   // t in, t+1 out
 
 fn sample_of(base: u32, key: u32) -> PlaneSample {
     let m = moved[base + reprojection_sample(key)];
@@ -32,7 +38,8 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     }
     let base = id.z * res * res;
     let own = ~cells[base + id.y * res + id.x];   // stored complemented
-    var out = PlaneSample(vec3f(0.0), -1.0);
+    let cell = base + id.y * res + id.x;
+    var out = samples[cell];   // traced at t: the fallback for a wide hole
     if own != EMPTY_CELL {
         out = sample_of(base, own);
     } else {
@@ -57,5 +64,5 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             out = sample_of(base, best);
         }
     }
-    samples[base + id.y * res + id.x] = out;
+    samples[cell] = out;
 }

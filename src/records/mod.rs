@@ -552,7 +552,6 @@ impl RecordPass {
                     &batch_sites,
                     &hits,
                     &samples,
-                    &samples,
                     n,
                     &mut timer,
                 )?;
@@ -646,6 +645,8 @@ impl RecordPass {
         );
         let estimated = ctx.storage_buffer_sized("estimated plane samples", plane_bytes)?;
         if let Some((next, reprojection)) = ahead {
+            // The reprojection overwrites the plane it reads: give it a copy.
+            enc.copy_buffer_to_buffer(&samples, 0, &estimated, 0, plane_bytes);
             let mut timer = crate::gpu::timer::PassTimer::new(ctx, 2);
             reprojection.record(
                 ctx,
@@ -654,7 +655,6 @@ impl RecordPass {
                 &self.settings,
                 &sites_buf,
                 &hits,
-                &samples,
                 &estimated,
                 n,
                 &mut timer,

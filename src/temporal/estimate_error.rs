@@ -3,12 +3,13 @@
 //! against the "no reprojection" prediction E(t+1) = E(t).
 
 use crate::Result;
-use crate::frame::Renderer;
+use crate::frame::{PreparedScene, Renderer};
 use crate::records::reference::{RecordReference, reduce_plane};
-use crate::records::{CacheSettings, PlaneSample, Record, RecordPass};
+use crate::records::{CacheSettings, PlaneSample, Record, RecordPass, RecordSite};
 use crate::scene::Scene;
 use crate::temporal::{NextFrame, ReprojectionPass};
 use crate::visibility::GpuCamera;
+use glam::Mat4;
 
 /// Min / max / mean / median of per-record relative errors.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
@@ -48,6 +49,11 @@ pub struct EstimateErrorTable {
     pub records: usize,
     pub reprojection: ErrorSummary,
     pub no_reprojection: ErrorSummary,
+    /// Of those, the records on an instance that moves from t to t+1 (with `anchored`
+    /// they move too), and their errors.
+    pub on_movers: usize,
+    pub on_movers_reprojection: ErrorSummary,
+    pub on_movers_no_reprojection: ErrorSummary,
 }
 
 /// RGB RMS relative error of `estimate` against `truth`.
@@ -61,15 +67,79 @@ fn relative_error(estimate: [f32; 3], truth: [f32; 3]) -> Option<f64> {
     (den > 0.0).then(|| (num / den).sqrt())
 }
 
+/// One record's irradiance at t, its E(t+1) estimated by reprojection, and the record
+/// really recomputed at t+1 (from the moved site when records move with their instance).
+#[derive(Clone, Copy, Debug)]
+pub struct Estimate {
+    pub now: [f32; 3],
+    pub estimate: [f32; 3],
+    pub truth: [f32; 3],
+}
+
+/// [`Estimate`]s of records at `sites` of `at_t` (prepared and CPU scenes), with `next`
+/// the same scene one frame later. `anchored`: records move with the instance they lie
+/// on.
+pub fn estimates_at_sites(
+    renderer: &Renderer,
+    at_t: (&PreparedScene, &Scene),
+    next: (&PreparedScene, &Scene),
+    settings: &CacheSettings,
+    sites: &[RecordSite],
+    anchored: bool,
+) -> Result<Vec<Estimate>> {
+    let ctx = &renderer.ctx;
+    let pass = RecordPass::new(ctx, settings)?;
+    let reprojection = ReprojectionPass::new(ctx)?;
+    let plane = crate::records::HemispherePlane::new(
+        settings.plane_resolution,
+        settings.plane_fov_degrees,
+        settings.plane_mode,
+    );
+    let cells = (settings.plane_resolution * settings.plane_resolution) as usize;
+    let reduce = |site: &RecordSite, samples: &[PlaneSample]| -> Record {
+        reduce_plane(&plane, settings, site, samples)
+    };
+    let next_frame = NextFrame::new(ctx, &next.0.gpu, at_t.1, next.1, anchored)?;
+    let motions = super::motion::instance_motions(at_t.1, next.1);
+    let mut out = Vec::with_capacity(sites.len());
+    for chunk in sites.chunks(pass.batch as usize) {
+        let (now, ahead) =
+            pass.trace_planes_ahead(ctx, &at_t.0.gpu, Some((&next_frame, &reprojection)), chunk)?;
+        let truth_sites: Vec<RecordSite> = chunk
+            .iter()
+            .map(|site| match motions.get(site.instance as usize) {
+                Some(m) if anchored && m.moves != 0 => {
+                    super::motion::move_site(site, &Mat4::from_cols_array_2d(&m.to_next))
+                }
+                _ => *site,
+            })
+            .collect();
+        let (truth, _) = pass.trace_planes_ahead(ctx, &next.0.gpu, None, &truth_sites)?;
+        for (i, site) in chunk.iter().enumerate() {
+            let span = i * cells..(i + 1) * cells;
+            out.push(Estimate {
+                now: reduce(site, &now[span.clone()]).irradiance,
+                estimate: reduce(site, &ahead[span.clone()]).irradiance,
+                truth: reduce(&truth_sites[i], &truth[span]).irradiance,
+            });
+        }
+    }
+    ctx.check()?;
+    Ok(out)
+}
+
 /// Places record sites at `count` visible pixels of `at_t` (evenly strided over the
 /// image), computes each record at t, its reprojected estimate at t+1 (`next`: the same
 /// scene one frame later) and the record recomputed at t+1, and summarises the errors.
+/// `anchored`: records move with the instance they lie on (the thesis keeps them in
+/// place), so the record recomputed at t+1 is traced from the moved site.
 pub fn estimate_error_table(
     renderer: &Renderer,
     at_t: &Scene,
     next: &Scene,
     settings: &CacheSettings,
     count: usize,
+    anchored: bool,
 ) -> Result<EstimateErrorTable> {
     let ctx = &renderer.ctx;
     let prepared = renderer.prepare(at_t)?;
@@ -86,45 +156,45 @@ pub fn estimate_error_table(
         .enumerate()
         .map(|(i, v)| RecordReference::site_from_pixel(settings, &camera, v, i as u32))
         .collect();
-    let pass = RecordPass::new(ctx, settings)?;
-    let reprojection = ReprojectionPass::new(ctx)?;
-    let plane = crate::records::HemispherePlane::new(
-        settings.plane_resolution,
-        settings.plane_fov_degrees,
-        settings.plane_mode,
-    );
-    let cells = (settings.plane_resolution * settings.plane_resolution) as usize;
-    let reduce =
-        |site, samples: &[PlaneSample]| -> Record { reduce_plane(&plane, settings, site, samples) };
-    // Records keep their world position here, as in the thesis's table.
-    let next_frame = NextFrame::new(ctx, &prepared_next.gpu, at_t, next, false)?;
-    let (mut with, mut without) = (Vec::new(), Vec::new());
-    for chunk in sites.chunks(pass.batch as usize) {
-        let (now, ahead) = pass.trace_planes_ahead(
-            ctx,
-            &prepared.gpu,
-            Some((&next_frame, &reprojection)),
-            chunk,
-        )?;
-        let (truth, _) = pass.trace_planes_ahead(ctx, &prepared_next.gpu, None, chunk)?;
-        for (i, site) in chunk.iter().enumerate() {
-            let span = i * cells..(i + 1) * cells;
-            let e_now = reduce(site, &now[span.clone()]).irradiance;
-            let e_ahead = reduce(site, &ahead[span.clone()]).irradiance;
-            let e_true = reduce(site, &truth[span]).irradiance;
-            if let (Some(a), Some(b)) = (
-                relative_error(e_ahead, e_true),
-                relative_error(e_now, e_true),
-            ) {
-                with.push(a);
-                without.push(b);
-            }
+    let motions = super::motion::instance_motions(at_t, next);
+    let moving = |site: &RecordSite| {
+        motions
+            .get(site.instance as usize)
+            .is_some_and(|m| m.moves != 0)
+    };
+    let (mut with, mut without, mut movers) = (Vec::new(), Vec::new(), Vec::new());
+    for (site, e) in sites.iter().zip(estimates_at_sites(
+        renderer,
+        (&prepared, at_t),
+        (&prepared_next, next),
+        settings,
+        &sites,
+        anchored,
+    )?) {
+        if let (Some(a), Some(b)) = (
+            relative_error(e.estimate, e.truth),
+            relative_error(e.now, e.truth),
+        ) {
+            with.push(a);
+            without.push(b);
+            movers.push(moving(site));
         }
     }
     ctx.check()?;
+    let of_movers = |errors: &[f64]| -> Vec<f64> {
+        errors
+            .iter()
+            .zip(&movers)
+            .filter(|(_, m)| **m)
+            .map(|(e, _)| *e)
+            .collect()
+    };
     Ok(EstimateErrorTable {
         records: with.len(),
         reprojection: ErrorSummary::of(&with),
         no_reprojection: ErrorSummary::of(&without),
+        on_movers: movers.iter().filter(|m| **m).count(),
+        on_movers_reprojection: ErrorSummary::of(&of_movers(&with)),
+        on_movers_no_reprojection: ErrorSummary::of(&of_movers(&without)),
     })
 }

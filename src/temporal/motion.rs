@@ -7,7 +7,7 @@
 //! with the instance's transform); its reprojected plane (E(t+1)) is then seen from where
 //! the record will be at t+1. Records on instances that do not move are unaffected.
 
-use crate::records::Record;
+use crate::records::{Record, RecordSite};
 use crate::scene::Scene;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Mat4, Vec3};
@@ -147,6 +147,25 @@ fn rgb(v: [f32; 4]) -> Vec3 {
 
 fn rgb0(v: Vec3) -> [f32; 4] {
     [v.x, v.y, v.z, 0.0]
+}
+
+/// `site` carried by the affine map `m` (as [`move_record`]): position, shading and
+/// geometric normals move with it; the seed and instance stay.
+pub fn move_site(site: &RecordSite, m: &Mat4) -> RecordSite {
+    if *m == Mat4::IDENTITY {
+        return *site;
+    }
+    let linear = Mat3::from_mat4(*m);
+    let covector = linear.inverse().transpose();
+    let mut s = *site;
+    s.position = m.transform_point3(site.position.into()).into();
+    s.normal = (covector * Vec3::from(site.normal))
+        .normalize_or_zero()
+        .into();
+    s.geometric_normal = (covector * Vec3::from(site.geometric_normal))
+        .normalize_or_zero()
+        .into();
+    s
 }
 
 /// `record` carried by the affine map `m` (a rigid motion, possibly with uniform scale):

@@ -1,7 +1,8 @@
 //! Plain-Rust reference of the E(t+1) reprojection (`plane_reproject.wgsl`,
 //! `plane_fill.wgsl`): the plane traced at t on the CPU, every hit rebuilt and re-shaded
 //! in the scene at t+1, projected onto the record's plane with the same (depth bits,
-//! sample index) keys, and holes filled from the deepest neighbour.
+//! sample index) keys, and holes filled from the deepest neighbour (holes wider than
+//! that keep the sample traced at t).
 
 use super::motion::InstanceMotion;
 use crate::direct::reference::{DirectReference, offset_ray_origin};
@@ -104,10 +105,7 @@ pub fn reproject_plane(
         }
     }
     let sample_of = |key: u32| moved[(key & INDEX_MASK) as usize];
-    let miss = PlaneSample {
-        radiance: [0.0; 3],
-        depth: -1.0,
-    };
+    let traced = at_t.trace_plane(site);
     (0..res * res)
         .map(|c| {
             if cells[c] != u32::MAX {
@@ -132,7 +130,7 @@ pub fn reproject_plane(
                     }
                 }
             }
-            best.map_or(miss, sample_of)
+            best.map_or(traced[c], sample_of)
         })
         .collect()
 }

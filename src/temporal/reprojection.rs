@@ -139,8 +139,8 @@ impl ReprojectionPass {
     }
 
     /// Records the estimate at t+1 of `count` records' planes: reads their sites, plane
-    /// hits and `traced` samples (at t), writes the reprojected, hole-filled plane into
-    /// `samples` (`count * P^2` [`crate::records::PlaneSample`]s; may be `traced`).
+    /// hits and `plane` (`count * P^2` [`crate::records::PlaneSample`]s traced at t), and
+    /// writes the reprojected, hole-filled plane over `plane`.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -150,8 +150,7 @@ impl ReprojectionPass {
         settings: &CacheSettings,
         sites: &wgpu::Buffer,
         hits: &wgpu::Buffer,
-        traced: &wgpu::Buffer,
-        samples: &wgpu::Buffer,
+        plane: &wgpu::Buffer,
         count: u32,
         timer: &mut PassTimer,
     ) -> Result<()> {
@@ -192,7 +191,7 @@ impl ReprojectionPass {
                 &moved,
                 &next.motion,
                 &next.movers.moving,
-                traced,
+                plane,
                 &reshade,
                 &reshade_groups,
             ],
@@ -231,7 +230,7 @@ impl ReprojectionPass {
                 _pad: [0; 2],
             },
         );
-        let bind = self.fill.bind(ctx, &[&params, &cells, &moved, samples]);
+        let bind = self.fill.bind(ctx, &[&params, &cells, &moved, plane]);
         self.fill.record(
             enc,
             &next.scene.bind_group,

@@ -59,12 +59,44 @@ fn meets_a_mover(o: vec3f, d: vec3f, x_max: f32) -> bool {
     return false;
 }
 
-// Whether the box lo..hi overlaps the world box of some mover.
-fn box_meets_a_mover(lo: vec3f, hi: vec3f) -> bool {
+// Whether the box lo..hi lies entirely on the positive side of the plane through `p` with
+// normal `n` (the box corner furthest towards -n is still in front).
+fn box_in_front(lo: vec3f, hi: vec3f, p: vec3f, n: vec3f) -> bool {
+    return dot(n, select(hi, lo, n > vec3f(0.0)) - p) > 0.0;
+}
+
+// Whether the pyramid from `apex` to the parallelogram at `corner` with edges `eu`, `ev`
+// may meet the world box of some mover: separating axes from the boxes' faces (their
+// bounding boxes overlap) and from the pyramid's four sides. Conservative: a box it
+// clears misses the pyramid.
+fn pyramid_meets_a_mover(apex: vec3f, corner: vec3f, eu: vec3f, ev: vec3f) -> bool {
+    let c0 = corner;
+    let c1 = corner + eu;
+    let c2 = corner + eu + ev;
+    let c3 = corner + ev;
+    let lo = min(min(apex, c0), min(min(c1, c2), c3));
+    let hi = max(max(apex, c0), max(max(c1, c2), c3));
+    // Side normals point away from the parallelogram's centre.
+    let inward = corner + 0.5 * (eu + ev) - apex;
+    var n0 = cross(c0 - apex, c1 - apex);
+    var n1 = cross(c1 - apex, c2 - apex);
+    var n2 = cross(c2 - apex, c3 - apex);
+    var n3 = cross(c3 - apex, c0 - apex);
+    n0 = select(n0, -n0, dot(n0, inward) > 0.0);
+    n1 = select(n1, -n1, dot(n1, inward) > 0.0);
+    n2 = select(n2, -n2, dot(n2, inward) > 0.0);
+    n3 = select(n3, -n3, dot(n3, inward) > 0.0);
     for (var i = 0u; i < params.moving_count; i++) {
-        if all(lo <= moving[i].world_hi.xyz) && all(hi >= moving[i].world_lo.xyz) {
-            return true;
+        let blo = moving[i].world_lo.xyz;
+        let bhi = moving[i].world_hi.xyz;
+        if !(all(lo <= bhi) && all(hi >= blo)) {
+            continue;
         }
+        if box_in_front(blo, bhi, apex, n0) || box_in_front(blo, bhi, apex, n1)
+            || box_in_front(blo, bhi, apex, n2) || box_in_front(blo, bhi, apex, n3) {
+            continue;
+        }
+        return true;
     }
     return false;
 }
@@ -92,13 +124,8 @@ fn shadows_may_change(s: Surface, seed: u32, count: u32) -> bool {
             }
         } else if kind == LIGHT_RECT {
             // Every shadow ray lies in the pyramid from the origin to the rectangle: when
-            // the pyramid's box meets no mover's world box, none of them can.
-            let c0 = light.a.xyz;
-            let c1 = c0 + light.b.xyz;
-            let c2 = c0 + light.c.xyz;
-            let c3 = c1 + light.c.xyz;
-            if !box_meets_a_mover(min(min(origin, c0), min(min(c1, c2), c3)),
-                                  max(max(origin, c0), max(max(c1, c2), c3))) {
+            // it meets no mover's world box, none of them can.
+            if !pyramid_meets_a_mover(origin, light.a.xyz, light.b.xyz, light.c.xyz) {
                 continue;
             }
             let light_seed = hash_combine(seed, li);
