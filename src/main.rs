@@ -126,11 +126,13 @@ enum Command {
         #[arg(long, default_value = "on", value_parser = ["on", "off"])]
         temporal: String,
         /// Temporal accuracy a_t: a record lives while |tau - 1| (t - t_k) <= a_t.
-        #[arg(long, default_value_t = TemporalSettings::default().accuracy)]
-        temporal_accuracy: f32,
+        /// Default: the scene's `[animation].temporal_accuracy`, else 0.05.
+        #[arg(long)]
+        temporal_accuracy: Option<f32>,
         /// dt_max: the longest a record lives, in frames (1 = recompute every frame).
-        #[arg(long, default_value_t = TemporalSettings::default().max_lifespan)]
-        max_lifespan: u32,
+        /// Default: the scene's `[animation].max_lifespan`, else 20.
+        #[arg(long)]
+        max_lifespan: Option<u32>,
         /// Temporal gradients: `interpolated` (two passes: every record moves towards its
         /// replacement; no jumps) or `extrapolated` (one pass, from the E(t+1) estimate).
         #[arg(long, default_value = "interpolated", value_parser = ["interpolated", "extrapolated"])]
@@ -139,11 +141,10 @@ enum Command {
         /// position) or `instance` (carried with the instance they lie on).
         #[arg(long, default_value = "world", value_parser = ["world", "instance"])]
         record_anchor: String,
-        /// Experimental. `on`: a replacement traces again only the plane samples that
-        /// motion since its predecessor's birth may have changed (meant to give the same
-        /// images with fewer rays; long sequences still differ); `off`: it traces its
-        /// whole plane.
-        #[arg(long, default_value = "off", value_parser = ["on", "off"])]
+        /// `on`: a replacement traces again only the plane samples that motion since its
+        /// predecessor's birth may have changed (the same images with fewer rays); `off`:
+        /// it traces its whole plane.
+        #[arg(long, default_value = "on", value_parser = ["on", "off"])]
         plane_refresh: String,
         /// Most MiB of retained planes for plane refresh; records beyond are traced.
         #[arg(long, default_value_t = TemporalSettings::default().plane_budget_bytes >> 20)]
@@ -407,9 +408,9 @@ fn main() -> ExitCode {
             size,
             light_samples,
             cache: cache.settings(),
+            temporal_accuracy,
+            max_lifespan,
             temporal: (temporal == "on").then_some(TemporalSettings {
-                accuracy: temporal_accuracy,
-                max_lifespan,
                 gradients: if temporal_gradients == "extrapolated" {
                     TemporalGradients::Extrapolated
                 } else {
@@ -422,6 +423,7 @@ fn main() -> ExitCode {
                 },
                 plane_refresh: plane_refresh == "on",
                 plane_budget_bytes: plane_budget_mib.saturating_mul(1 << 20),
+                ..TemporalSettings::default()
             }),
             lifespan_map,
             stats,
@@ -1023,6 +1025,9 @@ struct AnimateArgs<'a> {
     size: Option<(u32, u32)>,
     light_samples: Option<u32>,
     cache: CacheSettings,
+    /// a_t and dt_max given on the command line (else the scene's, else the defaults).
+    temporal_accuracy: Option<f32>,
+    max_lifespan: Option<u32>,
     /// None: the per-frame baseline.
     temporal: Option<TemporalSettings>,
     lifespan_map: Option<PathBuf>,
@@ -1030,14 +1035,24 @@ struct AnimateArgs<'a> {
     quiet: bool,
 }
 
-fn animate(args: AnimateArgs) -> Result<()> {
+fn animate(mut args: AnimateArgs) -> Result<()> {
     use radsplat::output::{frame_path, lifespan_map};
     use radsplat::temporal::animation::{AnimationOptions, render_animation};
     args.cache.validate()?;
-    if let Some(t) = &args.temporal {
+    let scene = load_scene_with(args.scene_path, None, args.size, args.light_samples)?;
+    if let Some(t) = args.temporal.as_mut() {
+        let anim = scene.animation.as_ref();
+        if let Some(a) = args
+            .temporal_accuracy
+            .or(anim.and_then(|a| a.temporal_accuracy))
+        {
+            t.accuracy = a;
+        }
+        if let Some(d) = args.max_lifespan.or(anim.and_then(|a| a.max_lifespan)) {
+            t.max_lifespan = d;
+        }
         t.validate()?;
     }
-    let scene = load_scene_with(args.scene_path, None, args.size, args.light_samples)?;
     let frames = args.frames.clone().unwrap_or_else(|| scene.frames());
     let output = args.output.unwrap_or_else(|| {
         let stem = args

@@ -367,6 +367,18 @@ fn bad_animation_table_names_field() {
     assert_error("fps-zero", body, &["animation.fps", "positive"]);
     let body = "[animation]\nframes = [-1, 2]\n\n[[mesh]]\nfile = \"tri.obj\"\n";
     assert_error("frames-negative", body, &["line 8"]);
+    let body = "[animation]\ntemporal_accuracy = 0\n\n[[mesh]]\nfile = \"tri.obj\"\n";
+    assert_error(
+        "accuracy-zero",
+        body,
+        &["animation.temporal_accuracy", "positive"],
+    );
+    let body = "[animation]\nmax_lifespan = 0\n\n[[mesh]]\nfile = \"tri.obj\"\n";
+    assert_error(
+        "lifespan-zero",
+        body,
+        &["animation.max_lifespan", "at least 1"],
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -401,6 +413,12 @@ fn moving_light_loads() {
     assert_eq!(scene.instances.len(), 3);
     assert!(scene.instance_is_animated(2));
     assert_ne!(scene.lights_at(0.0), scene.lights_at(150.0));
+    // Its own temporal accuracy (flicker below per-frame recomputation), the seed's dt_max.
+    let anim = scene.animation.as_ref().expect("animated");
+    assert_eq!(
+        (anim.temporal_accuracy, anim.max_lifespan),
+        (Some(0.02), Some(20))
+    );
 }
 
 #[test]
@@ -418,6 +436,12 @@ fn cornell_sphere_loads() {
 fn spheres_load() {
     let scene = bundled("spheres.toml");
     assert_eq!(scene.frames(), 0..=199);
+    // The seed's a_t and dt_max for this scene.
+    let anim = scene.animation.as_ref().expect("animated");
+    assert_eq!(
+        (anim.temporal_accuracy, anim.max_lifespan),
+        (Some(0.05), Some(5))
+    );
     // room, 66 spheres, the light's quad.
     assert_eq!(scene.instances.len(), 1 + 66 + 1);
     assert!((1..=66).all(|i| scene.instance_is_animated(i)));

@@ -40,8 +40,10 @@ def main():
     ap.add_argument("--spp", type=int, default=64, help="reference bounce samples per pixel")
     ap.add_argument("--accuracy", default="0.2")
     ap.add_argument("--plane-resolution", default="32")
-    ap.add_argument("--temporal-accuracy", default="0.05")
-    ap.add_argument("--max-lifespan", default="20")
+    ap.add_argument("--temporal-accuracy", default=None,
+                    help="a_t (default: the scene's [animation].temporal_accuracy, else 0.05)")
+    ap.add_argument("--max-lifespan", default=None,
+                    help="dt_max (default: the scene's [animation].max_lifespan, else 20)")
     ap.add_argument("--record-anchor", default="world", choices=["world", "instance"],
                     help="where temporal records stay while objects move")
     ap.add_argument("--modes", default="off,on", help="which of off,on to run")
@@ -66,10 +68,11 @@ def main():
     refs = (args.ref_dir or out).resolve()
     refs.mkdir(parents=True, exist_ok=True)
     for mode in modes:
-        extra = [] if mode == "off" else [
-            "--temporal-accuracy", args.temporal_accuracy, "--max-lifespan", args.max_lifespan,
+        extra = [] if mode == "off" else (
+            (["--temporal-accuracy", args.temporal_accuracy] if args.temporal_accuracy else [])
+            + (["--max-lifespan", args.max_lifespan] if args.max_lifespan else []) + [
             "--record-anchor", args.record_anchor,
-            "--lifespan-map", out / "lifespan_####.png"]
+            "--lifespan-map", out / "lifespan_####.png"])
         wall = run([rs, "animate", args.scene, "--frames", f"{a}..{b}", "--temporal", mode,
                     "-o", out / f"{mode}_####.exr", "--stats", out / f"{mode}.json"]
                    + common + extra)
@@ -95,8 +98,8 @@ def main():
     speedup = (rows["off"]["wall_s"] / rows["on"]["wall_s"]
                if "off" in rows and "on" in rows else None)
     print(f"\n{args.scene} frames {a}..{b} at {args.size}, a = {args.accuracy}, "
-          f"P = {args.plane_resolution}, a_t = {args.temporal_accuracy}, "
-          f"dt_max = {args.max_lifespan}, records anchored to the {args.record_anchor}")
+          f"P = {args.plane_resolution}, a_t = {args.temporal_accuracy or 'scene'}, "
+          f"dt_max = {args.max_lifespan or 'scene'}, records anchored to the {args.record_anchor}")
     print(f"{'':<10} {'wall s':>8} {'records':>9} {'peak alive':>10} {'rel RMSE':>9} {'flicker':>8}")
     for mode in modes:
         r = rows[mode]

@@ -22,6 +22,11 @@ pub struct Animation {
     pub first_frame: u32,
     /// Last frame of the range to render (inclusive, >= `first_frame`).
     pub last_frame: u32,
+    /// The scene's temporal accuracy a_t (`[animation].temporal_accuracy`), when it sets
+    /// one: `animate --temporal-accuracy` overrides it, the default applies without.
+    pub temporal_accuracy: Option<f32>,
+    /// The scene's dt_max in frames (`[animation].max_lifespan`), likewise.
+    pub max_lifespan: Option<u32>,
     /// Transform tracks of animated instances, as (instance index, track), by index.
     pub(crate) instances: Vec<(usize, Track<TransformKey>)>,
     /// Tracks of animated lights, as (light index, track), by index.

@@ -67,6 +67,8 @@ struct SceneDef {
 struct AnimationDef {
     fps: Option<f32>,
     frames: Option<[u32; 2]>,
+    temporal_accuracy: Option<f32>,
+    max_lifespan: Option<u32>,
 }
 
 #[derive(Deserialize)]
@@ -1070,10 +1072,25 @@ fn animation(
             format!("must be [first, last] with first <= last, got [{first_frame}, {last_frame}]"),
         ));
     }
+    let temporal_accuracy = def.and_then(|d| d.temporal_accuracy);
+    if let Some(a) = temporal_accuracy {
+        if !(a.is_finite() && a > 0.0) {
+            return Err(ctx.field_error(
+                "animation.temporal_accuracy",
+                format!("must be a positive number, got {a}"),
+            ));
+        }
+    }
+    let max_lifespan = def.and_then(|d| d.max_lifespan);
+    if max_lifespan == Some(0) {
+        return Err(ctx.field_error("animation.max_lifespan", "must be at least 1 frame"));
+    }
     Ok(Some(Animation {
         fps,
         first_frame,
         last_frame,
+        temporal_accuracy,
+        max_lifespan,
         instances,
         lights,
         camera,

@@ -44,9 +44,9 @@ struct FillParams {
 }
 
 /// Reuse of the radiance traced at t is tested against at most this many moving
-/// instances (each shadow ray is tested against every box); with more, every hit is
-/// re-shaded.
-pub const MAX_MOVING_FOR_REUSE: usize = 32;
+/// instances (each shadow pyramid is tested against every box, then its rays against the
+/// few boxes it meets); with more, every hit is re-shaded.
+pub const MAX_MOVING_FOR_REUSE: usize = 256;
 
 /// Frame t+1 as the reprojection sees it.
 pub struct NextFrame<'a> {

@@ -65,41 +65,56 @@ fn box_in_front(lo: vec3f, hi: vec3f, p: vec3f, n: vec3f) -> bool {
     return dot(n, select(hi, lo, n > vec3f(0.0)) - p) > 0.0;
 }
 
-// Whether the pyramid from `apex` to the parallelogram at `corner` with edges `eu`, `ev`
-// may meet the world box of some mover: separating axes from the boxes' faces (their
-// bounding boxes overlap) and from the pyramid's four sides. Conservative: a box it
-// clears misses the pyramid.
-fn pyramid_meets_a_mover(apex: vec3f, corner: vec3f, eu: vec3f, ev: vec3f) -> bool {
+// The pyramid from an apex to a parallelogram (every shadow ray to a rect light): its
+// bounding box and the outward normals of its four sides.
+struct Pyramid {
+    apex: vec3f,
+    lo: vec3f,
+    hi: vec3f,
+    n0: vec3f,
+    n1: vec3f,
+    n2: vec3f,
+    n3: vec3f,
+}
+
+fn pyramid(apex: vec3f, corner: vec3f, eu: vec3f, ev: vec3f) -> Pyramid {
     let c0 = corner;
     let c1 = corner + eu;
     let c2 = corner + eu + ev;
     let c3 = corner + ev;
-    let lo = min(min(apex, c0), min(min(c1, c2), c3));
-    let hi = max(max(apex, c0), max(max(c1, c2), c3));
     // Side normals point away from the parallelogram's centre.
     let inward = corner + 0.5 * (eu + ev) - apex;
-    var n0 = cross(c0 - apex, c1 - apex);
-    var n1 = cross(c1 - apex, c2 - apex);
-    var n2 = cross(c2 - apex, c3 - apex);
-    var n3 = cross(c3 - apex, c0 - apex);
-    n0 = select(n0, -n0, dot(n0, inward) > 0.0);
-    n1 = select(n1, -n1, dot(n1, inward) > 0.0);
-    n2 = select(n2, -n2, dot(n2, inward) > 0.0);
-    n3 = select(n3, -n3, dot(n3, inward) > 0.0);
-    for (var i = 0u; i < params.moving_count; i++) {
-        let blo = moving[i].world_lo.xyz;
-        let bhi = moving[i].world_hi.xyz;
-        if !(all(lo <= bhi) && all(hi >= blo)) {
-            continue;
-        }
-        if box_in_front(blo, bhi, apex, n0) || box_in_front(blo, bhi, apex, n1)
-            || box_in_front(blo, bhi, apex, n2) || box_in_front(blo, bhi, apex, n3) {
-            continue;
-        }
-        return true;
-    }
-    return false;
+    let n0 = cross(c0 - apex, c1 - apex);
+    let n1 = cross(c1 - apex, c2 - apex);
+    let n2 = cross(c2 - apex, c3 - apex);
+    let n3 = cross(c3 - apex, c0 - apex);
+    return Pyramid(
+        apex,
+        min(min(apex, c0), min(min(c1, c2), c3)),
+        max(max(apex, c0), max(max(c1, c2), c3)),
+        select(n0, -n0, dot(n0, inward) > 0.0),
+        select(n1, -n1, dot(n1, inward) > 0.0),
+        select(n2, -n2, dot(n2, inward) > 0.0),
+        select(n3, -n3, dot(n3, inward) > 0.0),
+    );
 }
+
+// Whether the pyramid may meet mover i's world box: separating axes from the box's faces
+// (the bounding boxes overlap) and from the pyramid's four sides. Conservative: a box it
+// clears misses the pyramid.
+fn pyramid_meets_mover(p: Pyramid, i: u32) -> bool {
+    let blo = moving[i].world_lo.xyz;
+    let bhi = moving[i].world_hi.xyz;
+    if !(all(p.lo <= bhi) && all(p.hi >= blo)) {
+        return false;
+    }
+    return !(box_in_front(blo, bhi, p.apex, p.n0) || box_in_front(blo, bhi, p.apex, p.n1)
+        || box_in_front(blo, bhi, p.apex, p.n2) || box_in_front(blo, bhi, p.apex, p.n3));
+}
+
+// At most this many movers near one shadow pyramid are tested ray by ray; with more, the
+// shadows are taken as changed (conservative).
+const NEAR_MOVERS: u32 = 8u;
 
 // Whether any shadow ray `direct_irradiance_samples(s, seed, count)` may trace passes
 // through the box of an instance that moves over the span. When none does (and the
@@ -123,15 +138,31 @@ fn shadows_may_change(s: Surface, seed: u32, count: u32) -> bool {
                 return true;
             }
         } else if kind == LIGHT_RECT {
-            // Every shadow ray lies in the pyramid from the origin to the rectangle: when
-            // it meets no mover's world box, none of them can.
-            if !pyramid_meets_a_mover(origin, light.a.xyz, light.b.xyz, light.c.xyz) {
+            // Every shadow ray lies in the pyramid from the origin to the rectangle: only
+            // the movers whose world box it meets can change one, and with many movers
+            // (bouncing spheres) those are few.
+            let p = pyramid(origin, light.a.xyz, light.b.xyz, light.c.xyz);
+            var near: array<u32, NEAR_MOVERS>;
+            var n = 0u;
+            for (var i = 0u; i < params.moving_count; i++) {
+                if pyramid_meets_mover(p, i) {
+                    if n == NEAR_MOVERS {
+                        return true;
+                    }
+                    near[n] = i;
+                    n++;
+                }
+            }
+            if n == 0u {
                 continue;
             }
             let light_seed = hash_combine(seed, li);
             for (var k = 0u; k < count; k++) {
-                if meets_a_mover(origin, rect_light_point(light, k, light_seed) - origin, 1.0) {
-                    return true;
+                let d = rect_light_point(light, k, light_seed) - origin;
+                for (var j = 0u; j < n; j++) {
+                    if segment_meets_mover(origin, d, 1.0, near[j]) {
+                        return true;
+                    }
                 }
             }
         }
