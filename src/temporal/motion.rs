@@ -149,23 +149,23 @@ fn rgb0(v: Vec3) -> [f32; 4] {
     [v.x, v.y, v.z, 0.0]
 }
 
-/// `site` carried by the affine map `m` (as [`move_record`]): position, shading and
-/// geometric normals move with it; the seed and instance stay.
+/// `site` carried by the affine map `m` as [`move_record`] carries a record: position and
+/// both normals move with it (normals by its rotation); the seed and instance stay.
 pub fn move_site(site: &RecordSite, m: &Mat4) -> RecordSite {
+    let turn = |n: [f32; 3]| {
+        (Mat3::from_mat4(*m) * Vec3::from(n))
+            .normalize_or_zero()
+            .into()
+    };
     if *m == Mat4::IDENTITY {
         return *site;
     }
-    let linear = Mat3::from_mat4(*m);
-    let covector = linear.inverse().transpose();
-    let mut s = *site;
-    s.position = m.transform_point3(site.position.into()).into();
-    s.normal = (covector * Vec3::from(site.normal))
-        .normalize_or_zero()
-        .into();
-    s.geometric_normal = (covector * Vec3::from(site.geometric_normal))
-        .normalize_or_zero()
-        .into();
-    s
+    RecordSite {
+        position: m.transform_point3(site.position.into()).into(),
+        normal: turn(site.normal),
+        geometric_normal: turn(site.geometric_normal),
+        ..*site
+    }
 }
 
 /// `record` carried by the affine map `m` (a rigid motion, possibly with uniform scale):
