@@ -4,10 +4,12 @@
 mod common;
 
 use glam::{Mat4, Vec3};
-use radsplat::frame::Renderer;
+use radsplat::frame::{Frame, PreparedScene, Renderer};
 use radsplat::records::CacheSettings;
 use radsplat::scene::Scene;
-use radsplat::temporal::{FrameScenes, RecordAnchor, TemporalCache, TemporalSettings};
+use radsplat::temporal::{
+    FrameScenes, RecordAnchor, TemporalCache, TemporalFrameStats, TemporalSettings,
+};
 
 fn settings() -> CacheSettings {
     CacheSettings {
@@ -22,6 +24,55 @@ fn cube_moved(scene: &Scene, base: Mat4, dx: f32) -> Scene {
     let mut s = scene.clone();
     s.instances[1].transform = Mat4::from_translation(Vec3::new(dx, 0.0, 0.0)) * base;
     s
+}
+
+/// Frames 0..=`frames` of `scene` (cube-in-box.toml) with its cube moved `step` metres
+/// along +x per frame, and their prepared GPU copies.
+fn sliding_cube(
+    renderer: &Renderer,
+    scene: &Scene,
+    step: f32,
+    frames: u32,
+) -> (Vec<Scene>, Vec<PreparedScene>) {
+    let base = scene.instances[1].transform;
+    let scenes: Vec<_> = (0..=frames)
+        .map(|t| cube_moved(scene, base, step * t as f32))
+        .collect();
+    let prepared = scenes
+        .iter()
+        .map(|s| renderer.prepare(s).expect("prepare"))
+        .collect();
+    (scenes, prepared)
+}
+
+/// Renders frame `t` of a moving sequence with its estimate at t+1 (`scenes` and their
+/// `prepared` GPU copies go one frame further than the frames rendered), checking for
+/// wgpu errors.
+fn moving_frame(
+    temporal: &mut TemporalCache,
+    renderer: &Renderer,
+    scenes: &[Scene],
+    prepared: &[PreparedScene],
+    t: u32,
+) -> (Frame, TemporalFrameStats) {
+    let i = t as usize;
+    let out = temporal
+        .render_frame(
+            renderer,
+            FrameScenes {
+                now: &prepared[i],
+                scene: &scenes[i],
+                next: Some((&prepared[i + 1], &scenes[i + 1])),
+            },
+            &scenes[i].camera,
+            t,
+            true,
+            false,
+            |_| {},
+        )
+        .expect("temporal frame");
+    renderer.ctx.check().expect("no wgpu errors");
+    out
 }
 
 #[test]
@@ -82,31 +133,10 @@ fn moving_cube_expires_replaces_and_deletes_records() {
     let mut temporal =
         TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings).expect("temporal cache");
     let frames = 10;
-    let scenes: Vec<_> = (0..=frames)
-        .map(|t| cube_moved(&scene, base, 0.08 * t as f32))
-        .collect();
-    let prepared: Vec<_> = scenes
-        .iter()
-        .map(|s| renderer.prepare(s).expect("prepare"))
-        .collect();
+    let (scenes, prepared) = sliding_cube(&renderer, &scene, 0.08, frames);
     let mut totals = (0, 0, 0);
     for t in 0..frames {
-        let (_, stats) = temporal
-            .render_frame(
-                &renderer,
-                FrameScenes {
-                    now: &prepared[t as usize],
-                    scene: &scenes[t as usize],
-                    next: Some((&prepared[t as usize + 1], &scenes[t as usize + 1])),
-                },
-                &scene.camera,
-                t,
-                true,
-                false,
-                |_| {},
-            )
-            .expect("temporal frame");
-        renderer.ctx.check().expect("no wgpu errors");
+        let (_, stats) = moving_frame(&mut temporal, &renderer, &scenes, &prepared, t);
         eprintln!("{stats:?}");
         totals.0 += stats.new;
         totals.1 += stats.replaced;
@@ -178,16 +208,9 @@ fn moving_cube_expires_replaces_and_deletes_records() {
 #[test]
 fn plane_refresh_gives_the_same_images_as_tracing_every_plane() {
     let scene = common::load("cube-in-box.toml", Some((40, 32)));
-    let base = scene.instances[1].transform;
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let frames = 8u32;
-    let scenes: Vec<_> = (0..=frames)
-        .map(|t| cube_moved(&scene, base, 0.05 * t as f32))
-        .collect();
-    let prepared: Vec<_> = scenes
-        .iter()
-        .map(|s| renderer.prepare(s).expect("prepare"))
-        .collect();
+    let (scenes, prepared) = sliding_cube(&renderer, &scene, 0.05, frames);
     let run = |refresh: bool| {
         let temporal_settings = TemporalSettings {
             max_lifespan: 3,
@@ -198,22 +221,7 @@ fn plane_refresh_gives_the_same_images_as_tracing_every_plane() {
             .expect("temporal cache");
         let (mut images, mut replaced, mut retained) = (Vec::new(), 0, 0);
         for t in 0..frames {
-            let (frame, stats) = temporal
-                .render_frame(
-                    &renderer,
-                    FrameScenes {
-                        now: &prepared[t as usize],
-                        scene: &scenes[t as usize],
-                        next: Some((&prepared[t as usize + 1], &scenes[t as usize + 1])),
-                    },
-                    &scene.camera,
-                    t,
-                    true,
-                    false,
-                    |_| {},
-                )
-                .expect("temporal frame");
-            renderer.ctx.check().expect("no wgpu errors");
+            let (frame, stats) = moving_frame(&mut temporal, &renderer, &scenes, &prepared, t);
             replaced += stats.replaced;
             retained = retained.max(temporal.retained_planes());
             images.push(frame.beauty);
@@ -360,40 +368,18 @@ fn reprojection_reuse_and_anchored_records_match_the_cpu_reference() {
 /// Records computed over 10 frames of the cube sliding 5 cm per frame, and the cache.
 fn slide_cube(renderer: &Renderer, anchor: RecordAnchor) -> (u32, TemporalCache, Vec<Scene>) {
     let scene = common::load("cube-in-box.toml", Some((40, 32)));
-    let base = scene.instances[1].transform;
     let temporal_settings = TemporalSettings {
         anchor,
         ..TemporalSettings::default()
     };
     let mut temporal =
         TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings).expect("temporal cache");
-    let scenes: Vec<_> = (0..=10)
-        .map(|t| cube_moved(&scene, base, 0.05 * t as f32))
-        .collect();
-    let prepared: Vec<_> = scenes
-        .iter()
-        .map(|s| renderer.prepare(s).expect("prepare"))
-        .collect();
+    let (scenes, prepared) = sliding_cube(renderer, &scene, 0.05, 10);
     let mut computed = 0;
-    for t in 0..10usize {
-        let (_, stats) = temporal
-            .render_frame(
-                renderer,
-                FrameScenes {
-                    now: &prepared[t],
-                    scene: &scenes[t],
-                    next: Some((&prepared[t + 1], &scenes[t + 1])),
-                },
-                &scene.camera,
-                t as u32,
-                true,
-                false,
-                |_| {},
-            )
-            .expect("temporal frame");
+    for t in 0..10 {
+        let (_, stats) = moving_frame(&mut temporal, renderer, &scenes, &prepared, t);
         computed += stats.new + stats.replaced;
     }
-    renderer.ctx.check().expect("no wgpu errors");
     (computed, temporal, scenes)
 }
 

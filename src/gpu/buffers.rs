@@ -5,7 +5,9 @@ use crate::{Error, Result};
 use wgpu::util::DeviceExt;
 
 impl GpuContext {
-    /// Creates a storage buffer holding `data` (at least 16 bytes so empty tables stay bindable).
+    /// Creates a storage buffer holding `data`: at least one zeroed `T` and 16 bytes, so
+    /// that an empty table stays bindable as `array<T>` (shaders read only as many
+    /// entries as their parameters count).
     /// Fails with [`Error::DeviceLimit`] when it exceeds the device's binding size.
     pub fn storage_buffer<T: bytemuck::Pod>(
         &self,
@@ -14,10 +16,11 @@ impl GpuContext {
     ) -> Result<wgpu::Buffer> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
         self.check_binding_size(label, bytes.len() as u64)?;
+        let least = std::mem::size_of::<T>().max(16);
         let mut padded;
-        let contents = if bytes.len() < 16 {
+        let contents = if bytes.len() < least {
             padded = bytes.to_vec();
-            padded.resize(16, 0);
+            padded.resize(least, 0);
             &padded[..]
         } else {
             bytes

@@ -101,14 +101,8 @@ impl ComputePass {
         groups: [u32; 3],
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(self.name),
-            timestamp_writes: timestamps,
-        });
-        cpass.set_pipeline(&self.pipeline);
-        cpass.set_bind_group(0, scene, &[]);
-        cpass.set_bind_group(1, pass, &[]);
-        cpass.dispatch_workgroups(groups[0], groups[1], groups[2]);
+        self.begin(encoder, scene, pass, timestamps)
+            .dispatch_workgroups(groups[0], groups[1], groups[2]);
     }
 
     /// Records one dispatch into `encoder` whose workgroup counts an earlier pass wrote
@@ -121,6 +115,18 @@ impl ComputePass {
         groups: &wgpu::Buffer,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
+        self.begin(encoder, scene, pass, timestamps)
+            .dispatch_workgroups_indirect(groups, 0);
+    }
+
+    /// A compute pass in `encoder` with this pipeline and its two bind groups set.
+    fn begin<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        scene: &wgpu::BindGroup,
+        pass: &wgpu::BindGroup,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> wgpu::ComputePass<'e> {
         let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(self.name),
             timestamp_writes: timestamps,
@@ -128,7 +134,7 @@ impl ComputePass {
         cpass.set_pipeline(&self.pipeline);
         cpass.set_bind_group(0, scene, &[]);
         cpass.set_bind_group(1, pass, &[]);
-        cpass.dispatch_workgroups_indirect(groups, 0);
+        cpass
     }
 }
 

@@ -264,13 +264,16 @@ struct SiteParams {
     accuracy: f32,
 }
 
+/// Parameters of the plane pass (`hemisphere_plane.wgsl`) and of the plane refresh's
+/// re-trace (`plane_retrace.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct PlaneParams {
-    resolution: u32,
-    count: u32,
-    light_samples: u32,
-    record_hits: u32,
+pub(crate) struct PlaneParams {
+    pub resolution: u32,
+    pub count: u32,
+    pub light_samples: u32,
+    /// 1: also write each sample's hit.
+    pub record_hits: u32,
 }
 
 #[repr(C)]

@@ -466,45 +466,61 @@ impl TemporalCache {
         stats.new = self.frame_records.count - before_new;
         drop(lookahead);
 
-        // The records computed this frame (replacements and new ones) and their estimates.
-        // Only these come back from the GPU (one wait); kept records are on the CPU.
+        // The records computed this frame (replacements and new ones), their estimates and
+        // their sites (by cache index, for their successors) come back from the GPU in one
+        // wait; kept records are on the CPU.
         let first = kept.len();
         let computed = self.frame_records.count as usize - first;
-        let (mut records, mut nexts) = (Vec::new(), Vec::new());
+        let site_bytes = std::mem::size_of::<RecordSite>() as u64;
+        let mut ranges: Vec<(&wgpu::Buffer, std::ops::Range<u64>)> = Vec::new();
         if computed > 0 {
             let range = RecordCache::byte_range(first as u32, computed as u32);
-            let mut read = if scenes.next.is_some() {
-                ctx.read_buffer_ranges::<Record>(&[
-                    (&self.frame_records.buffer, range.clone()),
-                    (&self.next_records.buffer, range),
-                ])?
-            } else {
-                ctx.read_buffer_ranges::<Record>(&[(&self.frame_records.buffer, range)])?
-            };
-            nexts = read.pop().unwrap_or_default();
-            records = read.pop().unwrap_or_else(|| nexts.clone());
+            ranges.push((&self.frame_records.buffer, range.clone()));
+            if scenes.next.is_some() {
+                ranges.push((&self.next_records.buffer, range));
+            }
         }
+        let record_ranges = ranges.len();
+        ranges.extend(
+            capture
+                .site_batches
+                .iter()
+                .map(|(_, n, b)| (b, 0..u64::from(*n) * site_bytes)),
+        );
+        let mut read = if ranges.is_empty() {
+            Vec::new()
+        } else {
+            ctx.read_buffer_ranges::<u32>(&ranges)?
+        }
+        .into_iter();
+        let mut next_records = || -> Vec<Record> {
+            read.next()
+                .map(|words| bytemuck::pod_collect_to_vec(&words))
+                .unwrap_or_default()
+        };
+        let records = if record_ranges > 0 {
+            next_records()
+        } else {
+            Vec::new()
+        };
+        // Without a next frame the records are their own estimates.
+        let nexts = if record_ranges == 2 {
+            next_records()
+        } else {
+            records.clone()
+        };
         if records.len() != computed || nexts.len() != computed {
             return Err(Error::Gpu("internal: record readback incomplete".into()));
         }
-        // Sites of the computed records (by cache index), for their successors.
-        let site_bytes = std::mem::size_of::<RecordSite>() as u64;
-        let batches: Vec<_> = capture
-            .site_batches
-            .iter()
-            .map(|(_, n, b)| (b, 0..u64::from(*n) * site_bytes))
-            .collect();
         let mut sites_at = vec![None; computed];
-        if !batches.is_empty() {
-            let read = ctx.read_buffer_ranges::<RecordSite>(&batches)?;
-            for ((index, _, _), sites) in capture.site_batches.iter().zip(read) {
-                for (k, site) in sites.into_iter().enumerate() {
-                    if let Some(slot) = (*index as usize + k)
-                        .checked_sub(first)
-                        .and_then(|j| sites_at.get_mut(j))
-                    {
-                        *slot = Some(site);
-                    }
+        for ((index, _, _), words) in capture.site_batches.iter().zip(read) {
+            let sites: Vec<RecordSite> = bytemuck::pod_collect_to_vec(&words);
+            for (k, site) in sites.into_iter().enumerate() {
+                if let Some(slot) = (*index as usize + k)
+                    .checked_sub(first)
+                    .and_then(|j| sites_at.get_mut(j))
+                {
+                    *slot = Some(site);
                 }
             }
         }

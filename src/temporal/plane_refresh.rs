@@ -15,7 +15,7 @@ use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
-use crate::records::{CacheSettings, RecordSite};
+use crate::records::{CacheSettings, PlaneParams, RecordSite};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
@@ -27,15 +27,6 @@ struct RefreshParams {
     count: u32,
     light_samples: u32,
     moving_count: u32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct PlaneParams {
-    resolution: u32,
-    count: u32,
-    light_samples: u32,
-    record_hits: u32,
 }
 
 /// Bytes of one retained plane at resolution `res`: its samples, then its hits.
@@ -62,14 +53,8 @@ impl SpanMotion {
         end: &[Mat4],
     ) -> Result<Self> {
         let (bounds, moved) = span_bounds(scene, start, end);
-        // Bindings cannot be empty: the shaders read `moving_count` boxes.
-        let moving = if bounds.is_empty() {
-            ctx.storage_buffer("span movers", &[MovingBounds::zeroed()])?
-        } else {
-            ctx.storage_buffer("span movers", &bounds)?
-        };
         Ok(Self {
-            moving,
+            moving: ctx.storage_buffer("span movers", &bounds)?,
             moving_count: bounds.len() as u32,
             moved: ctx.storage_buffer("span moved instances", &moved)?,
         })

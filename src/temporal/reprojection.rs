@@ -7,7 +7,7 @@
 //! `plane_fill` (take each cell's nearest sample, fill holes from the deepest neighbour). The resulting plane goes through the ordinary record reduction
 //! ([`crate::records::RecordPass::compute`] with a [`crate::records::Lookahead`]).
 
-use super::motion::{InstanceMotion, instance_motions, lights_unchanged};
+use super::motion::{instance_motions, lights_unchanged};
 use super::plane_refresh::SpanMotion;
 use crate::Result;
 use crate::gpu::GpuContext;
@@ -52,7 +52,7 @@ pub const MAX_MOVING_FOR_REUSE: usize = 256;
 pub struct NextFrame<'a> {
     /// The scene at t+1.
     pub scene: &'a GpuScene,
-    /// One [`InstanceMotion`] per instance, from t to t+1.
+    /// One [`super::InstanceMotion`] per instance, from t to t+1.
     motion: wgpu::Buffer,
     /// The instances that move from t to t+1, with their boxes at both frames.
     movers: SpanMotion,
@@ -75,14 +75,9 @@ impl<'a> NextFrame<'a> {
         let motions = instance_motions(now, next);
         let transforms = |s: &Scene| s.instances.iter().map(|i| i.transform).collect::<Vec<_>>();
         let movers = SpanMotion::new(ctx, now, &transforms(now), &transforms(next))?;
-        let motion = if motions.is_empty() {
-            ctx.storage_buffer("instance motion", &[InstanceMotion::zeroed()])?
-        } else {
-            ctx.storage_buffer("instance motion", &motions)?
-        };
         Ok(Self {
             scene,
-            motion,
+            motion: ctx.storage_buffer("instance motion", &motions)?,
             anchored,
             reuse_shading: lights_unchanged(now, next)
                 && movers.moving_count as usize <= MAX_MOVING_FOR_REUSE,
