@@ -17,6 +17,7 @@
 
 use crate::compare::{Comparison, RgbImage, compare, load_image, luminance};
 use crate::output::plot::{Series, line_chart};
+use crate::output::png_out::write_png;
 use crate::output::{frame_path, write_atomically};
 use crate::{Error, Result};
 use std::ops::RangeInclusive;
@@ -66,7 +67,18 @@ pub struct SequenceComparison {
     pub downsample: u32,
     pub frames: Vec<FrameComparison>,
     pub summary: SequenceSummary,
+    /// Image size after downsampling.
+    pub width: u32,
+    pub height: u32,
+    /// Per pixel (row-major), the flicker term `| |ΔY_A| − |ΔY_ref| |` averaged over the
+    /// frame pairs (empty for a single frame): where the sequence flickers.
+    #[serde(skip)]
+    pub flicker_map: Vec<f64>,
 }
+
+/// Flicker (relative to the reference's mean luminance) drawn white in `--flicker-map`;
+/// larger values saturate.
+pub const FLICKER_MAP_FULL_SCALE: f64 = 0.1;
 
 /// Size of the `--plot` chart in pixels.
 pub const PLOT_SIZE: (u32, u32) = (800, 400);
@@ -77,19 +89,24 @@ pub const FLICKER_COLOR: [u8; 3] = [230, 110, 0];
 
 /// Mean over pixels of `| |a − a_prev| − |r − r_prev| |`, from luminance images of one size.
 pub fn flicker(a_prev: &[f32], a: &[f32], ref_prev: &[f32], reference: &[f32]) -> f64 {
+    let terms = flicker_terms(a_prev, a, ref_prev, reference);
+    terms.iter().sum::<f64>() / terms.len().max(1) as f64
+}
+
+/// Per pixel, `| |a − a_prev| − |r − r_prev| |` (the terms [`flicker`] averages).
+fn flicker_terms(a_prev: &[f32], a: &[f32], ref_prev: &[f32], reference: &[f32]) -> Vec<f64> {
     let n = a
         .len()
         .min(a_prev.len())
         .min(reference.len())
         .min(ref_prev.len());
-    let sum: f64 = (0..n)
+    (0..n)
         .map(|p| {
             let da = (f64::from(a[p]) - f64::from(a_prev[p])).abs();
             let dr = (f64::from(reference[p]) - f64::from(ref_prev[p])).abs();
             (da - dr).abs()
         })
-        .sum();
-    sum / n.max(1) as f64
+        .collect()
 }
 
 fn relative(v: f64, norm: f64) -> f64 {
@@ -151,6 +168,8 @@ pub fn compare_sequence(
         size: (u32, u32),
     }
     let mut prev: Option<Prev> = None;
+    let mut flicker_map: Vec<f64> = Vec::new();
+    let mut pairs = 0u32;
     for (frame, (pa, pr)) in paths {
         let (a, r) = (load(&pa, downsample)?, load(&pr, downsample)?);
         let comparison = compare(&a, &r)?;
@@ -169,7 +188,15 @@ pub fn compare_sequence(
                     a.height
                 )));
             }
-            Some(p) => Some(flicker(&p.ya, &ya, &p.yr, &yr)),
+            Some(p) => {
+                let terms = flicker_terms(&p.ya, &ya, &p.yr, &yr);
+                flicker_map.resize(terms.len(), 0.0);
+                for (m, t) in flicker_map.iter_mut().zip(&terms) {
+                    *m += t;
+                }
+                pairs += 1;
+                Some(terms.iter().sum::<f64>() / terms.len().max(1) as f64)
+            }
             None => None,
         };
         results.push(FrameComparison {
@@ -187,6 +214,10 @@ pub fn compare_sequence(
         });
     }
     let summary = summarize(&results);
+    for m in &mut flicker_map {
+        *m /= f64::from(pairs.max(1));
+    }
+    let (width, height) = prev.map_or((0, 0), |p| p.size);
     Ok(SequenceComparison {
         a_pattern: a_pattern.to_path_buf(),
         reference_pattern: reference_pattern.to_path_buf(),
@@ -195,6 +226,9 @@ pub fn compare_sequence(
         downsample,
         frames: results,
         summary,
+        width,
+        height,
+        flicker_map,
     })
 }
 
@@ -284,6 +318,24 @@ impl SequenceComparison {
         write_atomically(path, text.as_bytes())
     }
 
+    /// Writes the flicker map as a PNG, atomically: per pixel, the mean flicker term
+    /// relative to the reference's mean luminance, from black (none) through red and
+    /// yellow to white at [`FLICKER_MAP_FULL_SCALE`].
+    pub fn write_flicker_map(&self, path: &Path) -> Result<()> {
+        if self.flicker_map.is_empty() {
+            return Err(Error::Usage(
+                "a flicker map needs two frames or more".into(),
+            ));
+        }
+        let norm = self.summary.reference_mean_luminance * FLICKER_MAP_FULL_SCALE;
+        let rgb: Vec<u8> = self
+            .flicker_map
+            .iter()
+            .flat_map(|&m| heat(if norm > 0.0 { m / norm } else { 0.0 }))
+            .collect();
+        write_png(path, self.width, self.height, &rgb)
+    }
+
     /// Writes a [`PLOT_SIZE`] PNG line chart, atomically: x = frame; the beauty's relative
     /// RMSE ([`RMSE_COLOR`], left axis) and the relative flicker ([`FLICKER_COLOR`], right
     /// axis), each on its own scale from 0 to its maximum, legend boxes at the top.
@@ -306,6 +358,17 @@ impl SequenceComparison {
         };
         line_chart(PLOT_SIZE.0, PLOT_SIZE.1, self.first_frame, &[rmse, flicker])?.write_png(path)
     }
+}
+
+/// Black → red → yellow → white for `t` from 0 to 1 (clamped).
+fn heat(t: f64) -> [u8; 3] {
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    let channel = |lo: f64| ((3.0 * t - lo).clamp(0.0, 1.0) * 255.0).round() as u8;
+    [channel(0.0), channel(1.0), channel(2.0)]
 }
 
 #[cfg(test)]

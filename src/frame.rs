@@ -216,7 +216,7 @@ impl Renderer {
         max_new_records: Option<u32>,
         progress: impl FnMut(u32),
     ) -> Result<Frame> {
-        let (frame, _) = self.render_cached_frame(
+        let (frame, _, _) = self.render_cached_frame(
             scene,
             camera,
             &mut cache.records,
@@ -233,7 +233,8 @@ impl Renderer {
     /// The frame of [`Renderer::render_gi_frame`] over `records` (computed by `pass`),
     /// with the temporal options: new records also estimated at t+1 (`lookahead`), and
     /// per-record coverage counted (returned, one count per record of `records`; empty
-    /// when not counted).
+    /// when not counted). Also returns the frame's visibility buffer (for
+    /// [`Renderer::needed_coverage`]).
     pub fn render_cached_frame(
         &self,
         scene: &PreparedScene,
@@ -242,7 +243,7 @@ impl Renderer {
         pass: &RecordPass,
         options: CachedFrameOptions<'_, '_>,
         progress: impl FnMut(u32),
-    ) -> Result<(Frame, Vec<u32>)> {
+    ) -> Result<(Frame, Vec<u32>, VisibilityBuffer)> {
         let CachedFrameOptions {
             max_new_records,
             lookahead,
@@ -317,7 +318,7 @@ impl Renderer {
                 visibility: Vec::new(),
                 stats: stats(&times, 0),
             };
-            return Ok((frame, coverage));
+            return Ok((frame, coverage, vis));
         };
 
         // Resolve: direct + albedo / pi * interpolated irradiance.
@@ -369,7 +370,27 @@ impl Renderer {
             visibility,
             stats: stats(&times, uncovered_pixels),
         };
-        Ok((frame, coverage))
+        Ok((frame, coverage, vis))
+    }
+
+    /// Per record of `records`, the pixels of `vis` it contributes to where no record
+    /// outlives the frame (`expiring`: one flag per record, true where it expires after
+    /// this frame; 0 for the others). See [`SplatBuffer::with_needed_coverage`].
+    pub fn needed_coverage(
+        &self,
+        scene: &PreparedScene,
+        vis: &VisibilityBuffer,
+        records: &RecordCache,
+        expiring: &[bool],
+        accuracy: f32,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<Vec<u32>> {
+        let ctx = &self.ctx;
+        let out = SplatBuffer::with_needed_coverage(ctx, vis.width, vis.height, expiring)?;
+        self.splat.splat(
+            ctx, &scene.gpu, vis, records, 0, accuracy, &out, false, times,
+        )?;
+        out.read_coverage(ctx)
     }
 
     /// Builds the BVH and uploads the scene.

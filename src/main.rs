@@ -6,7 +6,7 @@ use radsplat::gpu::GpuContext;
 use radsplat::output::{ImageFormat, tonemap_to_srgb8, write_atomically, write_png};
 use radsplat::records::CacheSettings;
 use radsplat::scene::load_scene;
-use radsplat::temporal::{RecordAnchor, TemporalGradients, TemporalSettings};
+use radsplat::temporal::{RecordAnchor, Replacement, TemporalGradients, TemporalSettings};
 use radsplat::{Error, Renderer, Result};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -149,6 +149,11 @@ enum Command {
         /// Most MiB of retained planes for plane refresh; records beyond are traced.
         #[arg(long, default_value_t = TemporalSettings::default().plane_budget_bytes >> 20)]
         plane_budget_mib: u64,
+        /// Which expired records are recomputed at the same place: `covering` (the seed:
+        /// any that covered a pixel in its last frame) or `needed` (only those that covered
+        /// a pixel no longer-lived record covers).
+        #[arg(long, default_value = "covering", value_parser = ["covering", "needed"])]
+        replace: String,
         #[command(flatten)]
         cache: CacheArgs,
         /// Also write a lifespan map per frame (PNG pattern with `#`): record sites from
@@ -259,6 +264,10 @@ enum Command {
         /// Write the per-frame numbers and the summary as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Write a PNG of where the sequence flickers: per pixel, the mean flicker term
+        /// relative to the reference's mean luminance, black (0) to white (10 %).
+        #[arg(long)]
+        flicker_map: Option<PathBuf>,
         /// Box-filter all images by N x N pixels before comparing.
         #[arg(long, default_value_t = 1)]
         downsample: u32,
@@ -397,6 +406,7 @@ fn main() -> ExitCode {
             record_anchor,
             plane_refresh,
             plane_budget_mib,
+            replace,
             cache,
             lifespan_map,
             stats,
@@ -423,6 +433,11 @@ fn main() -> ExitCode {
                 },
                 plane_refresh: plane_refresh == "on",
                 plane_budget_bytes: plane_budget_mib.saturating_mul(1 << 20),
+                replacement: if replace == "needed" {
+                    Replacement::Needed
+                } else {
+                    Replacement::Covering
+                },
                 ..TemporalSettings::default()
             }),
             lifespan_map,
@@ -518,8 +533,17 @@ fn main() -> ExitCode {
             frames,
             plot,
             json,
+            flicker_map,
             downsample,
-        } => compare_seq(&a_pattern, &ref_pattern, frames, plot, json, downsample),
+        } => compare_seq(
+            &a_pattern,
+            &ref_pattern,
+            frames,
+            plot,
+            json,
+            flicker_map,
+            downsample,
+        ),
         Command::ExportRad {
             scene,
             out_dir,
@@ -965,9 +989,14 @@ fn compare_seq(
     frames: std::ops::RangeInclusive<u32>,
     plot: Option<PathBuf>,
     json: Option<PathBuf>,
+    flicker_map: Option<PathBuf>,
     downsample: u32,
 ) -> Result<()> {
     let c = radsplat::compare_seq::compare_sequence(a_pattern, ref_pattern, frames, downsample)?;
+    if let Some(path) = flicker_map {
+        c.write_flicker_map(&path)?;
+        println!("wrote {}", path.display());
+    }
     print!("{}", c.table());
     println!("{}", c.summary_line());
     if let Some(path) = plot {

@@ -5,7 +5,10 @@
 // bits as splatting them all at once. With `count_coverage`, every (record, pixel) pair that
 // contributes adds 1 to the record's coverage (u32 atomics: exact, order-free); temporal
 // caching uses it to delete expired records that no longer cover any pixel instead of
-// replacing them (replaces the thesis's occlusion queries, algorithms.md 4.4).
+// replacing them (replaces the thesis's occlusion queries, algorithms.md 4.4). With
+// `count_coverage` 2 only pixels that no record outliving this frame (`expiring[k] == 0`)
+// contributes to are counted, and only for the expiring records that do: an expired record
+// none of whose pixels needs it is deleted rather than replaced.
 //!include shared/records.wgsl
 //!include shared/splat.wgsl
 
@@ -16,6 +19,25 @@
 @group(1) @binding(4) var<storage, read> sorted: array<u32>;
 @group(1) @binding(5) var<storage, read_write> splat: array<vec4f>;
 @group(1) @binding(6) var<storage, read_write> coverage: array<atomic<u32>>;
+@group(1) @binding(7) var<storage, read> expiring: array<u32>;   // 1: expires after this frame
+
+const COUNT_ALL: u32 = 1u;
+const COUNT_NEEDED: u32 = 2u;
+
+// Ward's error of record k at (p, n) (eq. 4.2), or infinity where the record is behind p:
+// it contributes where this is at most the accuracy a. The test needs 32 of the record's
+// 144 bytes: load only those (every storage load is a per-lane loop on lavapipe).
+fn contribution_error(k: u32, p: vec3f, n: vec3f) -> f32 {
+    var r: Record;
+    r.position = records[k].position;
+    r.radius = records[k].radius;
+    r.normal = records[k].normal;
+    let err = record_error(r, p, n);
+    if err <= params.accuracy && record_in_front(r, p, n, params.accuracy) {
+        return err;
+    }
+    return 1.0e30;
+}
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3u) {
@@ -37,22 +59,28 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     if v.instance != NO_HIT {
         let p = v.position;
         let n = v.shading_normal;
+        var survivor = false;   // a record that outlives this frame contributes here
         for (var j = tile_offsets[tile]; j < tile_offsets[tile + 1u]; j++) {
             let k = sorted[j];
-            // The weight test needs 32 of the record's 144 bytes: load those first and
-            // the gradients only for records that contribute (every storage load is a
-            // per-lane loop on lavapipe).
-            var r: Record;
-            r.position = records[k].position;
-            r.radius = records[k].radius;
-            r.normal = records[k].normal;
-            let err = record_error(r, p, n);
-            if err <= params.accuracy && record_in_front(r, p, n, params.accuracy) {
-                r = records[k];
+            let err = contribution_error(k, p, n);
+            if err <= params.accuracy {
+                let r = records[k];
                 // w = 1 / err, capped where p is the record's own point.
                 let w = 1.0 / max(err, 1.0e-6);
                 sum += vec4f(w * record_irradiance_at(r, p, n), w);
-                if params.count_coverage != 0u {
+                if params.count_coverage == COUNT_ALL {
+                    atomicAdd(&coverage[k], 1u);
+                }
+                if params.count_coverage == COUNT_NEEDED {
+                    survivor = survivor || expiring[k] == 0u;
+                }
+            }
+        }
+        if params.count_coverage == COUNT_NEEDED && !survivor {
+            // Every record contributing here expires: each is needed.
+            for (var j = tile_offsets[tile]; j < tile_offsets[tile + 1u]; j++) {
+                let k = sorted[j];
+                if contribution_error(k, p, n) <= params.accuracy {
                     atomicAdd(&coverage[k], 1u);
                 }
             }

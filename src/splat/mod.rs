@@ -44,6 +44,11 @@ pub struct SplatBuffer {
     pub coverage: wgpu::Buffer,
     /// Records `coverage` has room for (0: not counting).
     pub coverage_records: u32,
+    /// What `coverage` counts (`count_coverage` in `wgsl/shared/splat.wgsl`).
+    coverage_mode: u32,
+    /// Per record id, 1 where the record expires after this frame
+    /// ([`SplatBuffer::with_needed_coverage`]); a 4-byte placeholder otherwise.
+    expiring: wgpu::Buffer,
 }
 
 impl SplatBuffer {
@@ -62,6 +67,28 @@ impl SplatBuffer {
                 .storage_buffer_sized("splat sums", u64::from(width) * u64::from(height) * 16)?,
             coverage: ctx.storage_buffer_sized("record coverage", u64::from(records.max(1)) * 4)?,
             coverage_records: records,
+            coverage_mode: u32::from(records > 0),
+            expiring: ctx.storage_buffer::<u32>("expiring records", &[])?,
+        })
+    }
+
+    /// As [`SplatBuffer::new`], also counting for each record that `expiring` (one flag per
+    /// record id) marks as expiring after this frame the pixels it contributes to where no
+    /// record outlives the frame: the pixels that need it replaced (temporal caching's
+    /// [`crate::temporal::Replacement::Needed`]). Counts start at zero.
+    pub fn with_needed_coverage(
+        ctx: &GpuContext,
+        width: u32,
+        height: u32,
+        expiring: &[bool],
+    ) -> Result<Self> {
+        let flags: Vec<u32> = expiring.iter().map(|&e| u32::from(e)).collect();
+        let records = u32::try_from(flags.len())
+            .map_err(|_| Error::Usage(format!("{} records exceed u32", flags.len())))?;
+        Ok(Self {
+            coverage_mode: if records > 0 { 2 } else { 0 },
+            expiring: ctx.storage_buffer("expiring records", &flags)?,
+            ..Self::with_coverage(ctx, width, height, records)?
         })
     }
 
@@ -150,6 +177,7 @@ impl SplatPass {
                     StorageRead,
                     StorageReadWrite,
                     StorageReadWrite,
+                    StorageRead,
                 ],
             )?,
         })
@@ -192,7 +220,7 @@ impl SplatPass {
                 record_end: cache.count,
                 accuracy,
                 accumulate: u32::from(accumulate),
-                count_coverage: u32::from(out.coverage_records > 0),
+                count_coverage: out.coverage_mode,
                 _pad: [0; 3],
             },
         );
@@ -286,6 +314,7 @@ impl SplatPass {
                     &sorted,
                     &out.sums,
                     &out.coverage,
+                    &out.expiring,
                 ],
             );
             self.gather.record(

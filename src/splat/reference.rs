@@ -33,3 +33,32 @@ pub fn splat_records(
         }
     }
 }
+
+/// Per record, the pixels it contributes to where no record that `expiring` leaves
+/// unmarked does (`count_coverage` 2 in `splat_gather.wgsl`; 0 for unmarked records).
+pub fn needed_coverage(
+    records: &[Record],
+    expiring: &[bool],
+    vis: &[VisSample],
+    accuracy: f32,
+) -> Vec<u32> {
+    let mut counts = vec![0u32; records.len()];
+    let mut contributors = Vec::new();
+    for v in vis.iter().filter(|v| v.is_hit()) {
+        let p = Vec3::from(v.position);
+        let n = Vec3::from(v.shading_normal);
+        contributors.clear();
+        contributors.extend(records.iter().enumerate().filter_map(|(k, r)| {
+            (r.error_at(p, n) <= accuracy && r.in_front_of(p, n, accuracy)).then_some(k)
+        }));
+        if contributors
+            .iter()
+            .all(|&k| expiring.get(k).copied().unwrap_or(false))
+        {
+            for &k in &contributors {
+                counts[k] += 1;
+            }
+        }
+    }
+    counts
+}

@@ -40,6 +40,21 @@ pub struct TemporalSettings {
     pub plane_refresh: bool,
     /// Most bytes of retained planes (for `plane_refresh`); records beyond it are traced.
     pub plane_budget_bytes: u64,
+    /// Which expired records are replaced at the same place.
+    pub replacement: Replacement,
+}
+
+/// Which expired records are recomputed at the same place (the others are deleted; any
+/// pixel left uncovered gets a new record from placement).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Replacement {
+    /// Those that contributed to any pixel in their last frame (seed 000 section V-c, with
+    /// coverage counts instead of occlusion queries).
+    Covering,
+    /// Those that contributed, in their last frame, to a pixel no record outliving that
+    /// frame contributes to. Records that only overlap longer-lived ones go, so the cache
+    /// does not grow denser than placement would make it.
+    Needed,
 }
 
 impl Default for TemporalSettings {
@@ -52,6 +67,7 @@ impl Default for TemporalSettings {
             anchor: RecordAnchor::World,
             plane_refresh: true,
             plane_budget_bytes: 512 << 20,
+            replacement: Replacement::Covering,
         }
     }
 }
@@ -204,8 +220,11 @@ pub struct TemporalFrameStats {
     pub kept: u32,
     /// Expired records recomputed at the same place.
     pub replaced: u32,
-    /// Expired records that covered no pixel in their last frame, dropped.
+    /// Expired records dropped: they covered no pixel in their last frame, or (with
+    /// [`Replacement::Needed`]) none that a longer-lived record did not cover.
     pub deleted: u32,
+    /// Of `deleted`, those that covered pixels (all covered by longer-lived records).
+    pub redundant: u32,
     /// Records created by placement in this frame.
     pub new: u32,
     /// Hemisphere rays traced (replacements and new records).
@@ -251,6 +270,9 @@ pub struct TemporalCache {
     frames: Vec<FrameRecords>,
     /// Pixels each of `alive` covered in the last frame.
     coverage: Vec<u32>,
+    /// With [`Replacement::Needed`], pixels each of `alive` covered in the last frame where
+    /// no record outliving that frame did.
+    needed: Vec<u32>,
     /// The frame's records on the GPU and their estimates at t+1 (same indices).
     frame_records: RecordCache,
     next_records: RecordCache,
@@ -277,6 +299,7 @@ impl TemporalCache {
             alive: Vec::new(),
             frames: Vec::new(),
             coverage: Vec::new(),
+            needed: Vec::new(),
             frame_records: RecordCache::new(ctx)?,
             next_records: RecordCache::new(ctx)?,
             last_frame_rendered: None,
@@ -332,12 +355,18 @@ impl TemporalCache {
         let mut replace: Vec<u32> = Vec::new();
         for (i, &id) in self.alive.iter().enumerate() {
             let rec = &self.history[id as usize];
+            let covering = self.coverage.get(i).copied().unwrap_or(0) > 0;
+            let needed = match self.settings.replacement {
+                Replacement::Covering => covering,
+                Replacement::Needed => self.needed.get(i).copied().unwrap_or(0) > 0,
+            };
             if t <= rec.last_frame {
                 kept.push(id);
-            } else if self.coverage.get(i).copied().unwrap_or(0) > 0 {
+            } else if needed {
                 replace.push(id);
             } else {
                 stats.deleted += 1;
+                stats.redundant += u32::from(covering);
                 self.planes.planes.remove(&id);
             }
         }
@@ -450,7 +479,7 @@ impl TemporalCache {
             self.planes.planes.remove(id);
         }
         let before_new = self.frame_records.count;
-        let (mut frame, coverage) = renderer.render_cached_frame(
+        let (mut frame, coverage, vis) = renderer.render_cached_frame(
             scenes.now,
             camera,
             &mut self.frame_records,
@@ -573,6 +602,23 @@ impl TemporalCache {
             transforms,
             lights,
         });
+        self.needed = match self.settings.replacement {
+            Replacement::Covering => Vec::new(),
+            Replacement::Needed => {
+                let expiring: Vec<bool> = alive
+                    .iter()
+                    .map(|&id| self.history[id as usize].last_frame <= t)
+                    .collect();
+                renderer.needed_coverage(
+                    scenes.now,
+                    &vis,
+                    &self.frame_records,
+                    &expiring,
+                    self.pass.settings.accuracy,
+                    &mut times,
+                )?
+            }
+        };
         self.alive = alive;
         self.coverage = coverage;
         self.last_frame_rendered = Some(t);
@@ -660,7 +706,7 @@ impl TemporalCache {
             .map(|&id| self.record_at_with(id, t, transforms))
             .collect();
         self.frame_records.upload(&renderer.ctx, &records)?;
-        let (frame, _) = renderer.render_cached_frame(
+        let (frame, _, _) = renderer.render_cached_frame(
             scene,
             camera,
             &mut self.frame_records,

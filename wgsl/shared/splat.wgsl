@@ -16,7 +16,8 @@ struct SplatParams {
     record_end: u32,
     accuracy: f32,
     accumulate: u32,     // 1: add onto the splat buffer's previous sums
-    count_coverage: u32, // 1: count the pixels each record contributes to
+    count_coverage: u32, // 1: count the pixels each record contributes to; 2: only those
+                         // no record outliving the frame contributes to (splat_gather.wgsl)
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
