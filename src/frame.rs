@@ -410,6 +410,12 @@ impl Renderer {
         bvh: &mut Option<SceneBvh>,
         previous: Option<&PreparedScene>,
     ) -> Result<PreparedScene> {
+        // Direct light casts `light_samples` shadow rays per light and for the environment.
+        let sampled = scene.lights.len() as u64 + u64::from(scene.environment != glam::Vec3::ZERO);
+        self.ctx.check_shadow_rays(
+            sampled * u64::from(scene.settings.light_samples),
+            "render.light_samples",
+        )?;
         let t0 = Instant::now();
         match bvh.as_mut() {
             Some(b) => b.update_instances(scene),

@@ -125,3 +125,22 @@ fn cornell_box_exr_golden_hash_and_determinism() {
     );
     assert_eq!(runs[0], CORNELL_GOLDEN_SHA256, "Cornell box EXR changed");
 }
+
+/// llvmpipe stops a loop after 65,535 iterations per invocation: 4,096 light samples per
+/// pixel gave the Cornell box a quarter of its direct light without any error. Such
+/// settings are refused there, naming the field; other devices render them.
+#[test]
+fn light_samples_beyond_the_llvmpipe_loop_limit_are_refused_there() {
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let mut scene = common::load("cornell-box.toml", Some((8, 8)));
+    scene.settings.light_samples = 4096;
+    let prepared = renderer.prepare(&scene);
+    if renderer.ctx.stops_long_loops() {
+        let err = prepared.err().expect("refused on llvmpipe").to_string();
+        assert!(err.contains("render.light_samples"), "{err}");
+        scene.settings.light_samples = 64;
+        renderer.prepare(&scene).expect("64 light samples are fine");
+    } else {
+        prepared.expect("other devices have no loop limit");
+    }
+}
