@@ -173,6 +173,17 @@ impl Renderer {
 
     /// The visibility buffer of `camera` and the splat sums `(sum w E', sum w)` of every
     /// record in `cache` (no placement, no resolve): for tests and tools.
+    /// The visibility buffer of `camera` (left on the GPU).
+    pub fn visibility(&self, scene: &PreparedScene, camera: &Camera) -> Result<VisibilityBuffer> {
+        let ctx = &self.ctx;
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        let vis = self
+            .visibility
+            .record(ctx, &mut encoder, &scene.gpu, camera, None)?;
+        ctx.queue.submit([encoder.finish()]);
+        Ok(vis)
+    }
+
     pub fn splat_cache(
         &self,
         scene: &PreparedScene,
@@ -180,11 +191,7 @@ impl Renderer {
         cache: &IrradianceCache,
     ) -> Result<(Vec<VisSample>, Vec<[f32; 4]>)> {
         let ctx = &self.ctx;
-        let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        let vis = self
-            .visibility
-            .record(ctx, &mut encoder, &scene.gpu, camera, None)?;
-        ctx.queue.submit([encoder.finish()]);
+        let vis = self.visibility(scene, camera)?;
         let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
         let mut times = Vec::new();
         self.splat.splat(

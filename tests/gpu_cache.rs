@@ -8,7 +8,7 @@ use radsplat::output::{exr_out, sha256_hex};
 use radsplat::placement::sequential::sequential_placement;
 use radsplat::records::CacheSettings;
 use radsplat::scene::Scene;
-use radsplat::splat::reference::splat_records;
+use radsplat::splat::reference::{needed_coverage, splat_records};
 use radsplat::visibility::GpuCamera;
 use radsplat::{Frame, IrradianceCache, Renderer};
 
@@ -67,6 +67,47 @@ fn gpu_splat_matches_cpu_splat() {
         records.len()
     );
     assert!(covered > visible / 2);
+}
+
+/// Temporal caching replaces an expired record only where a pixel needs it
+/// (`Replacement::Needed`): the GPU count of pixels that only expiring records cover,
+/// per expiring record, against the CPU's.
+#[test]
+fn gpu_needed_coverage_matches_cpu() {
+    let scene = common::load("cornell-box.toml", Some((48, 40)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let mut cache = renderer.new_cache(&settings()).expect("cache");
+    render(&renderer, &scene, &mut cache);
+    let records = cache.read(&renderer.ctx).expect("records");
+    let expiring: Vec<bool> = (0..records.len()).map(|k| k % 4 == 0).collect();
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let vis = renderer
+        .visibility(&prepared, &scene.camera)
+        .expect("visibility");
+    let accuracy = cache.settings().accuracy;
+    let gpu = renderer
+        .needed_coverage(
+            &prepared,
+            &vis,
+            &cache.records,
+            &expiring,
+            accuracy,
+            &mut Vec::new(),
+        )
+        .expect("needed coverage");
+    let cpu = needed_coverage(
+        &records,
+        &expiring,
+        &vis.read(&renderer.ctx).expect("read"),
+        accuracy,
+    );
+    assert_eq!(gpu, cpu);
+    let needed = cpu.iter().filter(|&&n| n > 0).count();
+    let expired = expiring.iter().filter(|&&e| e).count();
+    eprintln!("{needed} of {expired} expiring records needed");
+    // Some are needed and some are not: the count tells them apart.
+    assert!(needed > 0 && needed < expired, "{needed} of {expired}");
+    assert!(cpu.iter().zip(&expiring).all(|(&n, &e)| e || n == 0));
 }
 
 /// Runs GPU placement and the sequential scan on one view; returns (GPU, sequential) counts.

@@ -133,6 +133,8 @@ pub fn render_animation(
                     alive: c.records,
                     new: c.placement.new_records,
                     plane_rays: c.plane_rays,
+                    // A fresh cache every frame: each record serves one frame.
+                    lifespans: vec![c.placement.new_records],
                     ..Default::default()
                 };
                 (frame, stats, Vec::new(), Vec::new())

@@ -229,6 +229,9 @@ pub struct TemporalFrameStats {
     pub new: u32,
     /// Hemisphere rays traced (replacements and new records).
     pub plane_rays: u64,
+    /// Records computed this frame by lifespan: entry i counts those used in i + 1 frames
+    /// (the last entry: dt_max frames, or more when nothing in the scene changes).
+    pub lifespans: Vec<u32>,
 }
 
 /// The scenes a temporal frame needs: frame t on the GPU and on the CPU (instance
@@ -584,11 +587,15 @@ impl TemporalCache {
                 }
             };
             let id = self.history.len() as u32;
+            let last = last_frame(t, tau, &self.settings, dynamic);
+            let bins = self.settings.max_lifespan.max(1) as usize;
+            stats.lifespans.resize(bins, 0);
+            stats.lifespans[((last - t) as usize).min(bins - 1)] += 1;
             self.history.push(TemporalRecord {
                 record,
                 next,
                 birth: t,
-                last_frame: last_frame(t, tau, &self.settings, dynamic),
+                last_frame: last,
                 tau,
                 successor: None,
                 anchor,
