@@ -6,7 +6,7 @@ mod common;
 
 use radsplat::output::{exr_out, sha256_hex};
 use radsplat::placement::sequential::sequential_placement;
-use radsplat::records::CacheSettings;
+use radsplat::records::{CacheSettings, Record};
 use radsplat::scene::Scene;
 use radsplat::splat::reference::{needed_coverage, splat_records};
 use radsplat::visibility::GpuCamera;
@@ -30,13 +30,20 @@ fn render(renderer: &Renderer, scene: &Scene, cache: &mut IrradianceCache) -> Fr
     frame
 }
 
-#[test]
-fn gpu_splat_matches_cpu_splat() {
+/// A 48 x 40 Cornell box rendered with a fresh cache: the renderer, the scene, the cache
+/// and its records read back.
+fn cornell_cache() -> (Renderer, Scene, IrradianceCache, Vec<Record>) {
     let scene = common::load("cornell-box.toml", Some((48, 40)));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let mut cache = renderer.new_cache(&settings()).expect("cache");
     render(&renderer, &scene, &mut cache);
     let records = cache.read(&renderer.ctx).expect("records");
+    (renderer, scene, cache, records)
+}
+
+#[test]
+fn gpu_splat_matches_cpu_splat() {
+    let (renderer, scene, cache, records) = cornell_cache();
     // Splat the records again from another camera, on the GPU and on the CPU.
     let mut camera = scene.camera.clone();
     camera.position.x += 0.05;
@@ -74,11 +81,7 @@ fn gpu_splat_matches_cpu_splat() {
 /// per expiring record, against the CPU's.
 #[test]
 fn gpu_needed_coverage_matches_cpu() {
-    let scene = common::load("cornell-box.toml", Some((48, 40)));
-    let renderer = Renderer::new(common::gpu()).expect("renderer");
-    let mut cache = renderer.new_cache(&settings()).expect("cache");
-    render(&renderer, &scene, &mut cache);
-    let records = cache.read(&renderer.ctx).expect("records");
+    let (renderer, scene, cache, records) = cornell_cache();
     let expiring: Vec<bool> = (0..records.len()).map(|k| k % 4 == 0).collect();
     let prepared = renderer.prepare(&scene).expect("prepare");
     let vis = renderer

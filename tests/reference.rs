@@ -7,7 +7,7 @@ mod common;
 use glam::Vec3;
 use radsplat::Renderer;
 use radsplat::compare::luminance;
-use radsplat::reference::cpu::IndirectReference;
+use radsplat::reference::cpu::{IndirectPixel, IndirectReference};
 use radsplat::reference::{
     ReferenceFrame, ReferenceOptions, ReferencePass, max_samples_per_dispatch,
 };
@@ -35,6 +35,27 @@ fn v(p: [f32; 4]) -> Vec3 {
     Vec3::new(p[0], p[1], p[2])
 }
 
+/// The GPU reference of `scene` at `spp` and, for each pixel whose camera ray hits the same
+/// triangle on both sides (a traversal tie is the visibility tests' business), its index
+/// and the CPU mirror's pixel.
+fn gpu_and_cpu(scene: &Scene, spp: u32) -> (ReferenceFrame, Vec<(usize, IndirectPixel)>) {
+    let gpu = render(scene, &ReferenceOptions::new(spp));
+    let cpu = IndirectReference::new(scene, scene.settings.light_samples, spp);
+    let cam = GpuCamera::new(&scene.camera);
+    let mut pixels = Vec::new();
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let i = (y * cam.width + x) as usize;
+            let r = cpu.pixel(&cam, x, y);
+            let g = gpu.frame.visibility[i];
+            if g.is_hit().then_some((g.instance, g.mesh_triangle)) == r.direct.hit {
+                pixels.push((i, r));
+            }
+        }
+    }
+    (gpu, pixels)
+}
+
 // Tolerance: GPU and CPU draw bit-identical directions and light samples and sum them in the
 // same order, so values agree to f32 rounding (~1e-5) except where a bounce or shadow ray
 // grazes an edge and the two traversals disagree: one of 16 bounce samples then changes,
@@ -45,10 +66,7 @@ fn v(p: [f32; 4]) -> Vec3 {
 #[test]
 fn reference_matches_cpu_mirror_cornell_box() {
     let scene = cornell(24, 8);
-    let spp = 16;
-    let gpu = render(&scene, &ReferenceOptions::new(spp));
-    let cpu = IndirectReference::new(&scene, scene.settings.light_samples, spp);
-    let cam = GpuCamera::new(&scene.camera);
+    let (gpu, pixels) = gpu_and_cpu(&scene, 16);
     let mean_indirect = gpu
         .indirect
         .iter()
@@ -58,23 +76,15 @@ fn reference_matches_cpu_mirror_cornell_box() {
     assert!(mean_indirect > 0.0, "no indirect light at all");
     let floor = 0.01 * mean_indirect;
     let mut errors = Vec::new();
-    for y in 0..cam.height {
-        for x in 0..cam.width {
-            let i = (y * cam.width + x) as usize;
-            let r = cpu.pixel(&cam, x, y);
-            let g = gpu.frame.visibility[i];
-            if g.is_hit().then_some((g.instance, g.mesh_triangle)) != r.direct.hit {
-                continue; // a camera-ray traversal tie: checked by the visibility tests
-            }
-            for (gv, cv) in [
-                (v(gpu.indirect[i]), r.indirect),
-                (v(gpu.frame.beauty[i]), r.beauty),
-            ] {
-                errors.push((gv - cv).abs().max_element() / cv.max_element().max(floor));
-            }
+    for (i, r) in &pixels {
+        for (gv, cv) in [
+            (v(gpu.indirect[*i]), r.indirect),
+            (v(gpu.frame.beauty[*i]), r.beauty),
+        ] {
+            errors.push((gv - cv).abs().max_element() / cv.max_element().max(floor));
         }
     }
-    let n = (cam.width * cam.height) as usize;
+    let n = gpu.indirect.len();
     assert!(
         errors.len() > 2 * n * 9 / 10,
         "too few pixels agree on the camera hit"
@@ -99,26 +109,14 @@ fn reference_matches_cpu_mirror_cornell_box() {
 #[test]
 fn reference_matches_cpu_mirror_with_many_samples_per_pixel() {
     let scene = cornell(8, 16);
-    let spp = 128;
-    let gpu = render(&scene, &ReferenceOptions::new(spp));
-    let cpu = IndirectReference::new(&scene, scene.settings.light_samples, spp);
-    let cam = GpuCamera::new(&scene.camera);
+    let (gpu, pixels) = gpu_and_cpu(&scene, 128);
     let (mut sum_gpu, mut sum_cpu) = (0.0f64, 0.0f64);
-    let (mut worst, mut pixels) = (0.0f32, 0u32);
-    for y in 0..cam.height {
-        for x in 0..cam.width {
-            let i = (y * cam.width + x) as usize;
-            let r = cpu.pixel(&cam, x, y);
-            let g = gpu.frame.visibility[i];
-            if g.is_hit().then_some((g.instance, g.mesh_triangle)) != r.direct.hit {
-                continue;
-            }
-            let (gv, cv) = (v(gpu.indirect[i]), r.indirect);
-            sum_gpu += f64::from(gv.element_sum());
-            sum_cpu += f64::from(cv.element_sum());
-            worst = worst.max((gv - cv).abs().max_element());
-            pixels += 1;
-        }
+    let mut worst = 0.0f32;
+    for (i, r) in &pixels {
+        let (gv, cv) = (v(gpu.indirect[*i]), r.indirect);
+        sum_gpu += f64::from(gv.element_sum());
+        sum_cpu += f64::from(cv.element_sum());
+        worst = worst.max((gv - cv).abs().max_element());
     }
     eprintln!("mean indirect GPU {sum_gpu:.5} CPU {sum_cpu:.5}, worst pixel {worst:.2e}");
     assert!(sum_cpu > 0.0, "no indirect light");
@@ -127,7 +125,7 @@ fn reference_matches_cpu_mirror_with_many_samples_per_pixel() {
         "GPU indirect {sum_gpu} against CPU {sum_cpu}"
     );
     // f32 sums in the same order: only a ray grazing an edge could differ, by one sample.
-    let mean_pixel = (sum_cpu / f64::from(pixels.max(1))) as f32;
+    let mean_pixel = (sum_cpu / pixels.len().max(1) as f64) as f32;
     assert!(
         worst < 0.01 * mean_pixel,
         "worst pixel off by {worst} (mean {mean_pixel})"
