@@ -18,6 +18,8 @@ struct RefreshParams {
     count: u32,
     light_samples: u32,
     moving_count: u32,
+    movers_lo: vec4f,    // world box around every mover's box (MovingBounds::union)
+    movers_hi: vec4f,
 }
 
 @group(1) @binding(0) var<uniform> params: RefreshParams;

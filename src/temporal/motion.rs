@@ -78,6 +78,20 @@ pub struct MovingBounds {
 }
 
 impl MovingBounds {
+    /// The world box around every box of `movers` (lo, hi; w = 0): a shadow pyramid that
+    /// misses it misses each of them. Empty (lo > hi) when there are none.
+    pub fn union(movers: &[MovingBounds]) -> ([f32; 4], [f32; 4]) {
+        let mut lo = [f32::INFINITY, f32::INFINITY, f32::INFINITY, 0.0];
+        let mut hi = [f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY, 0.0];
+        for m in movers {
+            for c in 0..3 {
+                lo[c] = lo[c].min(m.world_lo[c]);
+                hi[c] = hi[c].max(m.world_hi[c]);
+            }
+        }
+        (lo, hi)
+    }
+
     /// The mesh box `lo..hi` (instance space) of an instance whose transforms are `start`
     /// and `end` at the span's two ends. The box is enlarged by a relative margin so that
     /// rounding in the world-to-instance transform cannot make the test miss a ray the
@@ -199,6 +213,39 @@ pub fn move_record(record: &Record, m: &Mat4) -> Record {
 mod tests {
     use super::*;
     use glam::Quat;
+
+    /// The shadow tests reject a pyramid against the box around every mover first, which
+    /// is exact only if that box contains each mover's world box.
+    #[test]
+    fn the_union_box_contains_every_mover() {
+        let a = MovingBounds::new(
+            Vec3::splat(-1.0),
+            Vec3::splat(1.0),
+            &Mat4::IDENTITY,
+            &Mat4::from_translation(Vec3::new(0.5, 0.0, 0.0)),
+        );
+        let b = MovingBounds::new(
+            Vec3::ZERO,
+            Vec3::ONE,
+            &Mat4::from_translation(Vec3::new(3.0, -2.0, 0.0)),
+            &Mat4::from_scale_rotation_translation(
+                Vec3::splat(2.0),
+                Quat::from_rotation_y(0.3),
+                Vec3::new(3.0, -2.0, 1.0),
+            ),
+        );
+        let (lo, hi) = MovingBounds::union(&[a, b]);
+        for m in [a, b] {
+            for c in 0..3 {
+                assert!(lo[c] <= m.world_lo[c] && hi[c] >= m.world_hi[c]);
+            }
+        }
+        assert_eq!(lo[0], a.world_lo[0].min(b.world_lo[0]));
+        assert_eq!(hi[0], a.world_hi[0].max(b.world_hi[0]));
+        // No movers: an empty box (lo > hi) that nothing meets.
+        let (lo, hi) = MovingBounds::union(&[]);
+        assert!((0..3).all(|c| lo[c] > hi[c]));
+    }
 
     /// The mover box follows the instance: points of the mesh at either end of the span
     /// map back into the instance box and lie in the world box, and a point beside the

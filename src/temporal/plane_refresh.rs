@@ -27,6 +27,8 @@ struct RefreshParams {
     count: u32,
     light_samples: u32,
     moving_count: u32,
+    movers_lo: [f32; 4],
+    movers_hi: [f32; 4],
 }
 
 /// Bytes of one retained plane at resolution `res`: its samples, then its hits.
@@ -39,6 +41,8 @@ pub struct SpanMotion {
     /// [`MovingBounds`] of each instance that moved between the span's two ends.
     pub(super) moving: wgpu::Buffer,
     pub(super) moving_count: u32,
+    /// The world box around all of them ([`MovingBounds::union`]).
+    pub(super) union: ([f32; 4], [f32; 4]),
     /// Per instance, 1 when it moved during the span.
     moved: wgpu::Buffer,
 }
@@ -56,6 +60,7 @@ impl SpanMotion {
         Ok(Self {
             moving: ctx.storage_buffer("span movers", &bounds)?,
             moving_count: bounds.len() as u32,
+            union: MovingBounds::union(&bounds),
             moved: ctx.storage_buffer("span moved instances", &moved)?,
         })
     }
@@ -183,6 +188,8 @@ impl PlaneRefresh<'_> {
                 count,
                 light_samples: settings.plane_light_samples,
                 moving_count: self.motion.moving_count,
+                movers_lo: self.motion.union.0,
+                movers_hi: self.motion.union.1,
             },
         );
         let bind = self.pass.select.bind(

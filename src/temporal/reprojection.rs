@@ -33,6 +33,8 @@ struct ReprojectParams {
     anchored: u32,
     reuse_shading: u32,
     moving_count: u32,
+    movers_lo: [f32; 4],
+    movers_hi: [f32; 4],
 }
 
 #[repr(C)]
@@ -174,6 +176,8 @@ impl ReprojectionPass {
                 anchored: u32::from(next.anchored),
                 reuse_shading: u32::from(next.reuse_shading),
                 moving_count: next.movers.moving_count,
+                movers_lo: next.movers.union.0,
+                movers_hi: next.movers.union.1,
             },
         );
         let bind = self.reproject.bind(

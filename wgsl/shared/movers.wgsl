@@ -1,7 +1,8 @@
 // Instances that move over a span of frames, as boxes that turn with them, and whether a ray or a
 // point's shadow rays can meet one of them: the test behind every reuse of traced
 // radiance across frames (reprojection, plane refresh). The including pass declares
-// `moving: array<MovingBounds>` and a `params` uniform with a `moving_count` field.
+// `moving: array<MovingBounds>` and a `params` uniform with `moving_count` and the world
+// box around every mover's, `movers_lo` and `movers_hi`.
 //!include shared/shading.wgsl
 
 // An instance that moves over the span: its mesh box in its own space (slightly
@@ -103,8 +104,10 @@ fn pyramid(apex: vec3f, corner: vec3f, eu: vec3f, ev: vec3f) -> Pyramid {
 // (the bounding boxes overlap) and from the pyramid's four sides. Conservative: a box it
 // clears misses the pyramid.
 fn pyramid_meets_mover(p: Pyramid, i: u32) -> bool {
-    let blo = moving[i].world_lo.xyz;
-    let bhi = moving[i].world_hi.xyz;
+    return pyramid_meets_box(p, moving[i].world_lo.xyz, moving[i].world_hi.xyz);
+}
+
+fn pyramid_meets_box(p: Pyramid, blo: vec3f, bhi: vec3f) -> bool {
     if !(all(p.lo <= bhi) && all(p.hi >= blo)) {
         return false;
     }
@@ -142,6 +145,11 @@ fn shadows_may_change(s: Surface, seed: u32, count: u32) -> bool {
             // the movers whose world box it meets can change one, and with many movers
             // (bouncing spheres) those are few.
             let p = pyramid(origin, light.a.xyz, light.b.xyz, light.c.xyz);
+            // One test against the box around every mover first: from most points the
+            // pyramid clears the whole group (a uniform, no per-mover loads).
+            if !pyramid_meets_box(p, params.movers_lo.xyz, params.movers_hi.xyz) {
+                continue;
+            }
             var near: array<u32, NEAR_MOVERS>;
             var n = 0u;
             for (var i = 0u; i < params.moving_count; i++) {

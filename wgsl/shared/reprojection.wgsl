@@ -14,6 +14,8 @@ struct ReprojectParams {
     anchored: u32,       // 1: records move with their instance (`motion`)
     reuse_shading: u32,  // 1: lights unchanged from t to t+1 and `moving` lists every mover
     moving_count: u32,
+    movers_lo: vec4f,    // world box around every mover's box (MovingBounds::union)
+    movers_hi: vec4f,
 }
 
 // How an instance moves from t to t+1 (Rust: temporal::motion::InstanceMotion).
