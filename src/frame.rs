@@ -258,6 +258,13 @@ impl Renderer {
             placement_only,
         } = options;
         let ctx = &self.ctx;
+        // Each plane hit casts `plane_light_samples` shadow rays per light and for the
+        // environment (its re-shading and plane refresh too).
+        let info = &scene.gpu.info;
+        ctx.check_shadow_rays(
+            (u64::from(info.light_count) + 1) * u64::from(pass.settings.plane_light_samples),
+            "--plane-light-samples",
+        )?;
         let t0 = Instant::now();
         let mut times: Vec<(&'static str, f64)> = Vec::new();
 

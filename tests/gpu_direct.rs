@@ -143,4 +143,20 @@ fn light_samples_beyond_the_llvmpipe_loop_limit_are_refused_there() {
     } else {
         prepared.expect("other devices have no loop limit");
     }
+    // The same for the shadow rays of each hemisphere-plane hit.
+    scene.settings.light_samples = 4;
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let settings = radsplat::records::CacheSettings {
+        plane_light_samples: 4096,
+        plane_resolution: 4,
+        ..Default::default()
+    };
+    let mut cache = renderer.new_cache(&settings).expect("cache");
+    let frame = renderer.render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {});
+    if renderer.ctx.stops_long_loops() {
+        let err = frame.err().expect("refused on llvmpipe").to_string();
+        assert!(err.contains("--plane-light-samples"), "{err}");
+    } else {
+        frame.expect("other devices have no loop limit");
+    }
 }
