@@ -154,7 +154,7 @@ fn light_samples_beyond_the_llvmpipe_loop_limit_are_refused_there() {
     let mut cache = renderer.new_cache(&settings).expect("cache");
     let frame = renderer.render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {});
     if renderer.ctx.stops_long_loops() {
-        let err = frame.err().expect("refused on llvmpipe").to_string();
+        let err = frame.expect_err("refused on llvmpipe").to_string();
         assert!(err.contains("--plane-light-samples"), "{err}");
     } else {
         frame.expect("other devices have no loop limit");
