@@ -171,8 +171,6 @@ impl Renderer {
         })
     }
 
-    /// The visibility buffer of `camera` and the splat sums `(sum w E', sum w)` of every
-    /// record in `cache` (no placement, no resolve): for tests and tools.
     /// The visibility buffer of `camera` (left on the GPU).
     pub fn visibility(&self, scene: &PreparedScene, camera: &Camera) -> Result<VisibilityBuffer> {
         let ctx = &self.ctx;
@@ -184,6 +182,8 @@ impl Renderer {
         Ok(vis)
     }
 
+    /// The visibility buffer of `camera` and the splat sums `(sum w E', sum w)` of every
+    /// record in `cache` (no placement, no resolve): for tests and tools.
     pub fn splat_cache(
         &self,
         scene: &PreparedScene,
@@ -258,11 +258,12 @@ impl Renderer {
             placement_only,
         } = options;
         let ctx = &self.ctx;
-        // Each plane hit casts `plane_light_samples` shadow rays per light and for the
-        // environment (its re-shading and plane refresh too).
-        let info = &scene.gpu.info;
+        // Shadow rays of each plane hit (its re-shading and plane refresh cast the same).
         ctx.check_shadow_rays(
-            (u64::from(info.light_count) + 1) * u64::from(pass.settings.plane_light_samples),
+            scene
+                .gpu
+                .info
+                .max_shadow_rays(pass.settings.plane_light_samples),
             "--plane-light-samples",
         )?;
         let t0 = Instant::now();

@@ -158,6 +158,14 @@ pub struct GpuSceneInfo {
     pub _pad: u32,
 }
 
+impl GpuSceneInfo {
+    /// Most shadow rays one hit casts with `samples` samples per light: `samples` per
+    /// light and for the environment (an upper bound: point lights and suns cast one).
+    pub fn max_shadow_rays(&self, samples: u32) -> u64 {
+        (u64::from(self.light_count) + 1) * u64::from(samples)
+    }
+}
+
 /// Materials, texture table and packed texels in GPU layout.
 pub fn material_tables(scene: &Scene) -> (Vec<GpuMaterial>, Vec<GpuTextureInfo>, Vec<u32>) {
     let (infos, texels) = texture_tables(scene);

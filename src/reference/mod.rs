@@ -57,8 +57,8 @@ pub const MAX_RAYS_PER_INVOCATION: u32 = 64;
 
 /// Bounce samples one invocation may take in one dispatch when each also casts
 /// `shadow_rays` shadow rays ([`MAX_RAYS_PER_INVOCATION`]; at least 1).
-pub fn max_samples_per_dispatch(shadow_rays: u32) -> u32 {
-    (MAX_RAYS_PER_INVOCATION / shadow_rays.saturating_add(1)).max(1)
+pub fn max_samples_per_dispatch(shadow_rays: u64) -> u32 {
+    (u64::from(MAX_RAYS_PER_INVOCATION) / shadow_rays.saturating_add(1)).max(1) as u32
 }
 
 /// Rust mirror of WGSL `ReferenceParams`.
@@ -238,10 +238,9 @@ impl ReferencePass {
         let vis = ctx.storage_buffer("reference visibility", &frame.visibility)?;
         let sums =
             ctx.storage_buffer_sized("radiance sums", u64::from(width) * u64::from(height) * 16)?;
-        // Shadow rays per bounce hit, at most: `light_samples` per light and for the
-        // environment.
+        // Shadow rays per bounce hit, at most.
         let info = &prepared.gpu.info;
-        let shadow_rays = (info.light_count + 1).saturating_mul(info.light_samples.max(1));
+        let shadow_rays = info.max_shadow_rays(info.light_samples.max(1));
         let chunks = plan_chunks(
             width,
             height,

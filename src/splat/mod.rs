@@ -17,6 +17,13 @@ use bytemuck::{Pod, Zeroable};
 /// Tile edge in pixels (`TILE_SIZE` in `wgsl/shared/splat.wgsl`).
 pub const TILE_SIZE: u32 = 16;
 
+/// What a splat counts per record (`count_coverage`; `COUNT_ALL` and `COUNT_NEEDED` in
+/// `wgsl/splat_gather.wgsl`): nothing, every pixel it contributes to, or only those no
+/// record outliving the frame contributes to.
+const COUNT_NONE: u32 = 0;
+const COUNT_ALL: u32 = 1;
+const COUNT_NEEDED: u32 = 2;
+
 /// Mirror of WGSL `SplatParams`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -60,6 +67,19 @@ impl SplatBuffer {
     /// `records` record ids (temporal caching: expired records that cover nothing are
     /// deleted). Counts start at zero.
     pub fn with_coverage(ctx: &GpuContext, width: u32, height: u32, records: u32) -> Result<Self> {
+        Self::counting(ctx, width, height, records, COUNT_ALL, &[])
+    }
+
+    /// Sums of a `width x height` image and `records` coverage counters in `mode` (none
+    /// when `records` is 0), with one expiry flag per record (`COUNT_NEEDED`).
+    fn counting(
+        ctx: &GpuContext,
+        width: u32,
+        height: u32,
+        records: u32,
+        mode: u32,
+        expiring: &[u32],
+    ) -> Result<Self> {
         Ok(Self {
             width,
             height,
@@ -67,8 +87,8 @@ impl SplatBuffer {
                 .storage_buffer_sized("splat sums", u64::from(width) * u64::from(height) * 16)?,
             coverage: ctx.storage_buffer_sized("record coverage", u64::from(records.max(1)) * 4)?,
             coverage_records: records,
-            coverage_mode: u32::from(records > 0),
-            expiring: ctx.storage_buffer::<u32>("expiring records", &[])?,
+            coverage_mode: if records > 0 { mode } else { COUNT_NONE },
+            expiring: ctx.storage_buffer("expiring records", expiring)?,
         })
     }
 
@@ -85,11 +105,7 @@ impl SplatBuffer {
         let flags: Vec<u32> = expiring.iter().map(|&e| u32::from(e)).collect();
         let records = u32::try_from(flags.len())
             .map_err(|_| Error::Usage(format!("{} records exceed u32", flags.len())))?;
-        Ok(Self {
-            coverage_mode: if records > 0 { 2 } else { 0 },
-            expiring: ctx.storage_buffer("expiring records", &flags)?,
-            ..Self::with_coverage(ctx, width, height, records)?
-        })
+        Self::counting(ctx, width, height, records, COUNT_NEEDED, &flags)
     }
 
     /// Reads the coverage counts back (one per record id, `coverage_records` of them).

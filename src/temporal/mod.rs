@@ -565,6 +565,10 @@ impl TemporalCache {
         for (j, &old) in replace.iter().enumerate() {
             self.history[old as usize].successor = Some((self.history.len() + j) as u32);
         }
+        let bins = self.settings.max_lifespan.max(1) as usize;
+        if computed > 0 {
+            stats.lifespans = vec![0; bins];
+        }
         let mut alive = kept;
         for ((&record, &next), site) in records.iter().zip(&nexts).zip(sites_at) {
             let (e0, e1) = (luminance(record.irradiance), luminance(next.irradiance));
@@ -588,8 +592,6 @@ impl TemporalCache {
             };
             let id = self.history.len() as u32;
             let last = last_frame(t, tau, &self.settings, dynamic);
-            let bins = self.settings.max_lifespan.max(1) as usize;
-            stats.lifespans.resize(bins, 0);
             stats.lifespans[((last - t) as usize).min(bins - 1)] += 1;
             self.history.push(TemporalRecord {
                 record,

@@ -100,13 +100,14 @@ fn pyramid(apex: vec3f, corner: vec3f, eu: vec3f, ev: vec3f) -> Pyramid {
     );
 }
 
-// Whether the pyramid may meet mover i's world box: separating axes from the box's faces
-// (the bounding boxes overlap) and from the pyramid's four sides. Conservative: a box it
-// clears misses the pyramid.
+// Whether the pyramid may meet mover i's world box.
 fn pyramid_meets_mover(p: Pyramid, i: u32) -> bool {
     return pyramid_meets_box(p, moving[i].world_lo.xyz, moving[i].world_hi.xyz);
 }
 
+// Whether the pyramid may meet the box blo..bhi: separating axes from the box's faces (the
+// bounding boxes overlap) and from the pyramid's four sides. Conservative: a box it clears
+// misses the pyramid.
 fn pyramid_meets_box(p: Pyramid, blo: vec3f, bhi: vec3f) -> bool {
     if !(all(p.lo <= bhi) && all(p.hi >= blo)) {
         return false;
