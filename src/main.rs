@@ -154,6 +154,12 @@ enum Command {
         /// a pixel no longer-lived record covers).
         #[arg(long, default_value = "covering", value_parser = ["covering", "needed"])]
         replace: String,
+        /// The E(t+1) estimate reprojects every N-th plane sample each way (1: all). With
+        /// interpolated gradients it only gives tau, so 2 costs a quarter as much.
+        /// Default: 2 with interpolated gradients (1 if the plane resolution is odd or
+        /// below 8), 1 with extrapolated.
+        #[arg(long)]
+        estimate_stride: Option<u32>,
         #[command(flatten)]
         cache: CacheArgs,
         /// Also write a lifespan map per frame (PNG pattern with `#`): record sites from
@@ -186,6 +192,10 @@ enum Command {
         /// `instance` (records move with their instance; recomputed from the moved site).
         #[arg(long, default_value = "world", value_parser = ["world", "instance"])]
         record_anchor: String,
+        /// The estimate reprojects every N-th plane sample each way and scales E(t) by
+        /// that subset's change (as `animate --estimate-stride`); 1: the whole plane.
+        #[arg(long, default_value_t = 1)]
+        estimate_stride: u32,
         /// Write the table as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -407,6 +417,7 @@ fn main() -> ExitCode {
             plane_refresh,
             plane_budget_mib,
             replace,
+            estimate_stride,
             cache,
             lifespan_map,
             stats,
@@ -438,6 +449,7 @@ fn main() -> ExitCode {
                 } else {
                     Replacement::Covering
                 },
+                estimate_stride,
                 ..TemporalSettings::default()
             }),
             lifespan_map,
@@ -451,6 +463,7 @@ fn main() -> ExitCode {
             size,
             cache,
             record_anchor,
+            estimate_stride,
             json,
         } => temporal_error(
             &scene,
@@ -458,7 +471,7 @@ fn main() -> ExitCode {
             records,
             size,
             &cache.settings(),
-            &record_anchor,
+            (&record_anchor, estimate_stride),
             json.as_deref(),
         ),
         Command::Info => info(),
@@ -1080,6 +1093,8 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
         if let Some(d) = args.max_lifespan.or(anim.and_then(|a| a.max_lifespan)) {
             t.max_lifespan = d;
         }
+        // The stride chosen, so that --stats records it.
+        t.estimate_stride = Some(t.estimate_stride_for(args.cache.plane_resolution));
         t.validate()?;
     }
     let frames = args.frames.clone().unwrap_or_else(|| scene.frames());
@@ -1091,8 +1106,12 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
             .to_string_lossy();
         PathBuf::from(format!("{stem}_####.exr"))
     });
-    // Check every output name before rendering anything.
+    // Check every output name and directory before rendering anything.
     let format = ImageFormat::from_path(&frame_path(&output, *frames.start())?)?;
+    radsplat::output::output_dir(&frame_path(&output, *frames.start())?)?;
+    if let Some(stats) = &args.stats {
+        radsplat::output::output_dir(stats)?;
+    }
     if let Some(map) = &args.lifespan_map {
         if args.temporal.is_none() {
             return Err(Error::Usage(
@@ -1104,6 +1123,7 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
                 "--lifespan-map writes PNG: use a .png pattern".into(),
             ));
         }
+        radsplat::output::output_dir(&frame_path(map, *frames.start())?)?;
     }
     let renderer = Renderer::new(GpuContext::new()?)?;
     radsplat::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
@@ -1198,7 +1218,7 @@ fn temporal_error(
     records: usize,
     size: Option<(u32, u32)>,
     settings: &CacheSettings,
-    record_anchor: &str,
+    (record_anchor, stride): (&str, u32),
     json: Option<&Path>,
 ) -> Result<()> {
     use radsplat::temporal::estimate_error::estimate_error_table;
@@ -1209,7 +1229,9 @@ fn temporal_error(
     next.set_frame((frame + 1) as f32);
     let renderer = Renderer::new(GpuContext::new()?)?;
     let anchored = record_anchor == "instance";
-    let table = estimate_error_table(&renderer, &scene, &next, settings, records, anchored)?;
+    let table = estimate_error_table(
+        &renderer, &scene, &next, settings, records, anchored, stride,
+    )?;
     println!(
         "{}: {} records placed at frame {frame}, E(t+1) estimate vs recomputed (RGB RMS relative error)",
         scene_path.display(),

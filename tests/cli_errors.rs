@@ -198,6 +198,51 @@ fn animate_writes_one_image_per_frame_and_refuses_bad_patterns() {
     assert_ne!(code, 0);
     assert!(err.contains("--lifespan-map"), "{err}");
     no_files_in(&dir);
+    // Directories that do not exist are refused before rendering (the second pass of
+    // interpolated gradients writes the first image only after every record is computed),
+    // and an estimate stride that does not divide the plane is named.
+    for (flag, value) in [
+        ("-o", dir.join("missing/f_##.png")),
+        ("--stats", dir.join("missing/stats.json")),
+        ("--lifespan-map", dir.join("missing/l_##.png")),
+    ] {
+        let mut args = vec![
+            "animate".to_string(),
+            scene.to_string_lossy().into_owned(),
+            "--frames".into(),
+            "0..1".into(),
+            "--quiet".into(),
+            flag.into(),
+            value.to_string_lossy().into_owned(),
+        ];
+        if flag != "-o" {
+            args.extend(["-o".into(), pattern.to_string_lossy().into_owned()]);
+        }
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (code, err) = radsplat(&args);
+        assert_ne!(code, 0);
+        assert!(
+            err.contains("missing") && err.contains("does not exist"),
+            "{flag}: {err}"
+        );
+        no_files_in(&dir);
+    }
+    let (code, err) = radsplat(&[
+        "animate",
+        scene.to_str().unwrap(),
+        "--frames",
+        "0..1",
+        "--plane-resolution",
+        "16",
+        "--estimate-stride",
+        "3",
+        "-o",
+        pattern.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("estimate stride (3)"), "{err}");
+    no_files_in(&dir);
 
     let stats = dir.join("stats.json");
     let (code, err) = radsplat(&[

@@ -7,41 +7,50 @@
 // spread apart) keeps the sample traced at t in the same cell: with nothing known about
 // it at t+1, it is assumed unchanged, where a miss (black) would bias E(t+1), and so tau,
 // low (up to 30 % on records at the foot of a moving cube). `samples` holds the plane
-// traced at t on entry and the estimate at t+1 on exit; each invocation reads and writes
-// only its own cell there. Reads only the reprojected cells, never filled ones, so the
-// result does not depend on thread order. The samples then go through the ordinary record
-// reduction to give E(t+1) and its gradients.
+// traced at t (P x P per record); `estimate` receives the estimate at t+1 and `subset` the
+// samples at t the estimate was moved from, both (P/stride)^2 per record (with stride 1,
+// the whole plane at t). Reads only the reprojected cells, never filled ones, so the
+// result does not depend on thread order. The estimate then goes through the ordinary
+// record reduction to give E(t+1) and its gradients (with stride > 1, the subset at t too:
+// tau is the ratio of the two).
 //!include shared/records.wgsl
 
 struct FillParams {
-    resolution: u32,
+    estimate_resolution: u32,
     count: u32,
-    _pad0: u32,
-    _pad1: u32,
+    resolution: u32,
+    stride: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: FillParams;
 @group(1) @binding(1) var<storage, read> cells: array<u32>;
 @group(1) @binding(2) var<storage, read> moved: array<vec4f>;
-@group(1) @binding(3) var<storage, read_write> samples: array<PlaneSample>;   // t in, t+1 out
+@group(1) @binding(3) var<storage, read> samples: array<PlaneSample>;   // traced at t
+@group(1) @binding(4) var<storage, read_write> estimate: array<PlaneSample>;   // at t+1
+@group(1) @binding(5) var<storage, read_write> subset: array<PlaneSample>;   // at t
 
-fn sample_of(base: u32, key: u32) -> PlaneSample {
-    let m = moved[base + reprojection_sample(key)];
+fn sample_of(fine_base: u32, key: u32) -> PlaneSample {
+    let m = moved[fine_base + reprojection_sample(key)];
     return PlaneSample(m.xyz, m.w);
 }
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3u) {
-    let res = params.resolution;
+    let res = params.estimate_resolution;
     if id.x >= res || id.y >= res || id.z >= params.count {
         return;
     }
+    let fine = params.resolution;
+    let fine_base = id.z * fine * fine;
     let base = id.z * res * res;
-    let own = ~cells[base + id.y * res + id.x];   // stored complemented
     let cell = base + id.y * res + id.x;
-    var out = samples[cell];   // traced at t: the fallback for a wide hole
+    let own = ~cells[cell];   // stored complemented
+    // The sample traced at t in this cell: the fallback for a wide hole.
+    let traced = samples[fine_base + subset_pixel(id.y, params.stride, res) * fine
+        + subset_pixel(id.x, params.stride, res)];
+    var out = traced;
     if own != EMPTY_CELL {
-        out = sample_of(base, own);
+        out = sample_of(fine_base, own);
     } else {
         // Deepest filled neighbour; the key orders by depth, then by sample index.
         var best = 0u;
@@ -61,8 +70,9 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             }
         }
         if found {
-            out = sample_of(base, best);
+            out = sample_of(fine_base, best);
         }
     }
-    samples[cell] = out;
+    estimate[cell] = out;
+    subset[cell] = traced;
 }

@@ -8,8 +8,9 @@
 // A miss keeps its own pixel at the farthest depth, so any surface moving in front of it
 // wins. With `anchored`, records move with the instance they lie on (temporal/motion.rs):
 // the moved point is seen from the record's place at t+1 and projected in the record's
-// frame carried along, i.e. after undoing the record's own motion. One invocation per
-// (sample, record).
+// frame carried along, i.e. after undoing the record's own motion. With `stride` > 1 only
+// every stride-th sample each way is moved, onto a plane of P/stride cells (the estimate
+// then only gives tau; `subset_pixel`). One invocation per (moved sample, record).
 // Its radiance at t+1 is the radiance traced at t where nothing that lights it can have
 // changed; the other samples that land in a cell are appended to `work`, and step 2
 // (plane_reshade.wgsl) re-shades them with the lights of t+1 in a dense dispatch. On a
@@ -32,10 +33,10 @@
 @group(1) @binding(8) var<storage, read_write> work: WorkList;   // samples to re-shade
 @group(1) @binding(9) var<storage, read_write> work_groups: array<atomic<u32>, 3>;
 
-// Plane pixel of plane coordinate x in [-s, s] (clamped into the border pixels when they
-// are stretched); -1 outside an unstretched plane.
+// Estimate-plane cell of plane coordinate x in [-s, s] (clamped into the border cells when
+// they are stretched); -1 outside an unstretched plane.
 fn plane_index(x: f32) -> i32 {
-    let res = i32(params.resolution);
+    let res = i32(params.estimate_resolution);
     let i = i32(floor((x + params.half_extent) / (2.0 * params.half_extent) * f32(res)));
     if params.stretched != 0u {
         return clamp(i, 0, res - 1);
@@ -45,17 +46,19 @@ fn plane_index(x: f32) -> i32 {
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3u) {
-    let res = params.resolution;
-    if id.x >= res || id.y >= res || id.z >= params.count {
+    let cells_res = params.estimate_resolution;
+    if id.x >= cells_res || id.y >= cells_res || id.z >= params.count {
         return;
     }
-    let pixel = id.y * res + id.x;
-    let base = id.z * res * res;
-    let sample = base + pixel;
+    let res = params.resolution;
+    let pixel = subset_pixel(id.y, params.stride, cells_res) * res
+        + subset_pixel(id.x, params.stride, cells_res);
+    let sample = id.z * res * res + pixel;
+    let base = id.z * cells_res * cells_res;
     let site = sites[id.z];
     let h = hits[sample];
     if h.instance == NO_HIT {
-        atomicMax(&cells[sample], ~reprojection_key(MISS_DEPTH, pixel));
+        atomicMax(&cells[base + id.y * cells_res + id.x], ~reprojection_key(MISS_DEPTH, pixel));
         moved[sample] = vec4f(0.0, 0.0, 0.0, -1.0);
         return;
     }
@@ -72,7 +75,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     if ix < 0 || iy < 0 {
         return;   // off the plane: no cell will read this sample
     }
-    let cell = base + u32(iy) * res + u32(ix);
+    let cell = base + u32(iy) * cells_res + u32(ix);
     atomicMax(&cells[cell], ~reprojection_key(local.z, pixel));
     // Re-shading is the costly part (shadow rays at t+1); skip it where nothing that
     // lights this hit has changed. Diffuse radiance does not depend on where it is seen

@@ -46,6 +46,8 @@ def main():
                     help="dt_max (default: the scene's [animation].max_lifespan, else 20)")
     ap.add_argument("--record-anchor", default="world", choices=["world", "instance"],
                     help="where temporal records stay while objects move")
+    ap.add_argument("--estimate-stride", default=None,
+                    help="animate --estimate-stride for the temporal run (default: radsplat's)")
     ap.add_argument("--modes", default="off,on", help="which of off,on to run")
     ap.add_argument("--ref-dir", type=Path, default=None,
                     help="where the per-frame references are (made there if missing)")
@@ -70,7 +72,8 @@ def main():
     for mode in modes:
         extra = [] if mode == "off" else (
             (["--temporal-accuracy", args.temporal_accuracy] if args.temporal_accuracy else [])
-            + (["--max-lifespan", args.max_lifespan] if args.max_lifespan else []) + [
+            + (["--max-lifespan", args.max_lifespan] if args.max_lifespan else [])
+            + (["--estimate-stride", args.estimate_stride] if args.estimate_stride else []) + [
             "--record-anchor", args.record_anchor,
             "--lifespan-map", out / "lifespan_####.png"])
         wall = run([rs, "animate", args.scene, "--frames", f"{a}..{b}", "--temporal", mode,
@@ -115,7 +118,7 @@ def main():
     summary = {"scene": str(args.scene), "frames": [a, b], "size": args.size,
                "accuracy": args.accuracy, "plane_resolution": args.plane_resolution,
                "temporal_accuracy": args.temporal_accuracy, "max_lifespan": args.max_lifespan,
-               "record_anchor": args.record_anchor,
+               "record_anchor": args.record_anchor, "estimate_stride": args.estimate_stride,
                "spp": args.spp, "rows": rows, "speedup": speedup}
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     print(f"wrote {out / 'summary.json'}")

@@ -64,19 +64,29 @@ impl ImageFormat {
     }
 }
 
+/// The directory `path` will be written in, checked to exist (so long jobs can refuse a
+/// bad output path before they start).
+pub fn output_dir(path: &Path) -> Result<&Path> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(Error::Output {
+            path: path.to_path_buf(),
+            message: format!("directory {} does not exist", dir.display()),
+        });
+    }
+    Ok(dir)
+}
+
 /// Writes `bytes` to `path` atomically (temp file in the same directory, fsync, rename).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     let err = |message: String| Error::Output {
         path: path.to_path_buf(),
         message,
     };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        return Err(err(format!("directory {} does not exist", dir.display())));
-    }
+    let dir = output_dir(path)?;
     let file_name = path
         .file_name()
         .ok_or_else(|| err("not a file name".into()))?

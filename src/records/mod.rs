@@ -107,6 +107,9 @@ pub struct Lookahead<'a> {
     pub reprojection: &'a crate::temporal::ReprojectionPass,
     /// Records at t+1, in step with the cache (`next.count == cache.count`).
     pub next: &'a mut RecordCache,
+    /// With an estimate stride above 1, the records of the samples at t the estimate was
+    /// moved from (tau = E(t+1) / this); in step with the cache, written only then.
+    pub subset: &'a mut RecordCache,
     /// Keeps the sites and traced planes of the records computed.
     pub capture: Option<&'a mut crate::temporal::plane_refresh::PlaneCapture>,
 }
@@ -288,6 +291,51 @@ struct ReduceParams {
     _pad: [u32; 2],
 }
 
+/// Planes traced at t and estimated at t+1 ([`RecordPass::trace_planes_ahead`]).
+#[derive(Clone, Debug, Default)]
+pub struct PlanesAhead {
+    /// The planes traced at t, P^2 samples per site.
+    pub now: Vec<PlaneSample>,
+    /// The planes estimated at t+1, (P / stride)^2 samples per site.
+    pub estimate: Vec<PlaneSample>,
+    /// The samples at t the estimate was moved from, (P / stride)^2 per site.
+    pub subset: Vec<PlaneSample>,
+}
+
+/// The records a reduction writes: `count` records from `first_record`, at `sites`.
+struct ReductionBatch<'a> {
+    sites: &'a wgpu::Buffer,
+    first_record: u32,
+    count: u32,
+}
+
+/// A [`HemispherePlane`]'s pixel table on the GPU, as the record reduction reads it.
+pub struct PlaneTable {
+    pub resolution: u32,
+    pub pixels: wgpu::Buffer,
+    /// Sum of the pixels' cosine weights (pi when the border is stretched).
+    pub cos_weight_sum: f32,
+}
+
+impl PlaneTable {
+    /// The table of a `resolution` x `resolution` plane with `settings`' field of view and
+    /// border mode.
+    pub fn new(ctx: &GpuContext, resolution: u32, settings: &CacheSettings) -> Result<Self> {
+        let table =
+            HemispherePlane::new(resolution, settings.plane_fov_degrees, settings.plane_mode);
+        let cos_weight_sum = table
+            .pixels
+            .iter()
+            .map(|p| f64::from(p.cos_weight))
+            .sum::<f64>();
+        Ok(Self {
+            resolution,
+            pixels: ctx.storage_buffer("plane table", &table.pixels)?,
+            cos_weight_sum: cos_weight_sum as f32,
+        })
+    }
+}
+
 /// Computes records on the GPU: `record_sites.wgsl` (pixels → sites),
 /// `hemisphere_plane.wgsl` (trace and shade the planes), `record_reduce.wgsl` (E, R,
 /// gradients), in batches sized to the device.
@@ -296,8 +344,7 @@ pub struct RecordPass {
     plane: ComputePass,
     reduce: ComputePass,
     /// The plane table for `settings`.
-    plane_table: wgpu::Buffer,
-    cos_weight_sum: f32,
+    table: PlaneTable,
     pub settings: CacheSettings,
     /// Records per plane dispatch.
     pub batch: u32,
@@ -307,16 +354,6 @@ impl RecordPass {
     pub fn new(ctx: &GpuContext, settings: &CacheSettings) -> Result<Self> {
         use Binding::*;
         settings.validate()?;
-        let table = HemispherePlane::new(
-            settings.plane_resolution,
-            settings.plane_fov_degrees,
-            settings.plane_mode,
-        );
-        let cos_weight_sum = table
-            .pixels
-            .iter()
-            .map(|p| f64::from(p.cos_weight))
-            .sum::<f64>();
         let plane_bytes = u64::from(settings.plane_resolution).pow(2) * 16;
         // As many records per dispatch as fit one binding, at most 256 (a few seconds of
         // rays on a CPU device, so progress stays visible).
@@ -349,8 +386,7 @@ impl RecordPass {
                     StorageReadWrite,
                 ],
             )?,
-            plane_table: ctx.storage_buffer("plane table", &table.pixels)?,
-            cos_weight_sum: cos_weight_sum as f32,
+            table: PlaneTable::new(ctx, settings.plane_resolution, settings)?,
             settings: settings.clone(),
             batch,
         })
@@ -422,7 +458,8 @@ impl RecordPass {
         cache.reserve(ctx, count)?;
         let res = self.settings.plane_resolution;
         // Sized to this call's largest batch: small placement rounds stay small.
-        let batch_samples = u64::from(self.batch.min(count.max(1))) * u64::from(res * res);
+        let batch_records = u64::from(self.batch.min(count.max(1)));
+        let batch_samples = batch_records * u64::from(res * res);
         let samples = ctx.storage_buffer_sized("plane samples", batch_samples * 16)?;
         // Temporal caching: the hits of each sample, for the estimate at t+1.
         let hits = ctx.storage_buffer_sized(
@@ -433,14 +470,24 @@ impl RecordPass {
                 16
             },
         )?;
+        // The estimated planes at t+1 and the samples at t they were moved from.
+        let mut estimate_planes = None;
         if let Some(la) = lookahead.as_deref_mut() {
-            if la.next.count != cache.count {
-                return Err(Error::Usage(format!(
-                    "lookahead records ({}) out of step with the cache ({})",
-                    la.next.count, cache.count
-                )));
+            for (what, records) in [("lookahead", &la.next), ("subset", &la.subset)] {
+                if records.count != cache.count {
+                    return Err(Error::Usage(format!(
+                        "{what} records ({}) out of step with the cache ({})",
+                        records.count, cache.count
+                    )));
+                }
             }
             la.next.reserve(ctx, count)?;
+            la.subset.reserve(ctx, count)?;
+            let cells = batch_records * u64::from(la.reprojection.table.resolution.pow(2));
+            estimate_planes = Some((
+                ctx.storage_buffer_sized("estimated planes", cells * 16)?,
+                ctx.storage_buffer_sized("estimate subsets", cells * 16)?,
+            ));
         }
         let mut times = Vec::new();
         let site_bytes = std::mem::size_of::<RecordSite>() as u64;
@@ -466,46 +513,24 @@ impl RecordPass {
                     record_hits: u32::from(lookahead.is_some() || refresh.is_some()),
                 },
             );
-            let reduce_params = ctx.uniform_buffer(
-                "reduce params",
-                &ReduceParams {
-                    resolution: res,
-                    count: n,
-                    first_record: cache.count,
-                    gradients: u32::from(self.settings.gradients),
-                    r_max_factor: self.settings.r_max_factor,
-                    cos_weight_sum: self.cos_weight_sum,
-                    _pad: [0; 2],
-                },
-            );
             let plane_bind = self.plane.bind(
                 ctx,
                 &[
                     &plane_params,
                     &batch_sites,
-                    &self.plane_table,
+                    &self.table.pixels,
                     &samples,
                     &hits,
                 ],
             );
-            let reduce_bind = self.reduce.bind(
-                ctx,
-                &[
-                    &reduce_params,
-                    &batch_sites,
-                    &self.plane_table,
-                    &samples,
-                    &cache.buffer,
-                ],
-            );
-            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 10);
+            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 12);
             match refresh {
                 Some(r) => r.record(
                     ctx,
                     &mut enc,
                     scene,
                     &self.settings,
-                    &self.plane_table,
+                    &self.table.pixels,
                     &batch_sites,
                     &samples,
                     &hits,
@@ -536,17 +561,27 @@ impl RecordPass {
                     res,
                 )?;
             }
-            self.reduce.record(
+            let batch = ReductionBatch {
+                sites: &batch_sites,
+                first_record: cache.count,
+                count: n,
+            };
+            self.record_reduction(
+                ctx,
                 &mut enc,
-                &scene.bind_group,
-                &reduce_bind,
-                [n, 1, 1],
-                timer.next("record reduction"),
+                scene,
+                &self.table,
+                &batch,
+                &samples,
+                &cache.buffer,
+                &mut timer,
             );
-            if let Some(la) = lookahead.as_deref_mut() {
-                // E(t+1) estimate: reproject this batch's plane into `samples` (free
-                // again: the reduction above has read it), then reduce it into the
-                // lookahead records at the same indices.
+            if let (Some(la), Some((estimate, subset))) =
+                (lookahead.as_deref_mut(), estimate_planes.as_ref())
+            {
+                // E(t+1) estimate: reproject this batch's plane, then reduce it into the
+                // lookahead records at the same indices; with a stride, also the samples
+                // at t it was moved from (tau is the ratio of the two).
                 la.reprojection.record(
                     ctx,
                     &mut enc,
@@ -555,26 +590,34 @@ impl RecordPass {
                     &batch_sites,
                     &hits,
                     &samples,
+                    (estimate, subset),
                     n,
                     &mut timer,
                 )?;
-                let bind = self.reduce.bind(
+                let table = &la.reprojection.table;
+                let next_scene = la.next_frame.scene;
+                self.record_reduction(
                     ctx,
-                    &[
-                        &reduce_params,
-                        &batch_sites,
-                        &self.plane_table,
-                        &samples,
-                        &la.next.buffer,
-                    ],
-                );
-                self.reduce.record(
                     &mut enc,
-                    &la.next_frame.scene.bind_group,
-                    &bind,
-                    [n, 1, 1],
-                    timer.next("record reduction"),
+                    next_scene,
+                    table,
+                    &batch,
+                    estimate,
+                    &la.next.buffer,
+                    &mut timer,
                 );
+                if la.reprojection.stride > 1 {
+                    self.record_reduction(
+                        ctx,
+                        &mut enc,
+                        scene,
+                        table,
+                        &batch,
+                        subset,
+                        &la.subset.buffer,
+                        &mut timer,
+                    );
+                }
             }
             timer.resolve(&mut enc);
             ctx.queue.submit([enc.finish()]);
@@ -582,11 +625,51 @@ impl RecordPass {
             cache.count += n;
             if let Some(la) = lookahead.as_deref_mut() {
                 la.next.count += n;
+                la.subset.count += n;
             }
             done += n;
             on_batch(done);
         }
         Ok(times)
+    }
+
+    /// Records the reduction of a batch's planes (`table`'s resolution, in `samples`) into
+    /// `records` (`record_reduce.wgsl`).
+    #[allow(clippy::too_many_arguments)]
+    fn record_reduction(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        table: &PlaneTable,
+        batch: &ReductionBatch<'_>,
+        samples: &wgpu::Buffer,
+        records: &wgpu::Buffer,
+        timer: &mut crate::gpu::timer::PassTimer,
+    ) {
+        let params = ctx.uniform_buffer(
+            "reduce params",
+            &ReduceParams {
+                resolution: table.resolution,
+                count: batch.count,
+                first_record: batch.first_record,
+                gradients: u32::from(self.settings.gradients),
+                r_max_factor: self.settings.r_max_factor,
+                cos_weight_sum: table.cos_weight_sum,
+                _pad: [0; 2],
+            },
+        );
+        let bind = self.reduce.bind(
+            ctx,
+            &[&params, batch.sites, &table.pixels, samples, records],
+        );
+        self.reduce.record(
+            enc,
+            &scene.bind_group,
+            &bind,
+            [batch.count, 1, 1],
+            timer.next("record reduction"),
+        );
     }
 
     /// Traces the planes of `count` sites and returns their samples (tests, Table 4.1).
@@ -596,12 +679,12 @@ impl RecordPass {
         scene: &GpuScene,
         sites: &[RecordSite],
     ) -> Result<Vec<PlaneSample>> {
-        Ok(self.trace_planes_ahead(ctx, scene, None, sites)?.0)
+        Ok(self.trace_planes_ahead(ctx, scene, None, sites)?.now)
     }
 
     /// As [`RecordPass::trace_planes`], and with `ahead = (scene at t+1, reprojection)`
-    /// also the planes estimated at t+1 by reprojection (tests, Table 5.1); the second
-    /// vector is empty without `ahead`.
+    /// also the planes estimated at t+1 by reprojection and the samples at t they were
+    /// moved from (tests, Table 5.1); those are empty without `ahead`.
     pub fn trace_planes_ahead(
         &self,
         ctx: &GpuContext,
@@ -611,7 +694,7 @@ impl RecordPass {
             &crate::temporal::ReprojectionPass,
         )>,
         sites: &[RecordSite],
-    ) -> Result<(Vec<PlaneSample>, Vec<PlaneSample>)> {
+    ) -> Result<PlanesAhead> {
         let res = self.settings.plane_resolution;
         let n = sites.len() as u32;
         if n > self.batch {
@@ -636,7 +719,7 @@ impl RecordPass {
             ctx.storage_buffer_sized("plane hits", if ahead.is_some() { plane_bytes } else { 16 })?;
         let bind = self.plane.bind(
             ctx,
-            &[&params, &sites_buf, &self.plane_table, &samples, &hits],
+            &[&params, &sites_buf, &self.table.pixels, &samples, &hits],
         );
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.plane.record(
@@ -646,11 +729,12 @@ impl RecordPass {
             [res.div_ceil(8), res.div_ceil(8), n],
             None,
         );
-        let estimated = ctx.storage_buffer_sized("estimated plane samples", plane_bytes)?;
+        let mut estimated = None;
         if let Some((next, reprojection)) = ahead {
-            // The reprojection overwrites the plane it reads: give it a copy.
-            enc.copy_buffer_to_buffer(&samples, 0, &estimated, 0, plane_bytes);
-            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 2);
+            let cells = u64::from(n) * u64::from(reprojection.table.resolution.pow(2));
+            let estimate = ctx.storage_buffer_sized("estimated planes", cells * 16)?;
+            let subset = ctx.storage_buffer_sized("estimate subsets", cells * 16)?;
+            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 3);
             reprojection.record(
                 ctx,
                 &mut enc,
@@ -658,20 +742,25 @@ impl RecordPass {
                 &self.settings,
                 &sites_buf,
                 &hits,
-                &estimated,
+                &samples,
+                (&estimate, &subset),
                 n,
                 &mut timer,
             )?;
+            estimated = Some((estimate, subset, cells as usize));
         }
         ctx.queue.submit([enc.finish()]);
-        let mut ahead_out: Vec<PlaneSample> = if ahead.is_some() {
-            ctx.read_buffer(&estimated)?
-        } else {
-            Vec::new()
+        let mut out = PlanesAhead {
+            now: ctx.read_buffer(&samples)?,
+            ..Default::default()
         };
-        ahead_out.truncate((n * res * res) as usize);
-        let mut out: Vec<PlaneSample> = ctx.read_buffer(&samples)?;
-        out.truncate((n * res * res) as usize);
-        Ok((out, ahead_out))
+        out.now.truncate((n * res * res) as usize);
+        if let Some((estimate, subset, cells)) = estimated {
+            out.estimate = ctx.read_buffer(&estimate)?;
+            out.estimate.truncate(cells);
+            out.subset = ctx.read_buffer(&subset)?;
+            out.subset.truncate(cells);
+        }
+        Ok(out)
     }
 }

@@ -78,7 +78,8 @@ pub struct Estimate {
 
 /// [`Estimate`]s of records at `sites` of `at_t` (prepared and CPU scenes), with `next`
 /// the same scene one frame later. `anchored`: records move with the instance they lie
-/// on.
+/// on. `stride`: the estimate reprojects every stride-th plane sample each way, and
+/// E(t+1) is E(t) scaled by the change of that subset (as temporal caching does).
 pub fn estimates_at_sites(
     renderer: &Renderer,
     at_t: (&PreparedScene, &Scene),
@@ -86,24 +87,35 @@ pub fn estimates_at_sites(
     settings: &CacheSettings,
     sites: &[RecordSite],
     anchored: bool,
+    stride: u32,
 ) -> Result<Vec<Estimate>> {
     let ctx = &renderer.ctx;
     let pass = RecordPass::new(ctx, settings)?;
-    let reprojection = ReprojectionPass::new(ctx)?;
-    let plane = crate::records::HemispherePlane::new(
-        settings.plane_resolution,
-        settings.plane_fov_degrees,
-        settings.plane_mode,
+    let reprojection = ReprojectionPass::new(ctx, settings, stride)?;
+    let plane_of = |resolution: u32| {
+        crate::records::HemispherePlane::new(
+            resolution,
+            settings.plane_fov_degrees,
+            settings.plane_mode,
+        )
+    };
+    let (plane, estimate_plane) = (
+        plane_of(settings.plane_resolution),
+        plane_of(reprojection.table.resolution),
     );
-    let cells = (settings.plane_resolution * settings.plane_resolution) as usize;
+    let cells = plane.pixels.len();
+    let estimate_cells = estimate_plane.pixels.len();
     let reduce = |site: &RecordSite, samples: &[PlaneSample]| -> Record {
         reduce_plane(&plane, settings, site, samples)
+    };
+    let reduce_estimate = |site: &RecordSite, samples: &[PlaneSample]| -> Record {
+        reduce_plane(&estimate_plane, settings, site, samples)
     };
     let next_frame = NextFrame::new(ctx, &next.0.gpu, at_t.1, next.1, anchored)?;
     let motions = super::motion::instance_motions(at_t.1, next.1);
     let mut out = Vec::with_capacity(sites.len());
     for chunk in sites.chunks(pass.batch as usize) {
-        let (now, ahead) =
+        let planes =
             pass.trace_planes_ahead(ctx, &at_t.0.gpu, Some((&next_frame, &reprojection)), chunk)?;
         let truth_sites: Vec<RecordSite> = chunk
             .iter()
@@ -114,12 +126,23 @@ pub fn estimates_at_sites(
                 _ => *site,
             })
             .collect();
-        let (truth, _) = pass.trace_planes_ahead(ctx, &next.0.gpu, None, &truth_sites)?;
+        let truth = pass
+            .trace_planes_ahead(ctx, &next.0.gpu, None, &truth_sites)?
+            .now;
         for (i, site) in chunk.iter().enumerate() {
             let span = i * cells..(i + 1) * cells;
+            let estimated = i * estimate_cells..(i + 1) * estimate_cells;
+            let now = reduce(site, &planes.now[span.clone()]);
+            let ahead = reduce_estimate(site, &planes.estimate[estimated.clone()]);
+            let estimate = if stride > 1 {
+                let subset = reduce_estimate(site, &planes.subset[estimated]);
+                super::scaled_by_estimate(&now, &subset, &ahead)
+            } else {
+                ahead
+            };
             out.push(Estimate {
-                now: reduce(site, &now[span.clone()]).irradiance,
-                estimate: reduce(site, &ahead[span.clone()]).irradiance,
+                now: now.irradiance,
+                estimate: estimate.irradiance,
                 truth: reduce(&truth_sites[i], &truth[span]).irradiance,
             });
         }
@@ -132,7 +155,8 @@ pub fn estimates_at_sites(
 /// image), computes each record at t, its reprojected estimate at t+1 (`next`: the same
 /// scene one frame later) and the record recomputed at t+1, and summarises the errors.
 /// `anchored`: records move with the instance they lie on (the thesis keeps them in
-/// place), so the record recomputed at t+1 is traced from the moved site.
+/// place), so the record recomputed at t+1 is traced from the moved site. `stride`: as
+/// [`estimates_at_sites`].
 pub fn estimate_error_table(
     renderer: &Renderer,
     at_t: &Scene,
@@ -140,6 +164,7 @@ pub fn estimate_error_table(
     settings: &CacheSettings,
     count: usize,
     anchored: bool,
+    stride: u32,
 ) -> Result<EstimateErrorTable> {
     let ctx = &renderer.ctx;
     let prepared = renderer.prepare(at_t)?;
@@ -148,10 +173,10 @@ pub fn estimate_error_table(
     let (vis, _) = renderer.splat_cache(&prepared, &at_t.camera, &cache)?;
     let camera = GpuCamera::new(&at_t.camera);
     let visible: Vec<_> = vis.iter().filter(|v| v.is_hit()).collect();
-    let stride = (visible.len() / count.max(1)).max(1);
+    let spacing = (visible.len() / count.max(1)).max(1);
     let sites: Vec<_> = visible
         .iter()
-        .step_by(stride)
+        .step_by(spacing)
         .take(count)
         .enumerate()
         .map(|(i, v)| RecordReference::site_from_pixel(settings, &camera, v, i as u32))
@@ -170,6 +195,7 @@ pub fn estimate_error_table(
         settings,
         &sites,
         anchored,
+        stride,
     )?) {
         if let (Some(a), Some(b)) = (
             relative_error(e.estimate, e.truth),

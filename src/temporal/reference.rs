@@ -2,9 +2,11 @@
 //! `plane_fill.wgsl`): the plane traced at t on the CPU, every hit rebuilt and re-shaded
 //! in the scene at t+1, projected onto the record's plane with the same (depth bits,
 //! sample index) keys, and holes filled from the deepest neighbour (holes wider than
-//! that keep the sample traced at t).
+//! that keep the sample traced at t). With an estimate stride, only the subset of samples
+//! [`super::reprojection::subset_pixel`] picks is moved, onto a plane of P/stride cells.
 
 use super::motion::InstanceMotion;
+use super::reprojection::subset_pixel;
 use crate::direct::reference::{DirectReference, offset_ray_origin};
 use crate::records::reference::RecordReference;
 use crate::records::{PlaneMode, PlaneSample, RecordSite};
@@ -23,15 +25,22 @@ fn key(depth: f32, sample: u32) -> u32 {
 /// `next` (same meshes and instance order, moved instances and lights). With
 /// `anchored_motion` (the instances' motions from t to t+1), the record moves with its
 /// site's instance ([`super::RecordAnchor::Instance`]). Every hit is re-shaded: the GPU
-/// pass's reuse of the radiance traced at t must agree with this.
+/// pass's reuse of the radiance traced at t must agree with this. Returns the estimated
+/// plane and the samples at t it was moved from, `(P / stride)^2` each.
 pub fn reproject_plane(
     at_t: &RecordReference,
     next: &DirectReference,
     site: &RecordSite,
     anchored_motion: Option<&[InstanceMotion]>,
-) -> Vec<PlaneSample> {
+    stride: u32,
+) -> (Vec<PlaneSample>, Vec<PlaneSample>) {
     let plane = &at_t.plane;
-    let res = plane.resolution as usize;
+    let fine = plane.resolution as usize;
+    let res = fine / stride as usize;
+    let subset = |c: usize| -> usize {
+        let pick = |i: usize| subset_pixel(i as u32, stride, res as u32) as usize;
+        pick(c / res) * fine + pick(c % res)
+    };
     let half = (at_t.settings.plane_fov_degrees.to_radians() * 0.5).tan();
     let stretched = at_t.settings.plane_mode == PlaneMode::Stretched;
     let n = Vec3::from(site.normal);
@@ -49,8 +58,10 @@ pub fn reproject_plane(
         }
     };
     let mut cells = vec![u32::MAX; res * res];
-    let mut moved = vec![PlaneSample::default(); res * res];
-    for (k, px) in plane.pixels.iter().enumerate() {
+    let mut moved = vec![PlaneSample::default(); fine * fine];
+    for own in 0..res * res {
+        let k = subset(own);
+        let px = &plane.pixels[k];
         let dir = (frame * Vec3::new(px.center[0], px.center[1], 1.0)).normalize();
         let hit = if dir.dot(ng) > 0.0 {
             at_t.shading
@@ -60,7 +71,7 @@ pub fn reproject_plane(
             None
         };
         let Some(hit) = hit else {
-            cells[k] = cells[k].min(key(MISS_DEPTH, k as u32));
+            cells[own] = cells[own].min(key(MISS_DEPTH, k as u32));
             moved[k] = PlaneSample {
                 radiance: [0.0; 3],
                 depth: -1.0,
@@ -106,7 +117,7 @@ pub fn reproject_plane(
     }
     let sample_of = |key: u32| moved[(key & INDEX_MASK) as usize];
     let traced = at_t.trace_plane(site);
-    (0..res * res)
+    let estimate = (0..res * res)
         .map(|c| {
             if cells[c] != u32::MAX {
                 return sample_of(cells[c]);
@@ -130,7 +141,11 @@ pub fn reproject_plane(
                     }
                 }
             }
-            best.map_or(traced[c], sample_of)
+            best.map_or(traced[subset(c)], sample_of)
         })
-        .collect()
+        .collect();
+    (
+        estimate,
+        (0..res * res).map(|c| traced[subset(c)]).collect(),
+    )
 }

@@ -4,8 +4,16 @@
 //! it onto the record's plane with a depth test, keep the radiance traced at t where its
 //! lighting cannot have changed and list the other samples), `plane_reshade` (re-shade
 //! the listed samples with the lights at t+1, an indirect dispatch sized by the list) and
-//! `plane_fill` (take each cell's nearest sample, fill holes from the deepest neighbour). The resulting plane goes through the ordinary record reduction
+//! `plane_fill` (take each cell's nearest sample, fill holes from the deepest neighbour).
+//! The resulting plane goes through the ordinary record reduction
 //! ([`crate::records::RecordPass::compute`] with a [`crate::records::Lookahead`]).
+//!
+//! With an estimate stride s > 1 only every s-th sample each way is moved, onto a plane of
+//! P/s cells, and the samples at t it was moved from are reduced too: tau is the ratio of
+//! the two over the same subset, and the record at t+1 is the record scaled by it
+//! ([`super::scaled_by_estimate`]). With interpolated gradients tau is all the estimate is
+//! used for, and the subset costs 1/s^2 as much (thesis 5.2.4 puts the reprojection at 10 %
+//! of a record; the whole-plane estimate here cost about half of one).
 
 use super::motion::{instance_motions, lights_unchanged};
 use super::plane_refresh::SpanMotion;
@@ -14,7 +22,7 @@ use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
-use crate::records::{CacheSettings, PlaneMode};
+use crate::records::{CacheSettings, PlaneMode, PlaneTable};
 use crate::scene::Scene;
 use bytemuck::{Pod, Zeroable};
 
@@ -35,14 +43,41 @@ struct ReprojectParams {
     moving_count: u32,
     movers_lo: [f32; 4],
     movers_hi: [f32; 4],
+    estimate_resolution: u32,
+    stride: u32,
+    _pad: [u32; 2],
 }
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct FillParams {
-    resolution: u32,
+    estimate_resolution: u32,
     count: u32,
-    _pad: [u32; 2],
+    resolution: u32,
+    stride: u32,
+}
+
+/// The plane pixel (along one axis) that cell `i` of an estimate of `estimate_resolution`
+/// cells reprojects: of the `stride` pixels of its block, the one nearest the plane's
+/// centre, so the subset is symmetric about it (WGSL `subset_pixel`).
+pub fn subset_pixel(i: u32, stride: u32, estimate_resolution: u32) -> u32 {
+    i * stride
+        + if 2 * i + 1 < estimate_resolution {
+            stride - 1
+        } else {
+            0
+        }
+}
+
+/// Checks that an estimate stride divides the plane resolution into at least 4 cells.
+pub fn validate_estimate_stride(stride: u32, plane_resolution: u32) -> Result<()> {
+    if stride == 0 || !plane_resolution.is_multiple_of(stride) || plane_resolution / stride < 4 {
+        return Err(crate::Error::Usage(format!(
+            "the estimate stride ({stride}) must divide the plane resolution \
+             ({plane_resolution}) into at least 4 cells each way"
+        )));
+    }
+    Ok(())
 }
 
 /// Reuse of the radiance traced at t is tested against at most this many moving
@@ -93,12 +128,22 @@ pub struct ReprojectionPass {
     reproject: ComputePass,
     reshade: ComputePass,
     fill: ComputePass,
+    /// The estimate moves every `stride`-th plane sample each way (1: all of them).
+    pub stride: u32,
+    /// The table of the estimated plane (P / stride cells each way), for its reduction.
+    pub table: PlaneTable,
 }
 
 impl ReprojectionPass {
-    pub fn new(ctx: &GpuContext) -> Result<Self> {
+    /// The passes for planes of `settings`, estimated from every `stride`-th sample each
+    /// way: with interpolated gradients the estimate only gives tau, the ratio of E(t+1)
+    /// to E(t) over the same samples, so a subset costs a stride^2-th as much.
+    pub fn new(ctx: &GpuContext, settings: &CacheSettings, stride: u32) -> Result<Self> {
         use Binding::*;
+        validate_estimate_stride(stride, settings.plane_resolution)?;
         Ok(Self {
+            stride,
+            table: PlaneTable::new(ctx, settings.plane_resolution / stride, settings)?,
             reproject: ComputePass::new(
                 ctx,
                 "plane_reproject.wgsl",
@@ -130,14 +175,22 @@ impl ReprojectionPass {
             fill: ComputePass::new(
                 ctx,
                 "plane_fill.wgsl",
-                &[Uniform, StorageRead, StorageRead, StorageReadWrite],
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
             )?,
         })
     }
 
     /// Records the estimate at t+1 of `count` records' planes: reads their sites, plane
     /// hits and `plane` (`count * P^2` [`crate::records::PlaneSample`]s traced at t), and
-    /// writes the reprojected, hole-filled plane over `plane`.
+    /// writes the reprojected, hole-filled planes to `out.0` and the samples at t they
+    /// were moved from to `out.1` (`count * (P / stride)^2` samples each).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -148,6 +201,7 @@ impl ReprojectionPass {
         sites: &wgpu::Buffer,
         hits: &wgpu::Buffer,
         plane: &wgpu::Buffer,
+        out: (&wgpu::Buffer, &wgpu::Buffer),
         count: u32,
         timer: &mut PassTimer,
     ) -> Result<()> {
@@ -158,9 +212,17 @@ impl ReprojectionPass {
                  {MAX_REPROJECTION_RESOLUTION} pixels, not {res} x {res}"
             )));
         }
-        let cells_count = u64::from(count) * u64::from(res * res);
+        if res != self.table.resolution * self.stride {
+            return Err(crate::Error::Usage(format!(
+                "internal: reprojection built for planes of {} pixels, given {res}",
+                self.table.resolution * self.stride
+            )));
+        }
+        let cells_res = self.table.resolution;
+        let samples_count = u64::from(count) * u64::from(res * res);
+        let cells_count = u64::from(count) * u64::from(cells_res * cells_res);
         let cells = ctx.storage_buffer_sized("reprojected cells", cells_count * 4)?;
-        let moved = ctx.storage_buffer_sized("reprojected samples", cells_count * 16)?;
+        let moved = ctx.storage_buffer_sized("reprojected samples", samples_count * 16)?;
         // Cells hold complemented keys: 0 is empty (`plane_reproject.wgsl`).
         enc.clear_buffer(&cells, 0, None);
         // The samples to re-shade, and the size of the dispatch that re-shades them.
@@ -178,6 +240,9 @@ impl ReprojectionPass {
                 moving_count: next.movers.moving_count,
                 movers_lo: next.movers.union.0,
                 movers_hi: next.movers.union.1,
+                estimate_resolution: cells_res,
+                stride: self.stride,
+                _pad: [0; 2],
             },
         );
         let bind = self.reproject.bind(
@@ -195,7 +260,7 @@ impl ReprojectionPass {
                 &reshade_groups,
             ],
         );
-        let groups = [res.div_ceil(8), res.div_ceil(8), count];
+        let groups = [cells_res.div_ceil(8), cells_res.div_ceil(8), count];
         self.reproject.record(
             enc,
             &next.scene.bind_group,
@@ -224,12 +289,15 @@ impl ReprojectionPass {
         let params = ctx.uniform_buffer(
             "fill params",
             &FillParams {
-                resolution: res,
+                estimate_resolution: cells_res,
                 count,
-                _pad: [0; 2],
+                resolution: res,
+                stride: self.stride,
             },
         );
-        let bind = self.fill.bind(ctx, &[&params, &cells, &moved, plane]);
+        let bind = self
+            .fill
+            .bind(ctx, &[&params, &cells, &moved, plane, out.0, out.1]);
         self.fill.record(
             enc,
             &next.scene.bind_group,
@@ -238,5 +306,34 @@ impl ReprojectionPass {
             timer.next("temporal: hole filling"),
         );
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_estimate_subset_is_symmetric_about_the_plane_centre() {
+        for (resolution, stride) in [(32u32, 2u32), (30, 2), (32, 4), (16, 1), (12, 3)] {
+            let cells = resolution / stride;
+            let picked: Vec<u32> = (0..cells).map(|i| subset_pixel(i, stride, cells)).collect();
+            for (i, &p) in picked.iter().enumerate() {
+                // Inside its own block, and mirrored by the mirrored cell.
+                assert_eq!(p / stride, i as u32, "P {resolution}, stride {stride}");
+                let mirror = picked[cells as usize - 1 - i];
+                if cells % 2 == 0 || i as u32 != cells / 2 {
+                    assert_eq!(
+                        p + mirror,
+                        resolution - 1,
+                        "P {resolution}, stride {stride}"
+                    );
+                }
+            }
+        }
+        assert!(validate_estimate_stride(2, 32).is_ok());
+        assert!(validate_estimate_stride(3, 32).is_err());
+        assert!(validate_estimate_stride(0, 32).is_err());
+        assert!(validate_estimate_stride(4, 12).is_err());
     }
 }

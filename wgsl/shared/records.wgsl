@@ -53,6 +53,14 @@ fn reprojection_sample(key: u32) -> u32 {
     return key & REPROJECTION_INDEX_MASK;
 }
 
+// The E(t+1) estimate may use every `stride`-th plane sample each way (a plane of P/stride
+// cells, `estimate_resolution`): cell i of that plane takes the plane pixel of the
+// stride x stride block i nearest the plane's centre, so the subset is symmetric about it.
+// stride 1: pixel i. Mirrored by `temporal::reprojection::subset_pixel`.
+fn subset_pixel(i: u32, stride: u32, estimate_resolution: u32) -> u32 {
+    return i * stride + select(0u, stride - 1u, 2u * i + 1u < estimate_resolution);
+}
+
 // Ward's weight denominator |p - p_k| / R_k + sqrt(1 - n.n_k) (thesis eq. 4.2): the record
 // contributes iff it is <= a (w >= 1/a, eq. 4.3) and p is not behind p_k.
 fn record_error(r: Record, p: vec3f, n: vec3f) -> f32 {

@@ -16,6 +16,10 @@ struct ReprojectParams {
     moving_count: u32,
     movers_lo: vec4f,    // world box around every mover's box (MovingBounds::union)
     movers_hi: vec4f,
+    estimate_resolution: u32,  // P / stride: cells of the estimated plane
+    stride: u32,               // the estimate reprojects every stride-th sample each way
+    _pad0: u32,
+    _pad1: u32,
 }
 
 // How an instance moves from t to t+1 (Rust: temporal::motion::InstanceMotion).
