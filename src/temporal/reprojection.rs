@@ -12,7 +12,7 @@
 //! P/s cells, and the samples at t it was moved from are reduced too: tau is the ratio of
 //! the two over the same subset, and the record at t+1 is the record scaled by it
 //! ([`super::scaled_by_estimate`]). With interpolated gradients tau is all the estimate is
-//! used for, and the subset costs 1/s^2 as much (thesis 5.2.4 puts the reprojection at 10 %
+//! used for, and the subset costs 1/s^2 as much (seed 000 section V-g puts the reprojection at 10 %
 //! of a record; the whole-plane estimate here cost about half of one).
 
 use super::motion::{instance_motions, lights_unchanged};
