@@ -1229,8 +1229,14 @@ fn temporal_error(
     next.set_frame((frame + 1) as f32);
     let renderer = Renderer::new(GpuContext::new()?)?;
     let anchored = record_anchor == "instance";
+    // The scene's a_t and dt_max, as `animate` would use them.
+    let mut temporal = TemporalSettings::default();
+    if let Some(anim) = scene.animation.as_ref() {
+        temporal.accuracy = anim.temporal_accuracy.unwrap_or(temporal.accuracy);
+        temporal.max_lifespan = anim.max_lifespan.unwrap_or(temporal.max_lifespan);
+    }
     let table = estimate_error_table(
-        &renderer, &scene, &next, settings, records, anchored, stride,
+        &renderer, &scene, &next, settings, records, anchored, stride, &temporal,
     )?;
     println!(
         "{}: {} records placed at frame {frame}, E(t+1) estimate vs recomputed (RGB RMS relative error)",
@@ -1255,6 +1261,12 @@ fn temporal_error(
             100.0 * s.median
         );
     }
+    let l = &table.lifespans;
+    println!(
+        "lifespans (a_t {}, dt_max {}): mean {:.2} frames from the estimated tau, {:.2} from \
+         the true tau; records living 1, 2, ... frames: {:?} estimated, {:?} true",
+        l.accuracy, l.max_lifespan, l.estimated_mean, l.true_mean, l.estimated, l.truth
+    );
     if let Some(path) = json {
         let text =
             serde_json::to_string_pretty(&table).map_err(|e| Error::Usage(format!("JSON: {e}")))?;

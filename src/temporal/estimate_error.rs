@@ -54,6 +54,55 @@ pub struct EstimateErrorTable {
     pub on_movers: usize,
     pub on_movers_reprojection: ErrorSummary,
     pub on_movers_no_reprojection: ErrorSummary,
+    /// The lifespans (frames, decision 9 with the scene's a_t and dt_max) these records
+    /// get from tau estimated by reprojection, and from the true tau (the record really
+    /// recomputed at t+1): what a perfect estimate would allow.
+    pub lifespans: LifespanComparison,
+}
+
+/// Lifespans of the same records from the estimated and from the true tau.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct LifespanComparison {
+    pub accuracy: f32,
+    pub max_lifespan: u32,
+    /// Mean lifespan in frames, and entry i: records living i + 1 frames.
+    pub estimated_mean: f64,
+    pub estimated: Vec<u32>,
+    pub true_mean: f64,
+    pub truth: Vec<u32>,
+}
+
+impl LifespanComparison {
+    /// Lifespans of records with irradiance `now` whose E(t+1) is `estimate` and truly
+    /// `truth`, under `settings`' lifespan rule.
+    fn of(estimates: &[Estimate], settings: &super::TemporalSettings) -> Self {
+        let bins = settings.max_lifespan.max(1) as usize;
+        let lifespans = |next: fn(&Estimate) -> [f32; 3]| -> (f64, Vec<u32>) {
+            let mut histogram = vec![0u32; bins];
+            let mut sum = 0u64;
+            for e in estimates {
+                let record = |irradiance| Record {
+                    irradiance,
+                    ..Record::default()
+                };
+                let tau = super::temporal_ratio(&record(e.now), &record(next(e)));
+                let frames = super::last_frame(0, tau, settings, true) + 1;
+                histogram[(frames as usize - 1).min(bins - 1)] += 1;
+                sum += u64::from(frames);
+            }
+            (sum as f64 / estimates.len().max(1) as f64, histogram)
+        };
+        let (estimated_mean, estimated) = lifespans(|e| e.estimate);
+        let (true_mean, truth) = lifespans(|e| e.truth);
+        Self {
+            accuracy: settings.accuracy,
+            max_lifespan: settings.max_lifespan,
+            estimated_mean,
+            estimated,
+            true_mean,
+            truth,
+        }
+    }
 }
 
 /// RGB RMS relative error of `estimate` against `truth`.
@@ -156,7 +205,8 @@ pub fn estimates_at_sites(
 /// scene one frame later) and the record recomputed at t+1, and summarises the errors.
 /// `anchored`: records move with the instance they lie on (the thesis keeps them in
 /// place), so the record recomputed at t+1 is traced from the moved site. `stride`: as
-/// [`estimates_at_sites`].
+/// [`estimates_at_sites`]. `temporal`: a_t and dt_max for the lifespans.
+#[allow(clippy::too_many_arguments)]
 pub fn estimate_error_table(
     renderer: &Renderer,
     at_t: &Scene,
@@ -165,6 +215,7 @@ pub fn estimate_error_table(
     count: usize,
     anchored: bool,
     stride: u32,
+    temporal: &super::TemporalSettings,
 ) -> Result<EstimateErrorTable> {
     let ctx = &renderer.ctx;
     let prepared = renderer.prepare(at_t)?;
@@ -188,6 +239,7 @@ pub fn estimate_error_table(
             .is_some_and(|m| m.moves != 0)
     };
     let (mut with, mut without, mut movers) = (Vec::new(), Vec::new(), Vec::new());
+    let mut compared = Vec::new();
     for (site, e) in sites.iter().zip(estimates_at_sites(
         renderer,
         (&prepared, at_t),
@@ -204,6 +256,7 @@ pub fn estimate_error_table(
             with.push(a);
             without.push(b);
             movers.push(moving(site));
+            compared.push(e);
         }
     }
     ctx.check()?;
@@ -222,5 +275,30 @@ pub fn estimate_error_table(
         on_movers: movers.iter().filter(|m| **m).count(),
         on_movers_reprojection: ErrorSummary::of(&of_movers(&with)),
         on_movers_no_reprojection: ErrorSummary::of(&of_movers(&without)),
+        lifespans: LifespanComparison::of(&compared, temporal),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lifespans_follow_the_rule_for_estimated_and_true_tau() {
+        let e = |now: f32, estimate: f32, truth: f32| Estimate {
+            now: [now; 3],
+            estimate: [estimate; 3],
+            truth: [truth; 3],
+        };
+        // a_t 0.05, dt_max 5: |tau - 1| 0 -> 5 frames, 0.02 -> 3, 0.1 -> 1 (capped bins).
+        let settings = crate::temporal::TemporalSettings {
+            accuracy: 0.05,
+            max_lifespan: 5,
+            ..Default::default()
+        };
+        let l = LifespanComparison::of(&[e(1.0, 1.0, 1.02), e(1.0, 1.1, 1.0)], &settings);
+        assert_eq!(l.estimated, vec![1, 0, 0, 0, 1]);
+        assert_eq!(l.truth, vec![0, 0, 1, 0, 1]);
+        assert_eq!((l.estimated_mean, l.true_mean), (3.0, 4.0));
+    }
 }
