@@ -82,8 +82,9 @@ impl Default for TemporalSettings {
 impl TemporalSettings {
     /// The estimate stride for planes of `plane_resolution` pixels: the one set, else 2
     /// with interpolated gradients where it divides the plane into at least 4 cells each
-    /// way, else 1. With 2, spheres (60 frames) ran 1.15x faster, moving light 1.24x and
-    /// cube in a box 1.07x, with the same RMSE and flicker to 0.03 % (docs/results.md).
+    /// way, else 1. With 2, spheres (20 frames) ran 1.15x faster, moving light 1.25x and
+    /// cube in a box 1.11x (60 frames), with RMSE and flicker within 0.03 percentage points
+    /// (docs/results.md).
     pub fn estimate_stride_for(&self, plane_resolution: u32) -> u32 {
         match self.estimate_stride {
             Some(stride) => stride,
@@ -214,7 +215,7 @@ fn luminance(e: [f32; 3]) -> f32 {
     0.2126 * e[0] + 0.7152 * e[1] + 0.0722 * e[2]
 }
 
-/// tau = Y(E(t+1)) / Y(E(t)) of a record and its estimate at t+1 (seed 000 eq. 9):
+/// tau = Y(E(t+1)) / Y(E(t)) of a record and its estimate at t+1 (seed 000 eqs. 6-8):
 /// infinite for a record born in the dark that lights up, 1 when both are dark.
 pub fn temporal_ratio(record: &Record, next: &Record) -> f32 {
     let (e0, e1) = (luminance(record.irradiance), luminance(next.irradiance));
