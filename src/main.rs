@@ -1083,16 +1083,11 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
     args.cache.validate()?;
     let scene = load_scene_with(args.scene_path, None, args.size, args.light_samples)?;
     if let Some(t) = args.temporal.as_mut() {
-        let anim = scene.animation.as_ref();
-        if let Some(a) = args
-            .temporal_accuracy
-            .or(anim.and_then(|a| a.temporal_accuracy))
-        {
-            t.accuracy = a;
-        }
-        if let Some(d) = args.max_lifespan.or(anim.and_then(|a| a.max_lifespan)) {
-            t.max_lifespan = d;
-        }
+        t.apply_scene(
+            scene.animation.as_ref(),
+            args.temporal_accuracy,
+            args.max_lifespan,
+        );
         // The stride chosen, so that --stats records it.
         t.estimate_stride = Some(t.estimate_stride_for(args.cache.plane_resolution));
         t.validate()?;
@@ -1231,10 +1226,7 @@ fn temporal_error(
     let anchored = record_anchor == "instance";
     // The scene's a_t and dt_max, as `animate` would use them.
     let mut temporal = TemporalSettings::default();
-    if let Some(anim) = scene.animation.as_ref() {
-        temporal.accuracy = anim.temporal_accuracy.unwrap_or(temporal.accuracy);
-        temporal.max_lifespan = anim.max_lifespan.unwrap_or(temporal.max_lifespan);
-    }
+    temporal.apply_scene(scene.animation.as_ref(), None, None);
     let table = estimate_error_table(
         &renderer, &scene, &next, settings, records, anchored, stride, &temporal,
     )?;

@@ -81,11 +81,7 @@ impl LifespanComparison {
             let mut histogram = vec![0u32; bins];
             let mut sum = 0u64;
             for e in estimates {
-                let record = |irradiance| Record {
-                    irradiance,
-                    ..Record::default()
-                };
-                let tau = super::temporal_ratio(&record(e.now), &record(next(e)));
+                let tau = super::temporal_ratio(e.now, next(e));
                 let frames = super::last_frame(0, tau, settings, true) + 1;
                 histogram[(frames as usize - 1).min(bins - 1)] += 1;
                 sum += u64::from(frames);

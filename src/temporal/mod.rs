@@ -80,6 +80,22 @@ impl Default for TemporalSettings {
 }
 
 impl TemporalSettings {
+    /// Takes a_t and dt_max from, in order: `accuracy` / `max_lifespan` when given (the
+    /// command line), else the scene's `[animation]` values, else keeps its own.
+    pub fn apply_scene(
+        &mut self,
+        animation: Option<&crate::scene::Animation>,
+        accuracy: Option<f32>,
+        max_lifespan: Option<u32>,
+    ) {
+        if let Some(a) = accuracy.or(animation.and_then(|a| a.temporal_accuracy)) {
+            self.accuracy = a;
+        }
+        if let Some(d) = max_lifespan.or(animation.and_then(|a| a.max_lifespan)) {
+            self.max_lifespan = d;
+        }
+    }
+
     /// The estimate stride for planes of `plane_resolution` pixels: the one set, else 2
     /// with interpolated gradients where it divides the plane into at least 4 cells each
     /// way, else 1. With 2, spheres (20 frames) ran 1.15x faster, moving light 1.25x and
@@ -215,10 +231,11 @@ fn luminance(e: [f32; 3]) -> f32 {
     0.2126 * e[0] + 0.7152 * e[1] + 0.0722 * e[2]
 }
 
-/// tau = Y(E(t+1)) / Y(E(t)) of a record and its estimate at t+1 (seed 000 eqs. 6-8):
-/// infinite for a record born in the dark that lights up, 1 when both are dark.
-pub fn temporal_ratio(record: &Record, next: &Record) -> f32 {
-    let (e0, e1) = (luminance(record.irradiance), luminance(next.irradiance));
+/// tau = Y(E(t+1)) / Y(E(t)) of a record's irradiance `now` and its estimate at t+1
+/// (seed 000 eqs. 6-8): infinite for a record born in the dark that lights up, 1 when
+/// both are dark.
+pub fn temporal_ratio(now: [f32; 3], next: [f32; 3]) -> f32 {
+    let (e0, e1) = (luminance(now), luminance(next));
     if e0 > 0.0 {
         e1 / e0
     } else if e1 > 0.0 {
@@ -658,7 +675,7 @@ impl TemporalCache {
         }
         let mut alive = kept;
         for ((&record, &next), site) in records.iter().zip(&nexts).zip(sites_at) {
-            let tau = temporal_ratio(&record, &next);
+            let tau = temporal_ratio(record.irradiance, next.irradiance);
             let anchor = match self.settings.anchor {
                 RecordAnchor::World => None,
                 RecordAnchor::Instance => {
@@ -858,7 +875,7 @@ mod tests {
             &record([0.3, 0.2, 0.1], 9.0),
         );
         assert_eq!(same, r);
-        assert_eq!(temporal_ratio(&r, &same), 1.0);
+        assert_eq!(temporal_ratio(r.irradiance, same.irradiance), 1.0);
         // Red doubles, green halves; blue's subset is dark: it takes the estimate.
         let next = scaled_by_estimate(
             &r,
@@ -869,7 +886,7 @@ mod tests {
         assert_eq!(next.rotation_gradient[0], [1.0, 1.0, 1.0, 0.0]);
         assert_eq!(next.translation_gradient[1], [-0.25, -0.25, -0.25, 0.0]);
         assert_eq!(next.rotation_gradient[2], [0.5, 0.5, 0.5, 0.0]);
-        let tau = temporal_ratio(&r, &next);
+        let tau = temporal_ratio(r.irradiance, next.irradiance);
         let expected = luminance([2.0, 1.0, 0.25]) / luminance([1.0, 2.0, 4.0]);
         assert!((tau - expected).abs() < 1e-6, "{tau} vs {expected}");
     }
