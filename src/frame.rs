@@ -43,6 +43,9 @@ pub struct CachedFrameOptions<'a, 'b> {
     /// Only place records: no direct light, no resolve; the returned frame has stats and
     /// no images (the first pass of interpolated temporal gradients).
     pub placement_only: bool,
+    /// The frame's visibility buffer when already traced (temporal replacement decides
+    /// with it); None: traced here.
+    pub visibility: Option<VisibilityBuffer>,
 }
 
 /// Statistics of one frame.
@@ -182,6 +185,18 @@ impl Renderer {
         Ok(vis)
     }
 
+    /// [`Renderer::visibility`] with its GPU time added to `times`.
+    pub fn visibility_timed(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<VisibilityBuffer> {
+        Ok(self
+            .visibility_and_direct(scene, camera, None, false, times)?
+            .0)
+    }
+
     /// The visibility buffer of `camera` and the splat sums `(sum w E', sum w)` of every
     /// record in `cache` (no placement, no resolve): for tests and tools.
     pub fn splat_cache(
@@ -223,7 +238,7 @@ impl Renderer {
         max_new_records: Option<u32>,
         progress: impl FnMut(u32),
     ) -> Result<Frame> {
-        let (frame, _, _) = self.render_cached_frame(
+        let (frame, _) = self.render_cached_frame(
             scene,
             camera,
             &mut cache.records,
@@ -240,8 +255,7 @@ impl Renderer {
     /// The frame of [`Renderer::render_gi_frame`] over `records` (computed by `pass`),
     /// with the temporal options: new records also estimated at t+1 (`lookahead`), and
     /// per-record coverage counted (returned, one count per record of `records`; empty
-    /// when not counted). Also returns the frame's visibility buffer (for
-    /// [`Renderer::needed_coverage`]).
+    /// when not counted).
     pub fn render_cached_frame(
         &self,
         scene: &PreparedScene,
@@ -250,12 +264,13 @@ impl Renderer {
         pass: &RecordPass,
         options: CachedFrameOptions<'_, '_>,
         progress: impl FnMut(u32),
-    ) -> Result<(Frame, Vec<u32>, VisibilityBuffer)> {
+    ) -> Result<(Frame, Vec<u32>)> {
         let CachedFrameOptions {
             max_new_records,
             lookahead,
             count_coverage,
             placement_only,
+            visibility,
         } = options;
         let ctx = &self.ctx;
         // Shadow rays of each plane hit (its re-shading and plane refresh cast the same).
@@ -271,7 +286,7 @@ impl Renderer {
 
         // Visibility buffer and direct light (placement needs only the visibility).
         let (vis, direct) =
-            self.visibility_and_direct(scene, camera, !placement_only, &mut times)?;
+            self.visibility_and_direct(scene, camera, visibility, !placement_only, &mut times)?;
 
         // Splat the records the cache already holds, then place new ones.
         let reused_records = records.count;
@@ -333,7 +348,7 @@ impl Renderer {
                 visibility: Vec::new(),
                 stats: stats(&times, 0),
             };
-            return Ok((frame, coverage, vis));
+            return Ok((frame, coverage));
         };
 
         // Resolve: direct + albedo / pi * interpolated irradiance.
@@ -385,23 +400,27 @@ impl Renderer {
             visibility,
             stats: stats(&times, uncovered_pixels),
         };
-        Ok((frame, coverage, vis))
+        Ok((frame, coverage))
     }
 
-    /// Per record of `records`, the pixels of `vis` it contributes to where no record
-    /// outlives the frame (`expiring`: one flag per record, true where it expires after
-    /// this frame; 0 for the others). See [`SplatBuffer::with_needed_coverage`].
-    pub fn needed_coverage(
+    /// Per record of `records`, the pixels of `vis` it contributes to; with `expiring`
+    /// (one flag per record, true where it expires), only those no unflagged record
+    /// contributes to, and 0 for unflagged records (see
+    /// [`SplatBuffer::with_needed_coverage`]).
+    pub fn record_coverage(
         &self,
         scene: &PreparedScene,
         vis: &VisibilityBuffer,
         records: &RecordCache,
-        expiring: &[bool],
+        expiring: Option<&[bool]>,
         accuracy: f32,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<Vec<u32>> {
         let ctx = &self.ctx;
-        let out = SplatBuffer::with_needed_coverage(ctx, vis.width, vis.height, expiring)?;
+        let out = match expiring {
+            Some(flags) => SplatBuffer::with_needed_coverage(ctx, vis.width, vis.height, flags)?,
+            None => SplatBuffer::with_coverage(ctx, vis.width, vis.height, records.count)?,
+        };
         self.splat.splat(
             ctx, &scene.gpu, vis, records, 0, accuracy, &out, false, times,
         )?;
@@ -466,19 +485,23 @@ impl Renderer {
         &self,
         scene: &PreparedScene,
         camera: &Camera,
+        traced: Option<VisibilityBuffer>,
         with_direct: bool,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<(VisibilityBuffer, Option<DirectOutput>)> {
         let ctx = &self.ctx;
         let mut timer = PassTimer::new(ctx, 2);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        let vis = self.visibility.record(
-            ctx,
-            &mut encoder,
-            &scene.gpu,
-            camera,
-            timer.next("visibility"),
-        )?;
+        let vis = match traced {
+            Some(vis) => vis,
+            None => self.visibility.record(
+                ctx,
+                &mut encoder,
+                &scene.gpu,
+                camera,
+                timer.next("visibility"),
+            )?,
+        };
         let direct = if with_direct {
             Some(
                 self.direct
@@ -499,7 +522,7 @@ impl Renderer {
         let ctx = &self.ctx;
         let t0 = Instant::now();
         let mut times = Vec::new();
-        let (vis, direct) = self.visibility_and_direct(scene, camera, true, &mut times)?;
+        let (vis, direct) = self.visibility_and_direct(scene, camera, None, true, &mut times)?;
         let direct = direct.ok_or_else(|| Error::Gpu("internal: no direct light".into()))?;
         // One submission and one wait for all three images.
         let mut images = ctx

@@ -149,10 +149,11 @@ enum Command {
         /// Most MiB of retained planes for plane refresh; records beyond are traced.
         #[arg(long, default_value_t = TemporalSettings::default().plane_budget_bytes >> 20)]
         plane_budget_mib: u64,
-        /// Which expired records are recomputed at the same place: `covering` (the seed:
-        /// any that covered a pixel in its last frame) or `needed` (only those that covered
-        /// a pixel no longer-lived record covers).
-        #[arg(long, default_value = "covering", value_parser = ["covering", "needed"])]
+        /// Which expired records are recomputed at the same place: `visible` (those that
+        /// cover a pixel of the frame, where they would be now), `covering` (the seed: those
+        /// that covered a pixel in their last frame) or `needed` (those that cover a pixel
+        /// of the frame no kept record covers).
+        #[arg(long, default_value = "visible", value_parser = ["visible", "covering", "needed"])]
         replace: String,
         /// The E(t+1) estimate reprojects every N-th plane sample each way (1: all). With
         /// interpolated gradients it only gives tau, so 2 costs a quarter as much.
@@ -444,10 +445,10 @@ fn main() -> ExitCode {
                 },
                 plane_refresh: plane_refresh == "on",
                 plane_budget_bytes: plane_budget_mib.saturating_mul(1 << 20),
-                replacement: if replace == "needed" {
-                    Replacement::Needed
-                } else {
-                    Replacement::Covering
+                replacement: match replace.as_str() {
+                    "needed" => Replacement::Needed,
+                    "covering" => Replacement::Covering,
+                    _ => Replacement::Visible,
                 },
                 estimate_stride,
                 ..TemporalSettings::default()

@@ -8,7 +8,7 @@ use radsplat::output::{exr_out, sha256_hex};
 use radsplat::placement::sequential::sequential_placement;
 use radsplat::records::{CacheSettings, Record};
 use radsplat::scene::Scene;
-use radsplat::splat::reference::{needed_coverage, splat_records};
+use radsplat::splat::reference::{record_coverage, splat_records};
 use radsplat::visibility::GpuCamera;
 use radsplat::{Frame, IrradianceCache, Renderer};
 
@@ -76,41 +76,49 @@ fn gpu_splat_matches_cpu_splat() {
     assert!(covered > visible / 2);
 }
 
-/// Temporal caching replaces an expired record only where a pixel needs it
-/// (`Replacement::Needed`): the GPU count of pixels that only expiring records cover,
-/// per expiring record, against the CPU's.
+/// Coverage counts that decide temporal replacement: per record, the pixels it covers
+/// (`Replacement::Visible`), and per expiring record the pixels only expiring records
+/// cover (`Replacement::Needed`), on the GPU against the CPU.
 #[test]
-fn gpu_needed_coverage_matches_cpu() {
+fn gpu_record_coverage_matches_cpu() {
     let (renderer, scene, cache, records) = cornell_cache();
     let expiring: Vec<bool> = (0..records.len()).map(|k| k % 4 == 0).collect();
     let prepared = renderer.prepare(&scene).expect("prepare");
     let vis = renderer
         .visibility(&prepared, &scene.camera)
         .expect("visibility");
+    let samples = vis.read(&renderer.ctx).expect("read");
     let accuracy = cache.settings().accuracy;
-    let gpu = renderer
-        .needed_coverage(
-            &prepared,
-            &vis,
-            &cache.records,
-            &expiring,
-            accuracy,
-            &mut Vec::new(),
-        )
-        .expect("needed coverage");
-    let cpu = needed_coverage(
-        &records,
-        &expiring,
-        &vis.read(&renderer.ctx).expect("read"),
-        accuracy,
-    );
-    assert_eq!(gpu, cpu);
-    let needed = cpu.iter().filter(|&&n| n > 0).count();
+    let count = |flags: Option<&[bool]>| {
+        let gpu = renderer
+            .record_coverage(
+                &prepared,
+                &vis,
+                &cache.records,
+                flags,
+                accuracy,
+                &mut Vec::new(),
+            )
+            .expect("record coverage");
+        let cpu = record_coverage(&records, flags, &samples, accuracy);
+        assert_eq!(gpu, cpu);
+        cpu
+    };
+    let all = count(None);
+    // Placement made every record cover the pixel it was placed at, at least.
+    assert!(all.iter().all(|&n| n > 0), "a record covers nothing");
+    let needed = count(Some(&expiring));
+    let needed_records = needed.iter().filter(|&&n| n > 0).count();
     let expired = expiring.iter().filter(|&&e| e).count();
-    eprintln!("{needed} of {expired} expiring records needed");
+    eprintln!("{needed_records} of {expired} expiring records needed");
     // Some are needed and some are not: the count tells them apart.
-    assert!(needed > 0 && needed < expired, "{needed} of {expired}");
-    assert!(cpu.iter().zip(&expiring).all(|(&n, &e)| e || n == 0));
+    assert!(
+        needed_records > 0 && needed_records < expired,
+        "{needed_records} of {expired}"
+    );
+    for ((&n, &a), &e) in needed.iter().zip(&all).zip(&expiring) {
+        assert!(if e { n <= a } else { n == 0 });
+    }
 }
 
 /// Runs GPU placement and the sequential scan on one view; returns (GPU, sequential) counts.

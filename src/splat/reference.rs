@@ -34,11 +34,12 @@ pub fn splat_records(
     }
 }
 
-/// Per record, the pixels it contributes to where no record that `expiring` leaves
-/// unmarked does (`count_coverage` 2 in `splat_gather.wgsl`; 0 for unmarked records).
-pub fn needed_coverage(
+/// Per record, the pixels it contributes to (`count_coverage` 1 in `splat_gather.wgsl`);
+/// with `expiring`, only those where no record it leaves unmarked does, and 0 for unmarked
+/// records (`count_coverage` 2).
+pub fn record_coverage(
     records: &[Record],
-    expiring: &[bool],
+    expiring: Option<&[bool]>,
     vis: &[VisSample],
     accuracy: f32,
 ) -> Vec<u32> {
@@ -51,10 +52,13 @@ pub fn needed_coverage(
         contributors.extend(records.iter().enumerate().filter_map(|(k, r)| {
             (r.error_at(p, n) <= accuracy && r.in_front_of(p, n, accuracy)).then_some(k)
         }));
-        if contributors
-            .iter()
-            .all(|&k| expiring.get(k).copied().unwrap_or(false))
-        {
+        let counted = match expiring {
+            Some(flags) => contributors
+                .iter()
+                .all(|&k| flags.get(k).copied().unwrap_or(false)),
+            None => true,
+        };
+        if counted {
             for &k in &contributors {
                 counts[k] += 1;
             }

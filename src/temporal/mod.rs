@@ -57,7 +57,14 @@ pub enum Replacement {
     /// Those that contributed to any pixel in their last frame (seed 000 section V-c, with
     /// coverage counts instead of occlusion queries).
     Covering,
-    /// Those that contributed, in their last frame, to a pixel no record outliving that
+    /// Those that contribute to a pixel of the frame their replacement would serve: the
+    /// expired record, where it would be now, splatted over this frame's visibility
+    /// buffer. The seed asks the record's last frame because its occlusion queries came
+    /// back a frame late; the visibility buffer of this frame is at hand before any record
+    /// is computed. On spheres a quarter of the records the seed's rule replaced covered
+    /// nothing in their first frame (docs/results.md).
+    Visible,
+    /// Those that contribute to a pixel of this frame that no record kept from the last
     /// frame contributes to. Records that only overlap longer-lived ones go, so the cache
     /// does not grow denser than placement would make it.
     Needed,
@@ -73,7 +80,7 @@ impl Default for TemporalSettings {
             anchor: RecordAnchor::World,
             plane_refresh: true,
             plane_budget_bytes: 512 << 20,
-            replacement: Replacement::Covering,
+            replacement: Replacement::Visible,
             estimate_stride: None,
         }
     }
@@ -297,10 +304,11 @@ pub struct TemporalFrameStats {
     pub kept: u32,
     /// Expired records recomputed at the same place.
     pub replaced: u32,
-    /// Expired records dropped: they covered no pixel in their last frame, or (with
-    /// [`Replacement::Needed`]) none that a longer-lived record did not cover.
+    /// Expired records dropped: they cover no pixel (in their last frame with
+    /// [`Replacement::Covering`], in this one otherwise), or with [`Replacement::Needed`]
+    /// none that a kept record does not cover.
     pub deleted: u32,
-    /// Of `deleted`, those that covered pixels (all covered by longer-lived records).
+    /// Of `deleted`, those that cover pixels (all covered by kept records).
     pub redundant: u32,
     /// Records created by placement in this frame.
     pub new: u32,
@@ -348,11 +356,8 @@ pub struct TemporalCache {
     /// Per frame rendered (from the first): the records used (the second pass of
     /// interpolated gradients renders exactly these).
     frames: Vec<FrameRecords>,
-    /// Pixels each of `alive` covered in the last frame.
+    /// Pixels each of `alive` covered in the last frame (for [`Replacement::Covering`]).
     coverage: Vec<u32>,
-    /// With [`Replacement::Needed`], pixels each of `alive` covered in the last frame where
-    /// no record outliving that frame did.
-    needed: Vec<u32>,
     /// The frame's records on the GPU and their estimates at t+1 (same indices), and with
     /// an estimate stride the records of the samples the estimates were moved from.
     frame_records: RecordCache,
@@ -385,7 +390,6 @@ impl TemporalCache {
             alive: Vec::new(),
             frames: Vec::new(),
             coverage: Vec::new(),
-            needed: Vec::new(),
             frame_records: RecordCache::new(ctx)?,
             next_records: RecordCache::new(ctx)?,
             subset_records: RecordCache::new(ctx)?,
@@ -436,34 +440,82 @@ impl TemporalCache {
             frame: t,
             ..Default::default()
         };
-        // Expiry: keep what is still valid, replace expired records that covered pixels
-        // in their last frame, delete the others (seed 000 section V-c).
-        let mut kept = Vec::new();
+        // Expiry: keep what is still valid; replace expired records that cover pixels, in
+        // their last frame (the seed, section V-c) or in this one; delete the others.
+        let (kept, expired): (Vec<u32>, Vec<u32>) = self
+            .alive
+            .iter()
+            .partition(|&&id| t <= self.history[id as usize].last_frame);
+        let kept_records: Vec<Record> = kept
+            .iter()
+            .map(|&id| self.world_record(self.history[id as usize].at(t), id, &transforms))
+            .collect();
+        let mut times = Vec::new();
+        let mut visibility = None;
+        // Per expired record (in `expired` order): the pixels it covers that decide its
+        // replacement, and the pixels it covers at all.
+        let (deciding, covering): (Vec<u32>, Vec<u32>) = match self.settings.replacement {
+            Replacement::Covering => {
+                let last: Vec<u32> = self
+                    .alive
+                    .iter()
+                    .enumerate()
+                    .filter(|&(_, &id)| t > self.history[id as usize].last_frame)
+                    .map(|(i, _)| self.coverage.get(i).copied().unwrap_or(0))
+                    .collect();
+                (last.clone(), last)
+            }
+            _ if expired.is_empty() => (Vec::new(), Vec::new()),
+            mode => {
+                // The kept records and the expired ones where they would be now, splatted
+                // over this frame's visibility buffer (which the frame then reuses).
+                let vis = renderer.visibility_timed(scenes.now, camera, &mut times)?;
+                let mut candidates = kept_records.clone();
+                candidates.extend(expired.iter().map(|&id| {
+                    self.world_record(self.history[id as usize].at(t), id, &transforms)
+                }));
+                self.frame_records.upload(ctx, &candidates)?;
+                let accuracy = self.pass.settings.accuracy;
+                let all = renderer.record_coverage(
+                    scenes.now,
+                    &vis,
+                    &self.frame_records,
+                    None,
+                    accuracy,
+                    &mut times,
+                )?;
+                let covering = all[kept.len()..].to_vec();
+                let deciding = if mode == Replacement::Needed {
+                    let flags: Vec<bool> = (0..candidates.len()).map(|i| i >= kept.len()).collect();
+                    let needed = renderer.record_coverage(
+                        scenes.now,
+                        &vis,
+                        &self.frame_records,
+                        Some(&flags),
+                        accuracy,
+                        &mut times,
+                    )?;
+                    needed[kept.len()..].to_vec()
+                } else {
+                    covering.clone()
+                };
+                visibility = Some(vis);
+                (deciding, covering)
+            }
+        };
         let mut replace: Vec<u32> = Vec::new();
-        for (i, &id) in self.alive.iter().enumerate() {
-            let rec = &self.history[id as usize];
-            let covering = self.coverage.get(i).copied().unwrap_or(0) > 0;
-            let needed = match self.settings.replacement {
-                Replacement::Covering => covering,
-                Replacement::Needed => self.needed.get(i).copied().unwrap_or(0) > 0,
-            };
-            if t <= rec.last_frame {
-                kept.push(id);
-            } else if needed {
+        for (k, &id) in expired.iter().enumerate() {
+            if deciding.get(k).copied().unwrap_or(0) > 0 {
                 replace.push(id);
             } else {
                 stats.deleted += 1;
-                stats.redundant += u32::from(covering);
+                stats.redundant += u32::from(covering.get(k).copied().unwrap_or(0) > 0);
                 self.planes.planes.remove(&id);
             }
         }
         stats.kept = kept.len() as u32;
         stats.replaced = replace.len() as u32;
-        let evaluated: Vec<Record> = kept
-            .iter()
-            .map(|&id| self.world_record(self.history[id as usize].at(t), id, &transforms))
-            .collect();
-        self.frame_records.upload(ctx, &evaluated)?;
+        self.frame_records.upload(ctx, &kept_records)?;
         for records in [&mut self.next_records, &mut self.subset_records] {
             records.count = 0;
             records.reserve(ctx, self.frame_records.count)?;
@@ -531,7 +583,6 @@ impl TemporalCache {
             }),
             None => None,
         };
-        let mut times = Vec::new();
         for (birth, sites, ids) in &runs {
             let buf = ctx.storage_buffer("replacement sites", sites)?;
             let span;
@@ -569,7 +620,7 @@ impl TemporalCache {
             self.planes.planes.remove(id);
         }
         let before_new = self.frame_records.count;
-        let (mut frame, coverage, vis) = renderer.render_cached_frame(
+        let (mut frame, coverage) = renderer.render_cached_frame(
             scenes.now,
             camera,
             &mut self.frame_records,
@@ -577,8 +628,9 @@ impl TemporalCache {
             CachedFrameOptions {
                 max_new_records: None,
                 lookahead: lookahead.as_mut(),
-                count_coverage: true,
+                count_coverage: self.settings.replacement == Replacement::Covering,
                 placement_only,
+                visibility,
             },
             progress,
         )?;
@@ -708,23 +760,6 @@ impl TemporalCache {
             transforms,
             lights,
         });
-        self.needed = match self.settings.replacement {
-            Replacement::Covering => Vec::new(),
-            Replacement::Needed => {
-                let expiring: Vec<bool> = alive
-                    .iter()
-                    .map(|&id| self.history[id as usize].last_frame <= t)
-                    .collect();
-                renderer.needed_coverage(
-                    scenes.now,
-                    &vis,
-                    &self.frame_records,
-                    &expiring,
-                    self.pass.settings.accuracy,
-                    &mut times,
-                )?
-            }
-        };
         self.alive = alive;
         self.coverage = coverage;
         self.last_frame_rendered = Some(t);
@@ -812,7 +847,7 @@ impl TemporalCache {
             .map(|&id| self.record_at_with(id, t, transforms))
             .collect();
         self.frame_records.upload(&renderer.ctx, &records)?;
-        let (frame, _, _) = renderer.render_cached_frame(
+        let (frame, _) = renderer.render_cached_frame(
             scene,
             camera,
             &mut self.frame_records,
