@@ -6,7 +6,9 @@ use radsplat::gpu::GpuContext;
 use radsplat::output::{ImageFormat, tonemap_to_srgb8, write_atomically, write_png};
 use radsplat::records::CacheSettings;
 use radsplat::scene::load_scene;
-use radsplat::temporal::{RecordAnchor, Replacement, TemporalGradients, TemporalSettings};
+use radsplat::temporal::{
+    RecordAnchor, RefreshMode, Replacement, TemporalGradients, TemporalSettings,
+};
 use radsplat::{Error, Renderer, Result};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -143,8 +145,9 @@ enum Command {
         record_anchor: String,
         /// `on`: a replacement traces again only the plane samples that motion since its
         /// predecessor's birth may have changed (the same images with fewer rays); `off`:
-        /// it traces its whole plane.
-        #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+        /// it traces its whole plane; `auto`: on while it saves at least a fifth of the
+        /// plane rays (judged after 64 refreshed planes), then off for the sequence.
+        #[arg(long, default_value = "auto", value_parser = ["auto", "on", "off"])]
         plane_refresh: String,
         /// Most MiB of retained planes for plane refresh; records beyond are traced.
         #[arg(long, default_value_t = TemporalSettings::default().plane_budget_bytes >> 20)]
@@ -443,7 +446,11 @@ fn main() -> ExitCode {
                 } else {
                     RecordAnchor::World
                 },
-                plane_refresh: plane_refresh == "on",
+                plane_refresh: match plane_refresh.as_str() {
+                    "on" => RefreshMode::On,
+                    "off" => RefreshMode::Off,
+                    _ => RefreshMode::Auto,
+                },
                 plane_budget_bytes: plane_budget_mib.saturating_mul(1 << 20),
                 replacement: match replace.as_str() {
                     "needed" => Replacement::Needed,

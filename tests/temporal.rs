@@ -8,7 +8,8 @@ use radsplat::frame::{Frame, PreparedScene, Renderer};
 use radsplat::records::CacheSettings;
 use radsplat::scene::Scene;
 use radsplat::temporal::{
-    FrameScenes, RecordAnchor, Replacement, TemporalCache, TemporalFrameStats, TemporalSettings,
+    FrameScenes, RecordAnchor, RefreshMode, Replacement, TemporalCache, TemporalFrameStats,
+    TemporalSettings,
 };
 
 fn settings() -> CacheSettings {
@@ -266,7 +267,11 @@ fn plane_refresh_gives_the_same_images_as_tracing_every_plane() {
     let run = |refresh: bool| {
         let temporal_settings = TemporalSettings {
             max_lifespan: 3,
-            plane_refresh: refresh,
+            plane_refresh: if refresh {
+                RefreshMode::On
+            } else {
+                RefreshMode::Off
+            },
             ..TemporalSettings::default()
         };
         let mut temporal = TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings)

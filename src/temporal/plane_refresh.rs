@@ -107,6 +107,9 @@ pub struct PlaneRefresh<'a> {
     pub pass: &'a RefreshPass,
     pub planes: Vec<&'a wgpu::Buffer>,
     pub motion: &'a SpanMotion,
+    /// The lists of samples traced again, one per batch recorded (their first word is
+    /// the count): how much refreshing saved ([`crate::temporal::RefreshMode::Auto`]).
+    pub retraced: std::cell::RefCell<Vec<wgpu::Buffer>>,
 }
 
 /// The `plane_refresh` and `plane_retrace` passes.
@@ -181,6 +184,7 @@ impl PlaneRefresh<'_> {
         }
         let cells = u64::from(count) * u64::from(res * res);
         let (work, work_groups) = ctx.work_list("samples to trace again", cells)?;
+        self.retraced.borrow_mut().push(work.clone());
         let params = ctx.uniform_buffer(
             "refresh params",
             &RefreshParams {
