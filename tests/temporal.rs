@@ -257,46 +257,58 @@ fn expired_records_are_replaced_exactly_when_they_cover_the_new_frame() {
 }
 
 /// Plane refresh (a replacement traces again only what motion may have changed since its
-/// predecessor's birth) is exact: the same images, bit for bit, as tracing every plane.
+/// predecessor's birth) is exact: the same images, bit for bit, as tracing every plane,
+/// for fewer rays; `auto` keeps refreshing here, where it saves most of the rays.
 #[test]
 fn plane_refresh_gives_the_same_images_as_tracing_every_plane() {
     let scene = common::load("cube-in-box.toml", Some((40, 32)));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let frames = 8u32;
     let (scenes, prepared) = sliding_cube(&renderer, &scene, 0.05, frames);
-    let run = |refresh: bool| {
+    let run = |plane_refresh: RefreshMode| {
         let temporal_settings = TemporalSettings {
             max_lifespan: 3,
-            plane_refresh: if refresh {
-                RefreshMode::On
-            } else {
-                RefreshMode::Off
-            },
+            plane_refresh,
             ..TemporalSettings::default()
         };
         let mut temporal = TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings)
             .expect("temporal cache");
         let (mut images, mut replaced, mut retained) = (Vec::new(), 0, 0);
+        let (mut refreshed, mut rays, mut computed) = (0, 0, 0);
         for t in 0..frames {
             let (frame, stats) = moving_frame(&mut temporal, &renderer, &scenes, &prepared, t);
             replaced += stats.replaced;
+            refreshed += stats.refreshed_planes;
+            rays += stats.plane_rays;
+            computed += u64::from(stats.replaced + stats.new);
             retained = retained.max(temporal.retained_planes());
             images.push(frame.beauty);
         }
-        (images, replaced, retained)
+        eprintln!(
+            "{plane_refresh:?}: {refreshed} of {replaced} replacements refreshed, {rays} rays"
+        );
+        (images, replaced, retained, refreshed, rays, computed)
     };
-    let (refreshed, replaced, retained) = run(true);
-    let (traced, replaced_traced, none_retained) = run(false);
+    let (refreshed, replaced, retained, refreshed_planes, rays, _) = run(RefreshMode::On);
+    let (traced, replaced_traced, none_retained, none_refreshed, all_rays, computed) =
+        run(RefreshMode::Off);
     assert!(
         replaced > 20,
         "only {replaced} replacements: nothing to refresh"
     );
     assert!(retained > 0 && none_retained == 0);
     assert_eq!(replaced, replaced_traced);
+    assert!(refreshed_planes > 0 && none_refreshed == 0);
+    let res = u64::from(settings().plane_resolution);
+    assert_eq!(all_rays, computed * res * res);
+    assert!(rays < all_rays, "refresh traced {rays} rays of {all_rays}");
     for (t, (a, b)) in refreshed.iter().zip(&traced).enumerate() {
         let differ = a.iter().zip(b).filter(|(x, y)| x != y).count();
         assert_eq!(differ, 0, "frame {t}: {differ} pixels differ");
     }
+    let (auto, _, _, auto_refreshed, auto_rays, _) = run(RefreshMode::Auto);
+    assert_eq!((auto_refreshed, auto_rays), (refreshed_planes, rays));
+    assert!(auto == refreshed);
 }
 
 /// GPU reprojection of planes at sites of `scene` into `next` (every `stride`-th sample

@@ -21,6 +21,7 @@ use crate::frame::{CachedFrameOptions, Frame, PreparedScene, Renderer};
 use crate::gpu::GpuContext;
 use crate::records::{CacheSettings, Lookahead, Record, RecordCache, RecordPass, RecordSite};
 use crate::scene::{Camera, Scene};
+use crate::visibility::VisibilityBuffer;
 use crate::{Error, Result};
 use glam::Mat4;
 
@@ -502,58 +503,16 @@ impl TemporalCache {
             .map(|&id| self.world_record(self.history[id as usize].at(t), id, &transforms))
             .collect();
         let mut times = Vec::new();
-        let mut visibility = None;
-        // Per expired record (in `expired` order): the pixels it covers that decide its
-        // replacement, and the pixels it covers at all.
-        let (deciding, covering): (Vec<u32>, Vec<u32>) = match self.settings.replacement {
-            Replacement::Covering => {
-                let last: Vec<u32> = self
-                    .alive
-                    .iter()
-                    .enumerate()
-                    .filter(|&(_, &id)| t > self.history[id as usize].last_frame)
-                    .map(|(i, _)| self.coverage.get(i).copied().unwrap_or(0))
-                    .collect();
-                (last.clone(), last)
-            }
-            _ if expired.is_empty() => (Vec::new(), Vec::new()),
-            mode => {
-                // The kept records and the expired ones where they would be now, splatted
-                // over this frame's visibility buffer (which the frame then reuses).
-                let vis = renderer.visibility_timed(scenes.now, camera, &mut times)?;
-                let mut candidates = kept_records.clone();
-                candidates.extend(expired.iter().map(|&id| {
-                    self.world_record(self.history[id as usize].at(t), id, &transforms)
-                }));
-                self.frame_records.upload(ctx, &candidates)?;
-                let accuracy = self.pass.settings.accuracy;
-                let all = renderer.record_coverage(
-                    scenes.now,
-                    &vis,
-                    &self.frame_records,
-                    None,
-                    accuracy,
-                    &mut times,
-                )?;
-                let covering = all[kept.len()..].to_vec();
-                let deciding = if mode == Replacement::Needed {
-                    let flags: Vec<bool> = (0..candidates.len()).map(|i| i >= kept.len()).collect();
-                    let needed = renderer.record_coverage(
-                        scenes.now,
-                        &vis,
-                        &self.frame_records,
-                        Some(&flags),
-                        accuracy,
-                        &mut times,
-                    )?;
-                    needed[kept.len()..].to_vec()
-                } else {
-                    covering.clone()
-                };
-                visibility = Some(vis);
-                (deciding, covering)
-            }
-        };
+        let (deciding, covering, visibility) = self.expired_coverage(
+            renderer,
+            scenes.now,
+            camera,
+            t,
+            &kept_records,
+            &expired,
+            &transforms,
+            &mut times,
+        )?;
         let mut replace: Vec<u32> = Vec::new();
         for (k, &id) in expired.iter().enumerate() {
             if deciding.get(k).copied().unwrap_or(0) > 0 {
@@ -845,6 +804,70 @@ impl TemporalCache {
         all.extend(times.iter().map(|(n, ms)| (n.to_string(), *ms)));
         frame.stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
         Ok((frame, stats))
+    }
+
+    /// Per record of `expired` (the ids of the last frame's records that end before frame
+    /// `t`, in frame order), the pixels it covers that
+    /// decide its replacement ([`Replacement`]) and the pixels it covers at all. Except
+    /// with the seed's rule, both are of frame t: the expired records where they would be
+    /// now (and, for [`Replacement::Needed`], the `kept` ones) splatted over frame t's
+    /// visibility buffer, which is returned for the frame to reuse.
+    #[allow(clippy::too_many_arguments)]
+    fn expired_coverage(
+        &mut self,
+        renderer: &Renderer,
+        now: &PreparedScene,
+        camera: &Camera,
+        t: u32,
+        kept: &[Record],
+        expired: &[u32],
+        transforms: &[Mat4],
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<(Vec<u32>, Vec<u32>, Option<VisibilityBuffer>)> {
+        let mode = self.settings.replacement;
+        if mode == Replacement::Covering {
+            // Counted by the last frame's splat, for every record of that frame.
+            let expired_then: Vec<u32> = self
+                .alive
+                .iter()
+                .enumerate()
+                .filter(|&(_, &id)| t > self.history[id as usize].last_frame)
+                .map(|(i, _)| self.coverage.get(i).copied().unwrap_or(0))
+                .collect();
+            return Ok((expired_then.clone(), expired_then, None));
+        }
+        if expired.is_empty() {
+            return Ok((Vec::new(), Vec::new(), None));
+        }
+        let ctx = &renderer.ctx;
+        let vis = renderer.visibility_timed(now, camera, times)?;
+        // Needed: the kept records first, so that the count sees which pixels they cover.
+        let first = if mode == Replacement::Needed {
+            kept.len()
+        } else {
+            0
+        };
+        let mut candidates = kept[..first].to_vec();
+        candidates.extend(
+            expired
+                .iter()
+                .map(|&id| self.world_record(self.history[id as usize].at(t), id, transforms)),
+        );
+        self.frame_records.upload(ctx, &candidates)?;
+        let accuracy = self.pass.settings.accuracy;
+        let mut count = |flags: Option<&[bool]>| -> Result<Vec<u32>> {
+            let all =
+                renderer.record_coverage(now, &vis, &self.frame_records, flags, accuracy, times)?;
+            Ok(all[first..].to_vec())
+        };
+        let covering = count(None)?;
+        let deciding = if mode == Replacement::Needed {
+            let flags: Vec<bool> = (0..candidates.len()).map(|i| i >= first).collect();
+            count(Some(&flags))?
+        } else {
+            covering.clone()
+        };
+        Ok((deciding, covering, Some(vis)))
     }
 
     /// `record` (record `id` as given at its first frame's place) where record `id` is
