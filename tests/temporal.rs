@@ -204,56 +204,83 @@ fn moving_cube_expires_replaces_and_deletes_records() {
     );
 }
 
-/// The default replacement rule (`Replacement::Visible`): an expired record is replaced
-/// exactly when, where it would be now, it covers a pixel of the new frame (the CPU splat
-/// over that frame's visibility buffer); the others are deleted.
+/// The replacement rules judged on the new frame, against the CPU splat over that frame's
+/// visibility buffer: with `Visible` (the default) an expired record is replaced exactly
+/// when, where it would be now, it covers a pixel of the new frame; with `Needed` exactly
+/// when it covers one that no kept record covers. The others are deleted.
 #[test]
 fn expired_records_are_replaced_exactly_when_they_cover_the_new_frame() {
     use radsplat::splat::reference::record_coverage;
+    assert_eq!(
+        TemporalSettings::default().replacement,
+        Replacement::Visible
+    );
     let scene = common::load("cube-in-box.toml", Some((40, 32)));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
-    let temporal_settings = TemporalSettings {
-        accuracy: 0.05,
-        max_lifespan: 3,
-        ..TemporalSettings::default()
-    };
-    assert_eq!(temporal_settings.replacement, Replacement::Visible);
-    let mut temporal =
-        TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings).expect("temporal cache");
     let frames = 8;
     let (scenes, prepared) = sliding_cube(&renderer, &scene, 0.08, frames);
     let accuracy = settings().accuracy;
-    let (mut replaced, mut deleted) = (0, 0);
-    for t in 0..frames {
-        let before = temporal.alive().to_vec();
-        let (frame, stats) = moving_frame(&mut temporal, &renderer, &scenes, &prepared, t);
-        let expired: Vec<u32> = before
-            .into_iter()
-            .filter(|&id| temporal.history[id as usize].last_frame < t)
-            .collect();
-        for id in expired {
-            let now = temporal.record_at(id, t);
-            let covers = record_coverage(&[now], None, &frame.visibility, accuracy)[0];
-            let successor = temporal.history[id as usize].successor;
-            assert_eq!(
-                successor.is_some(),
-                covers > 0,
-                "frame {t}: record {id} covers {covers} pixels, successor {successor:?}"
+    let mut replaced_by_mode = Vec::new();
+    for replacement in [Replacement::Visible, Replacement::Needed] {
+        let temporal_settings = TemporalSettings {
+            accuracy: 0.05,
+            max_lifespan: 3,
+            replacement,
+            ..TemporalSettings::default()
+        };
+        let mut temporal = TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings)
+            .expect("temporal cache");
+        let (mut replaced, mut deleted, mut redundant) = (0, 0, 0);
+        let needed_rule = replacement == Replacement::Needed;
+        for t in 0..frames {
+            let before = temporal.alive().to_vec();
+            let (frame, stats) = moving_frame(&mut temporal, &renderer, &scenes, &prepared, t);
+            let (kept, expired): (Vec<u32>, Vec<u32>) = before
+                .into_iter()
+                .partition(|&id| temporal.history[id as usize].last_frame >= t);
+            // Kept records first, then the expired ones, all where they are at t.
+            let records: Vec<_> = kept
+                .iter()
+                .chain(&expired)
+                .map(|&id| temporal.record_at(id, t))
+                .collect();
+            let flags: Vec<bool> = (0..records.len()).map(|i| i >= kept.len()).collect();
+            let counts = record_coverage(
+                &records,
+                needed_rule.then_some(flags.as_slice()),
+                &frame.visibility,
+                accuracy,
             );
-            if let Some(l) = successor {
-                assert_eq!(temporal.history[l as usize].birth, t);
-                replaced += 1;
-            } else {
-                deleted += 1;
+            for (k, &id) in expired.iter().enumerate() {
+                let covers = counts[kept.len() + k];
+                let successor = temporal.history[id as usize].successor;
+                assert_eq!(
+                    successor.is_some(),
+                    covers > 0,
+                    "{replacement:?}, frame {t}: record {id} covers {covers} pixels, \
+                     successor {successor:?}"
+                );
+                if let Some(l) = successor {
+                    assert_eq!(temporal.history[l as usize].birth, t);
+                    replaced += 1;
+                } else {
+                    deleted += 1;
+                }
             }
+            redundant += stats.redundant;
         }
-        assert_eq!(stats.redundant, 0);
+        eprintln!(
+            "{replacement:?}: replaced {replaced}, deleted {deleted} ({redundant} redundant)"
+        );
+        assert!(
+            replaced > 20 && deleted > 5,
+            "replaced {replaced}, deleted {deleted}"
+        );
+        // Only Needed deletes records that still cover pixels (all covered by kept ones).
+        assert_eq!(redundant > 0, needed_rule);
+        replaced_by_mode.push(replaced);
     }
-    eprintln!("replaced {replaced}, deleted {deleted}");
-    assert!(
-        replaced > 20 && deleted > 5,
-        "replaced {replaced}, deleted {deleted}"
-    );
+    assert!(replaced_by_mode[1] < replaced_by_mode[0]);
 }
 
 /// Plane refresh (a replacement traces again only what motion may have changed since its
