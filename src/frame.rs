@@ -480,7 +480,8 @@ impl Renderer {
     }
 
     /// Records and runs the visibility and direct-light passes (one submission), adding
-    /// their GPU times to `times`.
+    /// their GPU times to `times`; with `traced` (this camera's visibility buffer, already
+    /// traced) only the direct-light pass.
     fn visibility_and_direct(
         &self,
         scene: &PreparedScene,
