@@ -3,9 +3,10 @@
 //! by reprojecting its plane ([`ReprojectionPass`]); `tau = E(t+1) / E(t)` gives its
 //! lifespan (`w_t = 1 / (|tau - 1| (t - t_k)) >= 1 / a_t` and `t - t_k < dt_max`,
 //! decision 9) and the extrapolated temporal gradient. Records keep their world position;
-//! an expired record that covered pixels in its last frame is replaced by a new record at
-//! the same place, one that covered none is deleted. With [`RecordAnchor::Instance`]
-//! records move with the instance they lie on instead ([`motion`]).
+//! an expired record that covers pixels of the new frame is replaced by a new record at
+//! the same place, one that covers none is deleted ([`Replacement`]; the seed asks the
+//! record's last frame instead). With [`RecordAnchor::Instance`] records move with the
+//! instance they lie on instead ([`motion`]).
 
 pub mod animation;
 pub mod estimate_error;
