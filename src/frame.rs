@@ -174,19 +174,8 @@ impl Renderer {
         })
     }
 
-    /// The visibility buffer of `camera` (left on the GPU).
-    pub fn visibility(&self, scene: &PreparedScene, camera: &Camera) -> Result<VisibilityBuffer> {
-        let ctx = &self.ctx;
-        let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        let vis = self
-            .visibility
-            .record(ctx, &mut encoder, &scene.gpu, camera, None)?;
-        ctx.queue.submit([encoder.finish()]);
-        Ok(vis)
-    }
-
-    /// [`Renderer::visibility`] with its GPU time added to `times`.
-    pub fn visibility_timed(
+    /// The visibility buffer of `camera` (left on the GPU), its GPU time added to `times`.
+    pub fn visibility(
         &self,
         scene: &PreparedScene,
         camera: &Camera,
@@ -206,7 +195,7 @@ impl Renderer {
         cache: &IrradianceCache,
     ) -> Result<(Vec<VisSample>, Vec<[f32; 4]>)> {
         let ctx = &self.ctx;
-        let vis = self.visibility(scene, camera)?;
+        let vis = self.visibility(scene, camera, &mut Vec::new())?;
         let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
         let mut times = Vec::new();
         self.splat.splat(

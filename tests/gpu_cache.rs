@@ -85,7 +85,7 @@ fn gpu_record_coverage_matches_cpu() {
     let expiring: Vec<bool> = (0..records.len()).map(|k| k % 4 == 0).collect();
     let prepared = renderer.prepare(&scene).expect("prepare");
     let vis = renderer
-        .visibility(&prepared, &scene.camera)
+        .visibility(&prepared, &scene.camera, &mut Vec::new())
         .expect("visibility");
     let samples = vis.read(&renderer.ctx).expect("read");
     let accuracy = cache.settings().accuracy;

@@ -539,6 +539,8 @@ impl TemporalCache {
         // the lights are as they were (plane_refresh.rs). Replacements go in order of
         // birth, so that runs of refreshable ones share what moved since.
         let lights = (scenes.scene.lights.clone(), scenes.scene.environment);
+        // Refresh mode auto decides on the frames before this one.
+        let refreshing = self.refreshing();
         replace.sort_by_key(|&id| (self.history[id as usize].birth, id));
         let mut runs: Vec<(Option<u32>, Vec<RecordSite>, Vec<u32>)> = Vec::new();
         for &id in &replace {
@@ -560,7 +562,7 @@ impl TemporalCache {
                     }
                 }
             };
-            let refreshable = self.refreshing()
+            let refreshable = refreshing
                 && unmoved
                 && rec.site.is_some()
                 && self.planes.planes.contains_key(&id)
@@ -580,7 +582,7 @@ impl TemporalCache {
         }
         let anchored = self.settings.anchor == RecordAnchor::Instance;
         let mut capture = plane_refresh::PlaneCapture {
-            planes: self.refreshing(),
+            planes: refreshing,
             budget: self.planes.free(),
             ..Default::default()
         };
@@ -841,7 +843,7 @@ impl TemporalCache {
             return Ok((Vec::new(), Vec::new(), None));
         }
         let ctx = &renderer.ctx;
-        let vis = renderer.visibility_timed(now, camera, times)?;
+        let vis = renderer.visibility(now, camera, times)?;
         // Needed: the kept records first, so that the count sees which pixels they cover.
         let first = if mode == Replacement::Needed {
             kept.len()
