@@ -184,9 +184,15 @@ enum Command {
         /// Frame t (records are placed at t and estimated at t+1).
         #[arg(long, default_value_t = 0)]
         frame: u32,
-        /// Number of records (sites at evenly strided visible pixels).
+        /// Number of records (sites at evenly strided visible pixels, or every n-th
+        /// placed record with `--sites placed`).
         #[arg(long, default_value_t = 1000)]
         records: usize,
+        /// Where the records lie: `even` (visible pixels evenly strided over the image,
+        /// the thesis's table) or `placed` (where a frame rendered from scratch places its
+        /// records: the lifespans then bound what temporal caching can save).
+        #[arg(long, default_value = "even", value_parser = ["even", "placed"])]
+        sites: String,
         /// Override the scene's resolution (sites are chosen among its pixels).
         #[arg(long, value_parser = parse_size)]
         size: Option<(u32, u32)>,
@@ -468,6 +474,7 @@ fn main() -> ExitCode {
             scene,
             frame,
             records,
+            sites,
             size,
             cache,
             record_anchor,
@@ -476,7 +483,7 @@ fn main() -> ExitCode {
         } => temporal_error(
             &scene,
             frame,
-            records,
+            (records, &sites),
             size,
             &cache.settings(),
             (&record_anchor, estimate_stride),
@@ -1218,13 +1225,13 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
 fn temporal_error(
     scene_path: &Path,
     frame: u32,
-    records: usize,
+    (records, sites): (usize, &str),
     size: Option<(u32, u32)>,
     settings: &CacheSettings,
     (record_anchor, stride): (&str, u32),
     json: Option<&Path>,
 ) -> Result<()> {
-    use radsplat::temporal::estimate_error::estimate_error_table;
+    use radsplat::temporal::estimate_error::{RecordSites, estimate_error_table};
     settings.validate()?;
     let mut scene = load_scene_with(scene_path, None, size, None)?;
     let mut next = scene.clone();
@@ -1235,8 +1242,13 @@ fn temporal_error(
     // The scene's a_t and dt_max, as `animate` would use them.
     let mut temporal = TemporalSettings::default();
     temporal.apply_scene(scene.animation.as_ref(), None, None);
+    let sites = if sites == "placed" {
+        RecordSites::Placed
+    } else {
+        RecordSites::Even
+    };
     let table = estimate_error_table(
-        &renderer, &scene, &next, settings, records, anchored, stride, &temporal,
+        &renderer, &scene, &next, settings, records, anchored, stride, &temporal, sites,
     )?;
     println!(
         "{}: {} records placed at frame {frame}, E(t+1) estimate vs recomputed (RGB RMS relative error)",
@@ -1266,6 +1278,15 @@ fn temporal_error(
         "lifespans (a_t {}, dt_max {}): mean {:.2} frames from the estimated tau, {:.2} from \
          the true tau; records living 1, 2, ... frames: {:?} estimated, {:?} true",
         l.accuracy, l.max_lifespan, l.estimated_mean, l.true_mean, l.estimated, l.truth
+    );
+    println!(
+        "harmonic mean lifespans (records recomputed per frame = records / it): {:.2} \
+         estimated, {:.2} true; true on movers ({} records) {:.2}, on the others {:.2}",
+        l.estimated_harmonic,
+        l.true_harmonic,
+        table.on_movers,
+        l.movers_true_harmonic,
+        l.still_true_harmonic
     );
     if let Some(path) = json {
         let text =

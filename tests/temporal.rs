@@ -701,3 +701,67 @@ fn anchored_record_at_the_foot_of_a_moving_cube_predicts_its_next_irradiance() {
         }
     }
 }
+
+/// `temporal-error --sites placed`: the records are those a frame rendered from scratch
+/// places, and their lifespans from the true tau bound what temporal caching can save.
+/// With nothing moving every one of them lives dt_max frames; with the cube sliding, the
+/// records on it are counted as movers and some live less.
+#[test]
+fn placed_records_bound_the_reuse_by_their_true_lifespans() {
+    use radsplat::temporal::estimate_error::{RecordSites, estimate_error_table};
+    let scene = common::load("cube-in-box.toml", Some((40, 32)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = settings();
+    let temporal = TemporalSettings {
+        accuracy: 0.05,
+        max_lifespan: 5,
+        ..Default::default()
+    };
+    // The records one frame places from scratch.
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let mut cache = renderer.new_cache(&settings).expect("cache");
+    renderer
+        .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
+        .expect("frame");
+    let placed = cache.read(&renderer.ctx).expect("read").len();
+    assert!(placed > 20, "only {placed} records placed");
+
+    let table = |next: &Scene| {
+        estimate_error_table(
+            &renderer,
+            &scene,
+            next,
+            &settings,
+            100_000,
+            true,
+            2,
+            &temporal,
+            RecordSites::Placed,
+        )
+        .expect("table")
+    };
+    let still = table(&scene);
+    assert_eq!(still.records, placed, "every placed record, and only those");
+    assert_eq!(still.on_movers, 0);
+    let l = &still.lifespans;
+    assert_eq!(l.truth, vec![0, 0, 0, 0, placed as u32]);
+    // (A sum of `placed` fifths: equal to 5 up to rounding.)
+    assert!((l.true_harmonic - 5.0).abs() < 1e-9 && (l.estimated_harmonic - 5.0).abs() < 1e-9);
+
+    // The cube 3 cm along x: its own records move, the floor's light changes.
+    let moving = table(&cube_moved(&scene, scene.instances[1].transform, 0.03));
+    assert!(moving.on_movers > 0 && moving.on_movers < moving.records);
+    let l = &moving.lifespans;
+    // Lifespans count every record, also those the cube now covers (black at t+1).
+    assert_eq!(l.truth.iter().sum::<u32>() as usize, placed);
+    assert!(
+        l.true_harmonic < 5.0 && l.true_harmonic >= 1.0,
+        "true harmonic mean lifespan {}",
+        l.true_harmonic
+    );
+    assert!(
+        l.truth[0] > 0,
+        "no record changes by a_t in one frame: {:?}",
+        l.truth
+    );
+}

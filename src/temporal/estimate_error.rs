@@ -54,8 +54,8 @@ pub struct EstimateErrorTable {
     pub on_movers: usize,
     pub on_movers_reprojection: ErrorSummary,
     pub on_movers_no_reprojection: ErrorSummary,
-    /// The lifespans (frames, decision 9 with the scene's a_t and dt_max) these records
-    /// get from tau estimated by reprojection, and from the true tau (the record really
+    /// The lifespans (frames, decision 9 with the scene's a_t and dt_max) all the records
+    /// (black ones too) get from tau estimated by reprojection, and from the true tau (the record really
     /// recomputed at t+1): what a perfect estimate would allow.
     pub lifespans: LifespanComparison,
 }
@@ -70,26 +70,47 @@ pub struct LifespanComparison {
     pub estimated: Vec<u32>,
     pub true_mean: f64,
     pub truth: Vec<u32>,
+    /// The harmonic mean lifespans (estimated, true): records per frame that a cache
+    /// keeping these records alive must recompute is count / harmonic mean, so with
+    /// records placed as a frame places them ([`RecordSites::Placed`]) the true one
+    /// bounds the records-computed ratio temporal caching can reach over per-frame
+    /// recomputation (a perfect, free estimate, and no record more than a frame needs).
+    pub estimated_harmonic: f64,
+    pub true_harmonic: f64,
+    /// The same on the records on instances that move, and on the others.
+    pub movers_true_harmonic: f64,
+    pub still_true_harmonic: f64,
 }
 
 impl LifespanComparison {
     /// Lifespans of records with irradiance `now` whose E(t+1) is `estimate` and truly
     /// `truth`, under `settings`' lifespan rule.
-    fn of(estimates: &[Estimate], settings: &super::TemporalSettings) -> Self {
+    /// `movers[i]`: estimate i's record lies on an instance that moves.
+    fn of(estimates: &[Estimate], movers: &[bool], settings: &super::TemporalSettings) -> Self {
         let bins = settings.max_lifespan.max(1) as usize;
-        let lifespans = |next: fn(&Estimate) -> [f32; 3]| -> (f64, Vec<u32>) {
-            let mut histogram = vec![0u32; bins];
-            let mut sum = 0u64;
-            for e in estimates {
-                let tau = super::temporal_ratio(e.now, next(e));
-                let frames = super::last_frame(0, tau, settings, true) + 1;
-                histogram[(frames as usize - 1).min(bins - 1)] += 1;
-                sum += u64::from(frames);
-            }
-            (sum as f64 / estimates.len().max(1) as f64, histogram)
+        let frames = |e: &Estimate, next: fn(&Estimate) -> [f32; 3]| -> u32 {
+            super::last_frame(0, super::temporal_ratio(e.now, next(e)), settings, true) + 1
         };
-        let (estimated_mean, estimated) = lifespans(|e| e.estimate);
-        let (true_mean, truth) = lifespans(|e| e.truth);
+        // Mean, harmonic mean and histogram of the lifespans of the records `keep` selects.
+        let lifespans = |next: fn(&Estimate) -> [f32; 3], keep: &dyn Fn(usize) -> bool| {
+            let mut histogram = vec![0u32; bins];
+            let (mut sum, mut rate, mut n) = (0u64, 0f64, 0usize);
+            for (_, e) in estimates.iter().enumerate().filter(|(i, _)| keep(*i)) {
+                let f = frames(e, next);
+                histogram[(f as usize - 1).min(bins - 1)] += 1;
+                sum += u64::from(f);
+                rate += 1.0 / f64::from(f);
+                n += 1;
+            }
+            let harmonic = if rate > 0.0 { n as f64 / rate } else { 0.0 };
+            (sum as f64 / n.max(1) as f64, harmonic, histogram)
+        };
+        let all = |_: usize| true;
+        let (estimated_mean, estimated_harmonic, estimated) = lifespans(|e| e.estimate, &all);
+        let (true_mean, true_harmonic, truth) = lifespans(|e| e.truth, &all);
+        let moving = |i: usize| movers.get(i).copied().unwrap_or(false);
+        let (_, movers_true_harmonic, _) = lifespans(|e| e.truth, &moving);
+        let (_, still_true_harmonic, _) = lifespans(|e| e.truth, &|i| !moving(i));
         Self {
             accuracy: settings.accuracy,
             max_lifespan: settings.max_lifespan,
@@ -97,6 +118,10 @@ impl LifespanComparison {
             estimated,
             true_mean,
             truth,
+            estimated_harmonic,
+            true_harmonic,
+            movers_true_harmonic,
+            still_true_harmonic,
         }
     }
 }
@@ -196,8 +221,18 @@ pub fn estimates_at_sites(
     Ok(out)
 }
 
-/// Places record sites at `count` visible pixels of `at_t` (evenly strided over the
-/// image), computes each record at t, its reprojected estimate at t+1 (`next`: the same
+/// Where [`estimate_error_table`] puts its records.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RecordSites {
+    /// At visible pixels evenly strided over the image (the thesis's table).
+    Even,
+    /// Where a frame rendered from scratch places its records (every `n`-th of them when
+    /// it places more than `count`): the records per-frame recomputation computes.
+    Placed,
+}
+
+/// Places record sites at `count` visible pixels of `at_t` (`sites`: evenly strided over
+/// the image, or where a frame places its records), computes each record at t, its reprojected estimate at t+1 (`next`: the same
 /// scene one frame later) and the record recomputed at t+1, and summarises the errors.
 /// `anchored`: records move with the instance they lie on (the thesis keeps them in
 /// place), so the record recomputed at t+1 is traced from the moved site. `stride`: as
@@ -212,22 +247,46 @@ pub fn estimate_error_table(
     anchored: bool,
     stride: u32,
     temporal: &super::TemporalSettings,
+    placement: RecordSites,
 ) -> Result<EstimateErrorTable> {
     let ctx = &renderer.ctx;
     let prepared = renderer.prepare(at_t)?;
     let prepared_next = renderer.prepare(next)?;
-    let cache = renderer.new_cache(settings)?;
-    let (vis, _) = renderer.splat_cache(&prepared, &at_t.camera, &cache)?;
-    let camera = GpuCamera::new(&at_t.camera);
-    let visible: Vec<_> = vis.iter().filter(|v| v.is_hit()).collect();
-    let spacing = (visible.len() / count.max(1)).max(1);
-    let sites: Vec<_> = visible
-        .iter()
-        .step_by(spacing)
-        .take(count)
-        .enumerate()
-        .map(|(i, v)| RecordReference::site_from_pixel(settings, &camera, v, i as u32))
-        .collect();
+    let mut cache = renderer.new_cache(settings)?;
+    let sites: Vec<RecordSite> = match placement {
+        RecordSites::Even => {
+            let (vis, _) = renderer.splat_cache(&prepared, &at_t.camera, &cache)?;
+            let camera = GpuCamera::new(&at_t.camera);
+            let visible: Vec<_> = vis.iter().filter(|v| v.is_hit()).collect();
+            let spacing = (visible.len() / count.max(1)).max(1);
+            visible
+                .iter()
+                .step_by(spacing)
+                .take(count)
+                .enumerate()
+                .map(|(i, v)| RecordReference::site_from_pixel(settings, &camera, v, i as u32))
+                .collect()
+        }
+        RecordSites::Placed => {
+            renderer.render_gi_frame(&prepared, &at_t.camera, &mut cache, None, |_| {})?;
+            let records = cache.read(ctx)?;
+            let spacing = records.len().div_ceil(count.max(1)).max(1);
+            records
+                .iter()
+                .step_by(spacing)
+                .enumerate()
+                .map(|(i, r)| RecordSite {
+                    position: r.position,
+                    r_min: r.r_min,
+                    normal: r.normal,
+                    seed: i as u32,
+                    // Records keep only the shading normal (as replacements do).
+                    geometric_normal: r.normal,
+                    instance: r.instance,
+                })
+                .collect()
+        }
+    };
     let motions = super::motion::instance_motions(at_t, next);
     let moving = |site: &RecordSite| {
         motions
@@ -235,7 +294,9 @@ pub fn estimate_error_table(
             .is_some_and(|m| m.moves != 0)
     };
     let (mut with, mut without, mut movers) = (Vec::new(), Vec::new(), Vec::new());
-    let mut compared = Vec::new();
+    // Lifespans count every record (one that goes dark lives one frame), errors only
+    // those whose true E(t+1) is not black.
+    let (mut all, mut all_movers) = (Vec::new(), Vec::new());
     for (site, e) in sites.iter().zip(estimates_at_sites(
         renderer,
         (&prepared, at_t),
@@ -252,8 +313,9 @@ pub fn estimate_error_table(
             with.push(a);
             without.push(b);
             movers.push(moving(site));
-            compared.push(e);
         }
+        all.push(e);
+        all_movers.push(moving(site));
     }
     ctx.check()?;
     let of_movers = |errors: &[f64]| -> Vec<f64> {
@@ -271,7 +333,7 @@ pub fn estimate_error_table(
         on_movers: movers.iter().filter(|m| **m).count(),
         on_movers_reprojection: ErrorSummary::of(&of_movers(&with)),
         on_movers_no_reprojection: ErrorSummary::of(&of_movers(&without)),
-        lifespans: LifespanComparison::of(&compared, temporal),
+        lifespans: LifespanComparison::of(&all, &all_movers, temporal),
     })
 }
 
@@ -292,9 +354,17 @@ mod tests {
             max_lifespan: 5,
             ..Default::default()
         };
-        let l = LifespanComparison::of(&[e(1.0, 1.0, 1.02), e(1.0, 1.1, 1.0)], &settings);
+        let l = LifespanComparison::of(
+            &[e(1.0, 1.0, 1.02), e(1.0, 1.1, 1.0)],
+            &[true, false],
+            &settings,
+        );
         assert_eq!(l.estimated, vec![1, 0, 0, 0, 1]);
         assert_eq!(l.truth, vec![0, 0, 1, 0, 1]);
         assert_eq!((l.estimated_mean, l.true_mean), (3.0, 4.0));
+        // Harmonic means: 2 / (1/1 + 1/5) and 2 / (1/3 + 1/5); per class, one record each.
+        assert!((l.estimated_harmonic - 2.0 / 1.2).abs() < 1e-12);
+        assert!((l.true_harmonic - 2.0 / (1.0 / 3.0 + 0.2)).abs() < 1e-12);
+        assert_eq!((l.movers_true_harmonic, l.still_true_harmonic), (3.0, 5.0));
     }
 }

@@ -375,8 +375,29 @@ struct FrameRecords {
     ids: Vec<u32>,
     /// Every instance's transform at that frame (to place anchored records).
     transforms: Vec<Mat4>,
-    /// Its lights and environment (plane refresh needs them unchanged).
-    lights: (Vec<crate::scene::Light>, glam::Vec3),
+    lights: FrameLights,
+}
+
+/// A frame's lights and environment (plane refresh needs them unchanged).
+type FrameLights = (Vec<crate::scene::Light>, glam::Vec3);
+
+/// The records a frame computed (replacements, then new ones), read back from the GPU.
+struct ComputedRecords {
+    records: Vec<Record>,
+    /// Their estimates at t+1 (the records themselves without a next frame).
+    nexts: Vec<Record>,
+    /// Their sites, where plane capture kept them.
+    sites: Vec<Option<RecordSite>>,
+    /// Samples of refreshed planes traced again.
+    retraced_samples: u64,
+}
+
+/// Replacements computed in one batch.
+struct ReplacementRun {
+    /// The frame the records were born in when their planes are refreshed; None: traced.
+    refresh_from: Option<u32>,
+    sites: Vec<RecordSite>,
+    ids: Vec<u32>,
 }
 
 /// Records that persist across the frames of an animation (temporal radiance caching).
@@ -533,53 +554,13 @@ impl TemporalCache {
             records.count = self.frame_records.count;
         }
 
-        // Replacements at the same place: where the record is now (its world position,
-        // or carried by its instance). A record that has not moved hands on its site
-        // (position, frame, seed), so its plane can be refreshed rather than traced when
-        // the lights are as they were (plane_refresh.rs). Replacements go in order of
-        // birth, so that runs of refreshable ones share what moved since.
+        // Replacements at the same place, in order of birth (runs of refreshable ones
+        // share what moved since).
         let lights = (scenes.scene.lights.clone(), scenes.scene.environment);
         // Refresh mode auto decides on the frames before this one.
         let refreshing = self.refreshing();
         replace.sort_by_key(|&id| (self.history[id as usize].birth, id));
-        let mut runs: Vec<(Option<u32>, Vec<RecordSite>, Vec<u32>)> = Vec::new();
-        for &id in &replace {
-            let rec = &self.history[id as usize];
-            let unmoved = rec
-                .anchor
-                .is_none_or(|a| transforms.get(a.instance as usize) == Some(&a.transform));
-            let site = match rec.site {
-                Some(site) if unmoved => site,
-                inherited => {
-                    let r = self.world_record(rec.record, id, &transforms);
-                    RecordSite {
-                        position: r.position,
-                        r_min: r.r_min,
-                        normal: r.normal,
-                        seed: inherited.map_or(crate::sampling::hash_combine(id, t), |s| s.seed),
-                        geometric_normal: r.normal,
-                        instance: r.instance,
-                    }
-                }
-            };
-            let refreshable = refreshing
-                && unmoved
-                && rec.site.is_some()
-                && self.planes.planes.contains_key(&id)
-                && self
-                    .frames
-                    .iter()
-                    .find(|f| f.frame == rec.birth)
-                    .is_some_and(|f| f.lights == lights);
-            let key = refreshable.then_some(rec.birth);
-            match runs.last_mut() {
-                Some((k, sites, ids)) if *k == key => {
-                    sites.push(site);
-                    ids.push(id);
-                }
-                _ => runs.push((key, vec![site], vec![id])),
-            }
-        }
+        let runs = self.replacement_runs(&replace, t, &transforms, &lights, refreshing);
         let anchored = self.settings.anchor == RecordAnchor::Instance;
         let mut capture = plane_refresh::PlaneCapture {
             planes: refreshing,
@@ -597,10 +578,15 @@ impl TemporalCache {
             None => None,
         };
         let mut retraced_lists = Vec::new();
-        for (birth, sites, ids) in &runs {
+        for ReplacementRun {
+            refresh_from,
+            sites,
+            ids,
+        } in &runs
+        {
             let buf = ctx.storage_buffer("replacement sites", sites)?;
             let span;
-            let refresh = match birth {
+            let refresh = match refresh_from {
                 Some(birth) => {
                     let then = self
                         .frames
@@ -656,17 +642,75 @@ impl TemporalCache {
         stats.new = self.frame_records.count - before_new;
         drop(lookahead);
 
-        // The records computed this frame (replacements and new ones), their estimates and
-        // their sites (by cache index, for their successors) come back from the GPU in one
-        // wait; kept records are on the CPU.
+        // The records computed this frame (replacements, then new ones) come back from
+        // the GPU in one wait; kept records are on the CPU.
         let first = kept.len();
-        let computed = self.frame_records.count as usize - first;
+        let computed =
+            self.read_computed(ctx, first, scenes.next.is_some(), &capture, &retraced_lists)?;
+        stats.retraced_samples = computed.retraced_samples;
+        let count = computed.records.len();
+        let (new_ids, lifespans) = self.register_computed(
+            computed,
+            first,
+            capture.kept,
+            &replace,
+            t,
+            dynamic,
+            &transforms,
+        );
+        stats.lifespans = lifespans;
+        let mut alive = kept;
+        alive.extend(new_ids);
+        self.frames.push(FrameRecords {
+            frame: t,
+            ids: alive.clone(),
+            transforms,
+            lights,
+        });
+        self.alive = alive;
+        self.coverage = coverage;
+        self.last_frame_rendered = Some(t);
+        stats.alive = self.alive.len() as u32;
+        let res = u64::from(self.pass.settings.plane_resolution);
+        let refreshed = u64::from(stats.refreshed_planes);
+        stats.plane_rays = (count as u64 - refreshed) * res * res + stats.retraced_samples;
+        if stats.replaced > 0 {
+            self.refresh_totals.0 += refreshed;
+            self.refresh_totals.1 += stats.retraced_samples;
+            self.refresh_totals.2 += count as u64;
+        }
+        if !self.refreshing() {
+            self.planes.planes.clear();
+        }
+        if let Some(cache_stats) = frame.stats.cache.as_mut() {
+            cache_stats.plane_rays = stats.plane_rays;
+            cache_stats.reused_records = stats.kept;
+        }
+        let mut all = frame.stats.pass_ms.clone();
+        all.extend(times.iter().map(|(n, ms)| (n.to_string(), *ms)));
+        frame.stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
+        Ok((frame, stats))
+    }
+
+    /// Reads back the records of the current frame from cache index `first` on (the
+    /// replacements and new records), their estimates at t+1 (`has_next`), the sites
+    /// `capture` kept (by cache index, for their successors) and the lengths of the
+    /// `retraced` sample lists of plane refresh, in one wait.
+    fn read_computed(
+        &self,
+        ctx: &GpuContext,
+        first: usize,
+        has_next: bool,
+        capture: &plane_refresh::PlaneCapture,
+        retraced: &[wgpu::Buffer],
+    ) -> Result<ComputedRecords> {
+        let computed = (self.frame_records.count as usize).saturating_sub(first);
         let site_bytes = std::mem::size_of::<RecordSite>() as u64;
         let mut ranges: Vec<(&wgpu::Buffer, std::ops::Range<u64>)> = Vec::new();
         if computed > 0 {
             let range = RecordCache::byte_range(first as u32, computed as u32);
             ranges.push((&self.frame_records.buffer, range.clone()));
-            if scenes.next.is_some() {
+            if has_next {
                 ranges.push((&self.next_records.buffer, range.clone()));
                 if self.reprojection.stride > 1 {
                     ranges.push((&self.subset_records.buffer, range));
@@ -681,7 +725,7 @@ impl TemporalCache {
                 .map(|(_, n, b)| (b, 0..u64::from(*n) * site_bytes)),
         );
         // The first word of each list of samples traced again is its length.
-        ranges.extend(retraced_lists.iter().map(|b| (b, 0..4)));
+        ranges.extend(retraced.iter().map(|b| (b, 0..4)));
         let mut read = if ranges.is_empty() {
             Vec::new()
         } else {
@@ -733,11 +777,35 @@ impl TemporalCache {
                 }
             }
         }
-        stats.retraced_samples = read
+        let retraced_samples = read
             .map(|w| u64::from(w.first().copied().unwrap_or(0)))
             .sum();
+        Ok(ComputedRecords {
+            records,
+            nexts,
+            sites: sites_at,
+            retraced_samples,
+        })
+    }
+
+    /// Adds the records `computed` at frame `t` (cache indices from `first` on) to the
+    /// history: each with its tau and last frame (decision 9), its anchor, its site and
+    /// its plane if kept (`kept_planes`, by cache index); the first `replace.len()` of them
+    /// succeed the records of `replace`. Returns their ids and their lifespan histogram
+    /// (entry i: records used in i + 1 frames).
+    #[allow(clippy::too_many_arguments)]
+    fn register_computed(
+        &mut self,
+        computed: ComputedRecords,
+        first: usize,
+        kept_planes: Vec<(u32, wgpu::Buffer)>,
+        replace: &[u32],
+        t: u32,
+        dynamic: bool,
+        transforms: &[Mat4],
+    ) -> (Vec<u32>, Vec<u32>) {
         let first_id = self.history.len();
-        for (index, plane) in capture.kept.drain(..) {
+        for (index, plane) in kept_planes {
             if let Some(j) = (index as usize).checked_sub(first) {
                 self.planes.planes.insert((first_id + j) as u32, plane);
             }
@@ -746,11 +814,18 @@ impl TemporalCache {
             self.history[old as usize].successor = Some((self.history.len() + j) as u32);
         }
         let bins = self.settings.max_lifespan.max(1) as usize;
-        if computed > 0 {
-            stats.lifespans = vec![0; bins];
-        }
-        let mut alive = kept;
-        for ((&record, &next), site) in records.iter().zip(&nexts).zip(sites_at) {
+        let mut lifespans = if computed.records.is_empty() {
+            Vec::new()
+        } else {
+            vec![0; bins]
+        };
+        let mut ids = Vec::with_capacity(computed.records.len());
+        for ((&record, &next), site) in computed
+            .records
+            .iter()
+            .zip(&computed.nexts)
+            .zip(computed.sites)
+        {
             let tau = temporal_ratio(record.irradiance, next.irradiance);
             let anchor = match self.settings.anchor {
                 RecordAnchor::World => None,
@@ -765,7 +840,7 @@ impl TemporalCache {
             };
             let id = self.history.len() as u32;
             let last = last_frame(t, tau, &self.settings, dynamic);
-            stats.lifespans[((last - t) as usize).min(bins - 1)] += 1;
+            lifespans[((last - t) as usize).min(bins - 1)] += 1;
             self.history.push(TemporalRecord {
                 record,
                 next,
@@ -776,37 +851,68 @@ impl TemporalCache {
                 anchor,
                 site,
             });
-            alive.push(id);
+            ids.push(id);
         }
-        self.frames.push(FrameRecords {
-            frame: t,
-            ids: alive.clone(),
-            transforms,
-            lights,
-        });
-        self.alive = alive;
-        self.coverage = coverage;
-        self.last_frame_rendered = Some(t);
-        stats.alive = self.alive.len() as u32;
-        let res = u64::from(self.pass.settings.plane_resolution);
-        let refreshed = u64::from(stats.refreshed_planes);
-        stats.plane_rays = (computed as u64 - refreshed) * res * res + stats.retraced_samples;
-        if stats.replaced > 0 {
-            self.refresh_totals.0 += refreshed;
-            self.refresh_totals.1 += stats.retraced_samples;
-            self.refresh_totals.2 += computed as u64;
+        (ids, lifespans)
+    }
+
+    /// The sites of the replacements `replace` (ids in order of birth) at frame `t`, in
+    /// runs that are computed together: where the record is now (its world position, or
+    /// carried by its instance). A record that has not moved hands on its site (position,
+    /// frame, seed), so its plane can be refreshed rather than traced when `refreshing`
+    /// and the lights are as they were (plane_refresh.rs); such records born in the same
+    /// frame form one run, as they share what moved since.
+    fn replacement_runs(
+        &self,
+        replace: &[u32],
+        t: u32,
+        transforms: &[Mat4],
+        lights: &FrameLights,
+        refreshing: bool,
+    ) -> Vec<ReplacementRun> {
+        let mut runs: Vec<ReplacementRun> = Vec::new();
+        for &id in replace {
+            let rec = &self.history[id as usize];
+            let unmoved = rec
+                .anchor
+                .is_none_or(|a| transforms.get(a.instance as usize) == Some(&a.transform));
+            let site = match rec.site {
+                Some(site) if unmoved => site,
+                inherited => {
+                    let r = self.world_record(rec.record, id, transforms);
+                    RecordSite {
+                        position: r.position,
+                        r_min: r.r_min,
+                        normal: r.normal,
+                        seed: inherited.map_or(crate::sampling::hash_combine(id, t), |s| s.seed),
+                        geometric_normal: r.normal,
+                        instance: r.instance,
+                    }
+                }
+            };
+            let refreshable = refreshing
+                && unmoved
+                && rec.site.is_some()
+                && self.planes.planes.contains_key(&id)
+                && self
+                    .frames
+                    .iter()
+                    .find(|f| f.frame == rec.birth)
+                    .is_some_and(|f| &f.lights == lights);
+            let refresh_from = refreshable.then_some(rec.birth);
+            match runs.last_mut() {
+                Some(run) if run.refresh_from == refresh_from => {
+                    run.sites.push(site);
+                    run.ids.push(id);
+                }
+                _ => runs.push(ReplacementRun {
+                    refresh_from,
+                    sites: vec![site],
+                    ids: vec![id],
+                }),
+            }
         }
-        if !self.refreshing() {
-            self.planes.planes.clear();
-        }
-        if let Some(cache_stats) = frame.stats.cache.as_mut() {
-            cache_stats.plane_rays = stats.plane_rays;
-            cache_stats.reused_records = stats.kept;
-        }
-        let mut all = frame.stats.pass_ms.clone();
-        all.extend(times.iter().map(|(n, ms)| (n.to_string(), *ms)));
-        frame.stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
-        Ok((frame, stats))
+        runs
     }
 
     /// Per record of `expired` (the ids of the last frame's records that end before frame
