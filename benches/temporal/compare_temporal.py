@@ -4,7 +4,11 @@
 For one animated scene: renders frames A..B with `radsplat animate --temporal on` and
 `--temporal off` (same cache settings), a brute-force reference per frame
 (`radsplat reference --frame t`), then `radsplat compare-seq` of both against the
-reference. Prints wall time, speedup, records computed, relative RMSE and flicker.
+reference. Prints wall time, speedup, records computed, relative RMSE and flicker, and
+the records computed per frame after the first against their bound: the harmonic mean
+of the true lifespans of the records a frame places (`radsplat temporal-error --sites
+placed` at the middle frame; what a perfect, free E(t+1) estimate would reach), when
+the frames span at least twice dt_max.
 
     python3 benches/temporal/compare_temporal.py scenes/cube-in-box-anim.toml \\
         --frames 0..59 --size 64x64 --spp 64 [--max-lifespan 20] [--out out/temporal/NAME]
@@ -67,6 +71,8 @@ def main():
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--no-reference", action="store_true",
                     help="timings and records only (no reference, RMSE or flicker)")
+    ap.add_argument("--no-bound", action="store_true",
+                    help="skip the records-computed bound (temporal-error --sites placed)")
     args = ap.parse_args()
     out = (args.out or REPO / "out/temporal" / args.scene.stem).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -93,8 +99,12 @@ def main():
                     "-o", out / f"{mode}_####.exr", "--stats", out / f"{mode}.json"]
                    + common + extra, cpu)
         stats = json.loads((out / f"{mode}.json").read_text())
+        per_frame = [f["temporal"]["replaced"] + f["temporal"]["new"] for f in stats["frames"]]
+        if mode == "on":
+            dt_max = stats["temporal"]["max_lifespan"]
         rows[mode] = {"wall_s": wall, "cpu_s": cpu["cpu_s"],
                       "records_computed": stats["records_computed"],
+                      "records_per_frame": per_frame,
                       "plane_rays": stats["plane_rays"],
                       "peak_alive": max(f["temporal"]["alive"] for f in stats["frames"])}
     if not args.no_reference:
@@ -113,6 +123,19 @@ def main():
             rows[mode].update({"mean_relative_rmse": c["mean_relative_rmse"],
                                "mean_flicker_relative": c["mean_flicker_relative"]})
     both = "off" in rows and "on" in rows
+    bound = None
+    # temporal-error takes a_t and dt_max from the scene, so only without overrides.
+    if (both and not args.no_bound and b - a >= 2 * dt_max
+            and not (args.temporal_accuracy or args.max_lifespan)):
+        mid = (a + b) // 2
+        extra = (["--estimate-stride", args.estimate_stride] if args.estimate_stride else [])
+        run([rs, "temporal-error", args.scene, "--frame", mid, "--sites", "placed",
+             "--records", 1000000, "--size", args.size, "-a", args.accuracy,
+             "--plane-resolution", args.plane_resolution, "--record-anchor",
+             args.record_anchor, "--json", out / "bound.json"] + extra)
+        lifespans = json.loads((out / "bound.json").read_text())["lifespans"]
+        bound = {"frame": mid, "true_harmonic": lifespans["true_harmonic"],
+                 "estimated_harmonic": lifespans["estimated_harmonic"]}
     speedup = rows["off"]["wall_s"] / rows["on"]["wall_s"] if both else None
     cpu_speedup = rows["off"]["cpu_s"] / rows["on"]["cpu_s"] if both else None
     print(f"\n{args.scene} frames {a}..{b} at {args.size}, a = {args.accuracy}, "
@@ -132,12 +155,25 @@ def main():
     if speedup is not None:
         print(f"speedup {speedup:.2f}x (CPU time {cpu_speedup:.2f}x), records computed "
               f"{rows['off']['records_computed']} -> {rows['on']['records_computed']}")
+    # The steady state: from dt_max frames on, when the first frame's records have expired
+    # (before that, temporal caching computes fewer records than any steady state can).
+    steady = (rows["on"]["records_per_frame"][dt_max:] if both else [])
+    if steady and sum(steady) > 0:
+        reached = sum(rows["off"]["records_per_frame"][dt_max:]) / sum(steady)
+        line = (f"records computed per frame from frame {a + dt_max} on (steady state): "
+                f"{reached:.2f}x fewer")
+        if bound is not None:
+            line += (f"; bound at frame {bound['frame']} (true lifespans of a frame's "
+                     f"records, harmonic mean): {bound['true_harmonic']:.2f}x "
+                     f"({100 * reached / bound['true_harmonic']:.0f} % of it)")
+            bound["reached"] = reached
+        print(line)
     summary = {"scene": str(args.scene), "frames": [a, b], "size": args.size,
                "accuracy": args.accuracy, "plane_resolution": args.plane_resolution,
                "temporal_accuracy": args.temporal_accuracy, "max_lifespan": args.max_lifespan,
                "record_anchor": args.record_anchor, "estimate_stride": args.estimate_stride,
                "spp": args.spp, "rows": rows, "speedup": speedup,
-               "cpu_speedup": cpu_speedup}
+               "cpu_speedup": cpu_speedup, "bound": bound}
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     print(f"wrote {out / 'summary.json'}")
 
