@@ -55,8 +55,8 @@ pub struct EstimateErrorTable {
     pub on_movers_reprojection: ErrorSummary,
     pub on_movers_no_reprojection: ErrorSummary,
     /// The lifespans (frames, decision 9 with the scene's a_t and dt_max) all the records
-    /// (black ones too) get from tau estimated by reprojection, and from the true tau (the record really
-    /// recomputed at t+1): what a perfect estimate would allow.
+    /// (black ones too) get from tau estimated by reprojection, and from the true tau
+    /// (the record really recomputed at t+1): what a perfect estimate would allow.
     pub lifespans: LifespanComparison,
 }
 
@@ -95,7 +95,8 @@ impl LifespanComparison {
         let lifespans = |next: fn(&Estimate) -> [f32; 3], keep: &dyn Fn(usize) -> bool| {
             let mut histogram = vec![0u32; bins];
             let (mut sum, mut rate, mut n) = (0u64, 0f64, 0usize);
-            for (_, e) in estimates.iter().enumerate().filter(|(i, _)| keep(*i)) {
+            let kept = estimates.iter().enumerate().filter(|(i, _)| keep(*i));
+            for e in kept.map(|(_, e)| e) {
                 let f = frames(e, next);
                 histogram[(f as usize - 1).min(bins - 1)] += 1;
                 sum += u64::from(f);
@@ -231,12 +232,13 @@ pub enum RecordSites {
     Placed,
 }
 
-/// Places record sites at `count` visible pixels of `at_t` (`sites`: evenly strided over
-/// the image, or where a frame places its records), computes each record at t, its reprojected estimate at t+1 (`next`: the same
-/// scene one frame later) and the record recomputed at t+1, and summarises the errors.
-/// `anchored`: records move with the instance they lie on (the thesis keeps them in
-/// place), so the record recomputed at t+1 is traced from the moved site. `stride`: as
-/// [`estimates_at_sites`]. `temporal`: a_t and dt_max for the lifespans.
+/// Places `count` record sites in `at_t` (`placement`: at visible pixels evenly strided
+/// over the image, or where a frame places its records), computes each record at t, its
+/// reprojected estimate at t+1 (`next`: the same scene one frame later) and the record
+/// recomputed at t+1, and summarises the errors. `anchored`: records move with the
+/// instance they lie on (the thesis keeps them in place), so the record recomputed at t+1
+/// is traced from the moved site. `stride`: as [`estimates_at_sites`]. `temporal`: a_t
+/// and dt_max for the lifespans.
 #[allow(clippy::too_many_arguments)]
 pub fn estimate_error_table(
     renderer: &Renderer,
