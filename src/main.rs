@@ -1284,7 +1284,7 @@ fn temporal_error(
          estimated, {:.2} true; true on movers ({} records) {:.2}, on the others {:.2}",
         l.estimated_harmonic,
         l.true_harmonic,
-        table.on_movers,
+        l.movers,
         l.movers_true_harmonic,
         l.still_true_harmonic
     );

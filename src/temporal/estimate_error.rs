@@ -77,7 +77,9 @@ pub struct LifespanComparison {
     /// recomputation (a perfect, free estimate, and no record more than a frame needs).
     pub estimated_harmonic: f64,
     pub true_harmonic: f64,
-    /// The same on the records on instances that move, and on the others.
+    /// Of the records, those on instances that move, and the true harmonic mean lifespan
+    /// on those records and on the others.
+    pub movers: usize,
     pub movers_true_harmonic: f64,
     pub still_true_harmonic: f64,
 }
@@ -115,6 +117,7 @@ impl LifespanComparison {
         Self {
             accuracy: settings.accuracy,
             max_lifespan: settings.max_lifespan,
+            movers: (0..estimates.len()).filter(|&i| moving(i)).count(),
             estimated_mean,
             estimated,
             true_mean,
@@ -368,5 +371,6 @@ mod tests {
         assert!((l.estimated_harmonic - 2.0 / 1.2).abs() < 1e-12);
         assert!((l.true_harmonic - 2.0 / (1.0 / 3.0 + 0.2)).abs() < 1e-12);
         assert_eq!((l.movers_true_harmonic, l.still_true_harmonic), (3.0, 5.0));
+        assert_eq!(l.movers, 1);
     }
 }
