@@ -516,10 +516,14 @@ impl TemporalCache {
         };
         // Expiry: keep what is still valid; replace expired records that cover pixels, in
         // their last frame (the seed, section V-c) or in this one; delete the others.
-        let (kept, expired): (Vec<u32>, Vec<u32>) = self
+        // (index among the last frame's records, id)
+        let (kept, expired) = self
             .alive
             .iter()
-            .partition(|&&id| t <= self.history[id as usize].last_frame);
+            .copied()
+            .enumerate()
+            .partition::<Vec<_>, _>(|&(_, id)| t <= self.history[id as usize].last_frame);
+        let kept: Vec<u32> = kept.into_iter().map(|(_, id)| id).collect();
         let kept_records: Vec<Record> = kept
             .iter()
             .map(|&id| self.world_record(self.history[id as usize].at(t), id, &transforms))
@@ -536,7 +540,7 @@ impl TemporalCache {
             &mut times,
         )?;
         let mut replace: Vec<u32> = Vec::new();
-        for (k, &id) in expired.iter().enumerate() {
+        for (k, &(_, id)) in expired.iter().enumerate() {
             if deciding.get(k).copied().unwrap_or(0) > 0 {
                 replace.push(id);
             } else {
@@ -915,9 +919,9 @@ impl TemporalCache {
         runs
     }
 
-    /// Per record of `expired` (the ids of the last frame's records that end before frame
-    /// `t`, in frame order), the pixels it covers that
-    /// decide its replacement ([`Replacement`]) and the pixels it covers at all. Except
+    /// Per record of `expired` (the last frame's records that end before frame `t`, in
+    /// frame order, as (index in that frame, id)), the pixels it covers that decide its
+    /// replacement ([`Replacement`]) and the pixels it covers at all. Except
     /// with the seed's rule, both are of frame t: the expired records where they would be
     /// now (and, for [`Replacement::Needed`], the `kept` ones) splatted over frame t's
     /// visibility buffer, which is returned for the frame to reuse.
@@ -929,19 +933,16 @@ impl TemporalCache {
         camera: &Camera,
         t: u32,
         kept: &[Record],
-        expired: &[u32],
+        expired: &[(usize, u32)],
         transforms: &[Mat4],
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<(Vec<u32>, Vec<u32>, Option<VisibilityBuffer>)> {
         let mode = self.settings.replacement;
         if mode == Replacement::Covering {
             // Counted by the last frame's splat, for every record of that frame.
-            let expired_then: Vec<u32> = self
-                .alive
+            let expired_then: Vec<u32> = expired
                 .iter()
-                .enumerate()
-                .filter(|&(_, &id)| t > self.history[id as usize].last_frame)
-                .map(|(i, _)| self.coverage.get(i).copied().unwrap_or(0))
+                .map(|&(i, _)| self.coverage.get(i).copied().unwrap_or(0))
                 .collect();
             return Ok((expired_then.clone(), expired_then, None));
         }
@@ -960,7 +961,7 @@ impl TemporalCache {
         candidates.extend(
             expired
                 .iter()
-                .map(|&id| self.world_record(self.history[id as usize].at(t), id, transforms)),
+                .map(|&(_, id)| self.world_record(self.history[id as usize].at(t), id, transforms)),
         );
         self.frame_records.upload(ctx, &candidates)?;
         let accuracy = self.pass.settings.accuracy;
