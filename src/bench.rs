@@ -305,6 +305,8 @@ pub fn run_cli(
         scene.camera.width = w;
         scene.camera.height = h;
     }
+    let mut outputs = crate::output::OutputSet::new();
+    outputs.plan_opt(json)?;
     let ctx = GpuContext::new()?;
     let bar = if quiet {
         indicatif::ProgressBar::hidden()
@@ -322,7 +324,7 @@ pub fn run_cli(
             path: path.to_path_buf(),
             message: e.to_string(),
         })?;
-        crate::output::write_atomically(path, text.as_bytes())?;
+        outputs.stage(path, text.as_bytes())?;
     }
-    Ok(())
+    outputs.commit()
 }

@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use radsplat::gpu::GpuContext;
-use radsplat::output::{ImageFormat, tonemap_to_srgb8, write_atomically, write_png};
+use radsplat::output::{ImageFormat, OutputSet, write_atomically, write_png};
 use radsplat::records::CacheSettings;
 use radsplat::scene::load_scene;
 use radsplat::temporal::{
@@ -306,10 +306,16 @@ enum Command {
 /// Irradiance cache settings (defaults: `radsplat::records::CacheSettings::default()`).
 #[derive(clap::Args, Clone, Debug)]
 struct CacheArgs {
-    /// Accuracy a: a record contributes where Ward's weight w >= 1/a.
+    /// Accuracy a in (0, 1]: a record contributes where Ward's weight w >= 1/a. Smaller
+    /// a places more, smaller records: less interpolation error, more time, and each
+    /// record's own plane noise shows more. Lower a only together with a larger
+    /// --plane-resolution: at 16x16 planes a = 0.1 gave more error than a = 0.2 (plane
+    /// noise dominates); a = 0.1 wants 64x64 planes, a = 0.4-0.5 gets by with 24x24-32x32.
     #[arg(short, long, default_value_t = CacheSettings::default().accuracy)]
     accuracy: f32,
-    /// Hemisphere plane resolution P (P x P rays per record).
+    /// Hemisphere plane resolution P (P x P rays per record): the noise of each record's
+    /// irradiance. Goes with -a: fewer plane rays need a larger a (fewer, wider records
+    /// average the plane noise over more pixels), see -a.
     #[arg(long, default_value_t = CacheSettings::default().plane_resolution)]
     plane_resolution: u32,
     /// Hemisphere plane field of view in degrees.
@@ -388,6 +394,8 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
 }
 
 fn main() -> ExitCode {
+    // SAFETY: first thing in main, before any thread is started.
+    unsafe { radsplat::gpu::context::quiet_device_select_layer() };
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let cli = Cli::parse();
     let result = match cli.command {
@@ -642,6 +650,12 @@ fn render(args: RenderArgs) -> Result<()> {
         PathBuf::from(format!("{stem}.exr"))
     });
     let format = ImageFormat::from_path(&output)?;
+    // Every output is checked now and replaced only once all of them are written.
+    let mut outputs = OutputSet::new();
+    outputs.plan(&output)?;
+    outputs.plan_opt(png.as_deref())?;
+    outputs.plan_opt(record_map.as_deref())?;
+    outputs.plan_opt(stats.as_deref())?;
     bar.inc(1);
     bar.set_message("starting GPU");
     let renderer = Renderer::new(GpuContext::new()?)?;
@@ -668,20 +682,21 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     bar.inc(1);
     bar.set_message("writing");
-    format.write_frame(&output, &frame, scene.settings.exposure)?;
+    let exposure = scene.settings.exposure;
+    outputs.stage(&output, &format.encode_frame(&output, &frame, exposure)?)?;
     if let Some(path) = &record_map {
         let camera = radsplat::visibility::GpuCamera::new(&scene.camera);
-        let rgb = radsplat::output::record_map(&frame, &camera, &records, scene.settings.exposure);
-        write_png(path, frame.width, frame.height, &rgb)?;
+        let rgb = radsplat::output::record_map(&frame, &camera, &records, exposure);
+        outputs.stage(path, &encode_png(path, frame.width, frame.height, &rgb)?)?;
     }
     if let Some(png) = &png {
-        let rgb = tonemap_to_srgb8(&frame.beauty, scene.settings.exposure);
-        write_png(png, frame.width, frame.height, &rgb)?;
+        outputs.stage(png, &ImageFormat::Png.encode_frame(png, &frame, exposure)?)?;
     }
     if let Some(stats_path) = &stats {
         let json = serde_json_string(&prepared.bvh_stats, &frame.stats);
-        write_atomically(stats_path, json.as_bytes())?;
+        outputs.stage(stats_path, json.as_bytes())?;
     }
+    outputs.commit()?;
     bar.inc(1);
     bar.finish_and_clear();
     if !quiet {
@@ -726,6 +741,16 @@ fn render(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
+/// 8-bit RGB as PNG bytes, errors naming `path`.
+fn encode_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<Vec<u8>> {
+    radsplat::output::png_out::encode_png_rgb8(width, height, rgb).map_err(|message| {
+        Error::Output {
+            path: path.to_path_buf(),
+            message,
+        }
+    })
+}
+
 fn serde_json_string(bvh: &radsplat::frame::BvhStats, frame: &radsplat::FrameStats) -> String {
     #[derive(serde::Serialize)]
     struct Stats<'a> {
@@ -764,6 +789,8 @@ fn plane_error(
             "--points and --mc-samples must be positive".into(),
         ));
     }
+    let mut outputs = OutputSet::new();
+    outputs.plan_opt(json.as_deref())?;
     let bar = progress(quiet, points as u64);
     let table = radsplat::records::plane_error::plane_error_table(
         &scene,
@@ -780,9 +807,9 @@ fn plane_error(
             path: path.clone(),
             message: e.to_string(),
         })?;
-        write_atomically(&path, text.as_bytes())?;
+        outputs.stage(&path, text.as_bytes())?;
     }
-    Ok(())
+    outputs.commit()
 }
 
 fn info() -> Result<()> {
@@ -856,6 +883,10 @@ fn reference(
         PathBuf::from(format!("{stem}-reference.exr"))
     });
     let format = ImageFormat::from_path(&output)?;
+    let mut outputs = OutputSet::new();
+    outputs.plan(&output)?;
+    outputs.plan_opt(png.as_deref())?;
+    outputs.plan_opt(stats.as_deref())?;
     let t0 = std::time::Instant::now();
     let renderer = Renderer::new(GpuContext::new()?)?;
     radsplat::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
@@ -875,18 +906,18 @@ fn reference(
         },
     )?;
     bar.finish_and_clear();
-    match format {
-        ImageFormat::Exr => {
-            result.write_exr(&output)?;
-        }
-        ImageFormat::Png => {
-            let rgb = tonemap_to_srgb8(&result.frame.beauty, scene.settings.exposure);
-            write_png(&output, result.frame.width, result.frame.height, &rgb)?;
-        }
-    }
+    let exposure = scene.settings.exposure;
+    radsplat::output::check_finite(&output, &result.frame)?;
+    let bytes = match format {
+        ImageFormat::Exr => result.encode_exr()?,
+        ImageFormat::Png => format.encode_frame(&output, &result.frame, exposure)?,
+    };
+    outputs.stage(&output, &bytes)?;
     if let Some(png) = &png {
-        let rgb = tonemap_to_srgb8(&result.frame.beauty, scene.settings.exposure);
-        write_png(png, result.frame.width, result.frame.height, &rgb)?;
+        outputs.stage(
+            png,
+            &ImageFormat::Png.encode_frame(png, &result.frame, exposure)?,
+        )?;
     }
     let wall_ms = t0.elapsed().as_secs_f64() * 1e3;
     if let Some(stats_path) = &stats {
@@ -904,8 +935,9 @@ fn reference(
             wall_ms,
         })
         .unwrap_or_default();
-        write_atomically(stats_path, json.as_bytes())?;
+        outputs.stage(stats_path, json.as_bytes())?;
     }
+    outputs.commit()?;
     if !quiet {
         eprintln!(
             "{}x{}, {spp} spp, {} light samples: direct {:.0} ms, indirect {:.0} ms in {} \
@@ -935,12 +967,15 @@ fn compare(
     downsample: u32,
     json: Option<&Path>,
 ) -> Result<()> {
-    use radsplat::compare::{compare, load_image, write_diff_png};
+    use radsplat::compare::{compare, diff_image, load_image};
     if !(scale.is_finite() && scale > 0.0) {
         return Err(Error::Usage(
             "--diff-scale must be a positive number".into(),
         ));
     }
+    let mut outputs = OutputSet::new();
+    outputs.plan_opt(diff)?;
+    outputs.plan_opt(json)?;
     let mut ia = load_image(a)?;
     if let Some(c) = minus {
         ia = ia.minus(&load_image(c)?)?;
@@ -981,7 +1016,10 @@ fn compare(
         None => println!("indirect  (not in both files)"),
     }
     if let Some(path) = diff {
-        write_diff_png(path, &ia, &ib, scale)?;
+        let rgb = diff_image(&ia, &ib, scale);
+        // The diff image has a legend strip below the picture.
+        let rows = (rgb.len() / 3) as u32 / ia.width.max(1);
+        outputs.stage(path, &encode_png(path, ia.width, rows, &rgb)?)?;
         println!(
             "wrote {}: |Y(A)-Y(B)| / mean Y(B), viridis from 0 to {scale} (legend strip below)",
             path.display()
@@ -1002,9 +1040,9 @@ fn compare(
             path: path.to_path_buf(),
             message: e.to_string(),
         })?;
-        write_atomically(path, text.as_bytes())?;
+        outputs.stage(path, text.as_bytes())?;
     }
-    Ok(())
+    outputs.commit()
 }
 
 fn parse_frames(s: &str) -> std::result::Result<std::ops::RangeInclusive<u32>, String> {
@@ -1044,14 +1082,20 @@ fn export_rad(scene_path: &Path, out_dir: &Path, size: Option<(u32, u32)>) -> Re
         path: out_dir.to_path_buf(),
         message: e.to_string(),
     })?;
+    let (rad, vf, notex, json) = (
+        out_dir.join("scene.rad"),
+        out_dir.join("view.vf"),
+        out_dir.join("notex.toml"),
+        out_dir.join("export.json"),
+    );
+    let mut outputs = OutputSet::new();
+    for path in [&rad, &vf, &notex, &json] {
+        outputs.plan(path)?;
+    }
     let view = view_options(&scene);
-    write_atomically(&out_dir.join("scene.rad"), scene_rad(&scene).as_bytes())?;
-    write_atomically(
-        &out_dir.join("view.vf"),
-        format!("rview {view}\n").as_bytes(),
-    )?;
-    let notex = out_dir.join("notex.toml");
-    write_atomically(&notex, notex_scene_toml(scene_path, &scene)?.as_bytes())?;
+    outputs.stage(&rad, scene_rad(&scene).as_bytes())?;
+    outputs.stage(&vf, format!("rview {view}\n").as_bytes())?;
+    outputs.stage(&notex, notex_scene_toml(scene_path, &scene)?.as_bytes())?;
     let info = serde_json::json!({
         "scene": scene_path,
         "width": scene.camera.width,
@@ -1062,12 +1106,13 @@ fn export_rad(scene_path: &Path, out_dir: &Path, size: Option<(u32, u32)>) -> Re
         "has_environment": scene.environment.max_element() > 0.0,
         "exposure": scene.settings.exposure,
     });
-    write_atomically(
-        &out_dir.join("export.json"),
+    outputs.stage(
+        &json,
         serde_json::to_string_pretty(&info)
             .unwrap_or_default()
             .as_bytes(),
     )?;
+    outputs.commit()?;
     println!(
         "wrote {}/{{scene.rad, view.vf, notex.toml, export.json}}",
         out_dir.display()

@@ -24,6 +24,30 @@ pub fn required_limits() -> wgpu::Limits {
     }
 }
 
+/// Keeps Mesa's device-selection layer from asking a Wayland compositor for the default
+/// GPU where there can be none: with `XDG_RUNTIME_DIR` unset or not a directory (a
+/// container, ssh, CI) libwayland prints "error: XDG_RUNTIME_DIR is invalid or not set in
+/// the environment." twice per process, which reads like one of our errors. The layer only
+/// reorders devices for programs that take the first one; radsplat picks its adapter
+/// itself (`WGPU_ADAPTER_NAME`, power preference), so nothing is lost by setting the
+/// layer's own off switch `NODEVICE_SELECT=1`. Left alone when the user set
+/// `NODEVICE_SELECT` or `MESA_VK_DEVICE_SELECT` (which needs the layer), and wherever
+/// `XDG_RUNTIME_DIR` is a directory (the layer can do its work there).
+///
+/// # Safety
+/// Sets a process environment variable: call it before any other thread exists (first
+/// thing in `main`), as [`std::env::set_var`] requires.
+pub unsafe fn quiet_device_select_layer() {
+    let runtime_dir_ok = std::env::var_os("XDG_RUNTIME_DIR")
+        .is_some_and(|d| !d.is_empty() && std::path::Path::new(&d).is_dir());
+    let user_chose = std::env::var_os("NODEVICE_SELECT").is_some()
+        || std::env::var_os("MESA_VK_DEVICE_SELECT").is_some();
+    if !runtime_dir_ok && !user_chose {
+        // SAFETY: the caller guarantees no other thread runs yet.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
+}
+
 /// A device and queue radsplat runs on.
 pub struct GpuContext {
     pub device: wgpu::Device,

@@ -3,12 +3,14 @@
 //! file is written atomically: to a temporary file next to it, then renamed, so a
 //! failure never leaves a half-written output.
 
+pub mod commit;
 pub mod exr_out;
 pub mod plot;
 pub mod png_out;
 pub mod record_map;
 pub mod sequence;
 
+pub use commit::OutputSet;
 pub use exr_out::{read_exr_channels, write_exr};
 pub use png_out::{tonemap_to_srgb8, write_png};
 pub use record_map::{lifespan_map, record_map};
@@ -47,21 +49,76 @@ impl ImageFormat {
 
 impl ImageFormat {
     /// Writes `frame` to `path` in this format: the EXR with every AOV, or the beauty
-    /// tone-mapped with `exposure` as PNG.
+    /// tone-mapped with `exposure` as PNG. Refuses a frame with a non-finite pixel.
     pub fn write_frame(
         self,
         path: &Path,
         frame: &crate::frame::Frame,
         exposure: f32,
     ) -> Result<()> {
+        write_atomically(path, &self.encode_frame(path, frame, exposure)?)
+    }
+
+    /// The bytes [`ImageFormat::write_frame`] writes (`path` only names the output in
+    /// errors).
+    pub fn encode_frame(
+        self,
+        path: &Path,
+        frame: &crate::frame::Frame,
+        exposure: f32,
+    ) -> Result<Vec<u8>> {
+        check_finite(path, frame)?;
+        let err = |message: String| Error::Output {
+            path: path.to_path_buf(),
+            message,
+        };
         match self {
-            ImageFormat::Exr => write_exr(path, frame).map(|_| ()),
+            ImageFormat::Exr => {
+                exr_out::encode_exr(frame.width, frame.height, &exr_out::frame_channels(frame))
+                    .map_err(err)
+            }
             ImageFormat::Png => {
                 let rgb = tonemap_to_srgb8(&frame.beauty, exposure);
-                write_png(path, frame.width, frame.height, &rgb)
+                png_out::encode_png_rgb8(frame.width, frame.height, &rgb).map_err(err)
             }
         }
     }
+}
+
+/// Refuses to write a frame with a NaN or infinite pixel in any image (beauty, albedo,
+/// direct, indirect; the depth AOV is +inf on background by definition): such a pixel is
+/// a scene value that overflowed f32 or degenerated, and a user would rather get an error
+/// naming the pixel than a picture with holes that poisons every average taken of it.
+pub fn check_finite(path: &Path, frame: &crate::frame::Frame) -> Result<()> {
+    let images = [
+        ("beauty", Some(&frame.beauty)),
+        ("albedo", Some(&frame.albedo)),
+        ("direct", Some(&frame.direct)),
+        ("indirect", frame.indirect.as_ref()),
+    ];
+    for (name, image) in images {
+        let Some(image) = image else { continue };
+        let bad = image
+            .iter()
+            .filter(|p| p.iter().any(|c| !c.is_finite()))
+            .count();
+        if let Some(first) = image.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+            let w = frame.width.max(1) as usize;
+            return Err(Error::Output {
+                path: path.to_path_buf(),
+                message: format!(
+                    "not written: {bad} of {} pixels of the {name} image are not finite \
+                     (first at x {} y {}: {:?}); a light or material value overflows f32 or \
+                     the scene degenerates at this frame",
+                    image.len(),
+                    first % w,
+                    first / w,
+                    image[first]
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The directory `path` will be written in, checked to exist (so long jobs can refuse a

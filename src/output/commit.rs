@@ -1,0 +1,228 @@
+//! The outputs of one run, written all or nothing.
+//!
+//! A run that writes several files (an EXR, a PNG, a record map, a stats JSON) must not
+//! leave some of them written, or an older file replaced, when it then fails: a user who
+//! sees "error" trusts that nothing changed. [`OutputSet`] checks every path before the
+//! work starts (its directory exists and takes a new file there), holds each file's bytes
+//! in a temporary file beside it, and renames them all into place only in
+//! [`OutputSet::commit`], after every file was staged. Dropped without a commit, it removes
+//! its temporary files and leaves every existing output as it was.
+
+use crate::{Error, Result};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// One planned output: where it goes and the temporary file that holds it until commit.
+struct Planned {
+    path: PathBuf,
+    tmp: PathBuf,
+    staged: bool,
+}
+
+/// Every file one run writes, committed together (see the module doc).
+#[derive(Default)]
+pub struct OutputSet {
+    planned: Vec<Planned>,
+}
+
+impl OutputSet {
+    /// An empty set.
+    pub fn new() -> OutputSet {
+        OutputSet::default()
+    }
+
+    /// Plans `path` as an output of this run, before any work: refuses a path named twice,
+    /// a directory, a missing directory or one that does not take a new file (the
+    /// temporary file is created now, so permissions and a full disk show up before
+    /// rendering rather than after it).
+    pub fn plan(&mut self, path: &Path) -> Result<()> {
+        let err = |message: String| Error::Output {
+            path: path.to_path_buf(),
+            message,
+        };
+        if self.planned.iter().any(|p| same_file(&p.path, path)) {
+            return Err(err(
+                "named twice as an output of this run: each output needs its own path".into(),
+            ));
+        }
+        if path.is_dir() {
+            return Err(err("is a directory, not a file name".into()));
+        }
+        let dir = super::output_dir(path)?;
+        let file_name = path
+            .file_name()
+            .ok_or_else(|| err("not a file name".into()))?
+            .to_string_lossy();
+        let tmp = dir.join(format!(
+            ".{file_name}.{}.{}.tmp",
+            std::process::id(),
+            self.planned.len()
+        ));
+        std::fs::File::create(&tmp).map_err(|e| err(format!("cannot be written: {e}")))?;
+        self.planned.push(Planned {
+            path: path.to_path_buf(),
+            tmp,
+            staged: false,
+        });
+        Ok(())
+    }
+
+    /// Plans `path` when there is one (an optional output flag).
+    pub fn plan_opt(&mut self, path: Option<&Path>) -> Result<()> {
+        match path {
+            Some(p) => self.plan(p),
+            None => Ok(()),
+        }
+    }
+
+    /// Whether `path` was planned.
+    pub fn is_planned(&self, path: &Path) -> bool {
+        self.planned.iter().any(|p| same_file(&p.path, path))
+    }
+
+    /// Writes the bytes of the planned output `path` to its temporary file (fsynced); the
+    /// file itself is replaced only by [`OutputSet::commit`].
+    pub fn stage(&mut self, path: &Path, bytes: &[u8]) -> Result<()> {
+        let planned = self
+            .planned
+            .iter_mut()
+            .find(|p| same_file(&p.path, path))
+            .ok_or_else(|| Error::Output {
+                path: path.to_path_buf(),
+                message: "internal: staged without being planned".into(),
+            })?;
+        let result = (|| -> std::io::Result<()> {
+            let mut f = std::fs::File::create(&planned.tmp)?;
+            f.write_all(bytes)?;
+            f.sync_all()
+        })();
+        result.map_err(|e| Error::Output {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        planned.staged = true;
+        Ok(())
+    }
+
+    /// Renames every staged file into place. Fails, replacing nothing, when a planned
+    /// output was never staged (the run did not produce everything it promised).
+    pub fn commit(self) -> Result<()> {
+        if let Some(p) = self.planned.iter().find(|p| !p.staged) {
+            return Err(Error::Output {
+                path: p.path.clone(),
+                message: "internal: planned but never written; no output was replaced".into(),
+            });
+        }
+        for p in &self.planned {
+            std::fs::rename(&p.tmp, &p.path).map_err(|e| Error::Output {
+                path: p.path.clone(),
+                message: e.to_string(),
+            })?;
+        }
+        Ok(())
+    }
+}
+
+impl Drop for OutputSet {
+    /// Removes the temporary files of a set that was not committed (or, when its commit
+    /// failed part way, of what was not renamed yet).
+    fn drop(&mut self) {
+        for p in &self.planned {
+            // A renamed file's temporary name is gone already: nothing to remove.
+            let _ = std::fs::remove_file(&p.tmp);
+        }
+    }
+}
+
+/// Whether two output paths name the same file (literally, or after resolving the
+/// directory, so `out.exr` and `./out.exr` collide).
+fn same_file(a: &Path, b: &Path) -> bool {
+    if a == b {
+        return true;
+    }
+    let resolve = |p: &Path| -> Option<PathBuf> {
+        let dir = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        Some(dir.canonicalize().ok()?.join(p.file_name()?))
+    };
+    matches!((resolve(a), resolve(b)), (Some(x), Some(y)) if x == y)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp_dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("radsplat-commit-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).expect("temp dir");
+        d
+    }
+
+    fn entries(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .expect("dir")
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn all_outputs_appear_together_on_commit() {
+        let dir = tmp_dir("commit");
+        let (a, b) = (dir.join("a.exr"), dir.join("b.png"));
+        let mut set = OutputSet::new();
+        set.plan(&a).expect("plan a");
+        set.plan(&b).expect("plan b");
+        set.stage(&a, b"A").expect("stage a");
+        set.stage(&b, b"B").expect("stage b");
+        assert!(
+            !a.exists() && !b.exists(),
+            "nothing is in place before commit"
+        );
+        set.commit().expect("commit");
+        assert_eq!(std::fs::read(&a).expect("a"), b"A");
+        assert_eq!(std::fs::read(&b).expect("b"), b"B");
+        assert_eq!(entries(&dir), ["a.exr", "b.png"], "no temporary file left");
+    }
+
+    #[test]
+    fn a_set_dropped_before_commit_changes_nothing() {
+        let dir = tmp_dir("drop");
+        let a = dir.join("a.exr");
+        std::fs::write(&a, b"old").expect("old file");
+        {
+            let mut set = OutputSet::new();
+            set.plan(&a).expect("plan");
+            set.stage(&a, b"new").expect("stage");
+            // The run fails here: the set is dropped.
+        }
+        assert_eq!(std::fs::read(&a).expect("a"), b"old");
+        assert_eq!(entries(&dir), ["a.exr"], "no temporary file left");
+    }
+
+    #[test]
+    fn bad_paths_are_refused_when_planned() {
+        let dir = tmp_dir("bad");
+        let mut set = OutputSet::new();
+        let missing = dir.join("nodir").join("x.png");
+        let e = set.plan(&missing).expect_err("missing dir").to_string();
+        assert!(e.contains("nodir") && e.contains("does not exist"), "{e}");
+        let e = set.plan(&dir).expect_err("a directory").to_string();
+        assert!(e.contains("directory"), "{e}");
+        set.plan(&dir.join("a.exr")).expect("plan");
+        let e = set
+            .plan(&dir.join(".").join("a.exr"))
+            .expect_err("twice")
+            .to_string();
+        assert!(e.contains("twice"), "{e}");
+        // A planned output never staged: the commit fails and writes nothing.
+        let e = set.commit().expect_err("unstaged").to_string();
+        assert!(e.contains("never written"), "{e}");
+        assert!(entries(&dir).is_empty(), "{:?}", entries(&dir));
+    }
+}
