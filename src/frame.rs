@@ -53,8 +53,13 @@ pub struct CachedFrameOptions<'a, 'b> {
 pub struct FrameStats {
     pub width: u32,
     pub height: u32,
-    /// GPU time per pass in ms (timestamp queries; empty if the device lacks them).
+    /// GPU time per pass in ms (timestamp queries; empty if the device lacks them),
+    /// without shader compilation.
     pub pass_ms: Vec<(String, f64)>,
+    /// Shader compilation per pass in ms (wall time), for the pipelines first dispatched
+    /// during this frame: compiled once per process, at first use, so later frames have
+    /// none (see `gpu::pipeline::ComputePass`).
+    pub shader_compile_ms: Vec<(String, f64)>,
     /// Wall time of the frame on the CPU side, submit to readback, in ms.
     pub wall_ms: f64,
     pub camera_rays: u64,
@@ -119,14 +124,34 @@ impl Frame {
     }
 }
 
-/// The renderer: compiled passes on one GPU context.
+/// The renderer: its passes on one GPU context, each compiled at its first use, so that a
+/// command builds only the pipelines it runs (`render --direct-only` never builds the
+/// cache's, `reference` never the splat's).
 pub struct Renderer {
     pub ctx: GpuContext,
-    visibility: VisibilityPass,
-    direct: DirectLightPass,
-    splat: SplatPass,
-    placement: PlacementPass,
-    resolve: ResolvePass,
+    visibility: OnFirstUse<VisibilityPass>,
+    direct: OnFirstUse<DirectLightPass>,
+    splat: OnFirstUse<SplatPass>,
+    placement: OnFirstUse<PlacementPass>,
+    resolve: OnFirstUse<ResolvePass>,
+}
+
+/// A pass built when it is first asked for.
+struct OnFirstUse<T>(std::sync::OnceLock<T>);
+
+impl<T> OnFirstUse<T> {
+    fn new() -> Self {
+        Self(std::sync::OnceLock::new())
+    }
+
+    /// The pass, built by `make` on first use (if two threads race, one build is kept).
+    fn get(&self, make: impl FnOnce() -> Result<T>) -> Result<&T> {
+        if let Some(pass) = self.0.get() {
+            return Ok(pass);
+        }
+        let pass = make()?;
+        Ok(self.0.get_or_init(|| pass))
+    }
 }
 
 /// An irradiance cache: its records on the GPU and the pass that computes new ones with
@@ -149,21 +174,38 @@ impl IrradianceCache {
 }
 
 impl Renderer {
-    /// Compiles every pass on `ctx`.
+    /// A renderer on `ctx`; its passes are compiled when first used, and a pass's
+    /// compilation errors are reported by the call that first needs it. (The Result
+    /// stays for callers: nothing fails here today.)
     pub fn new(ctx: GpuContext) -> Result<Self> {
-        let visibility = VisibilityPass::new(&ctx)?;
-        let direct = DirectLightPass::new(&ctx)?;
-        let splat = SplatPass::new(&ctx)?;
-        let placement = PlacementPass::new(&ctx)?;
-        let resolve = ResolvePass::new(&ctx)?;
         Ok(Self {
             ctx,
-            visibility,
-            direct,
-            splat,
-            placement,
-            resolve,
+            visibility: OnFirstUse::new(),
+            direct: OnFirstUse::new(),
+            splat: OnFirstUse::new(),
+            placement: OnFirstUse::new(),
+            resolve: OnFirstUse::new(),
         })
+    }
+
+    fn visibility_pass(&self) -> Result<&VisibilityPass> {
+        self.visibility.get(|| VisibilityPass::new(&self.ctx))
+    }
+
+    fn direct_pass(&self) -> Result<&DirectLightPass> {
+        self.direct.get(|| DirectLightPass::new(&self.ctx))
+    }
+
+    fn splat_pass(&self) -> Result<&SplatPass> {
+        self.splat.get(|| SplatPass::new(&self.ctx))
+    }
+
+    fn placement_pass(&self) -> Result<&PlacementPass> {
+        self.placement.get(|| PlacementPass::new(&self.ctx))
+    }
+
+    fn resolve_pass(&self) -> Result<&ResolvePass> {
+        self.resolve.get(|| ResolvePass::new(&self.ctx))
     }
 
     /// An empty irradiance cache with `settings`.
@@ -198,7 +240,7 @@ impl Renderer {
         let vis = self.visibility(scene, camera, &mut Vec::new())?;
         let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
         let mut times = Vec::new();
-        self.splat.splat(
+        self.splat_pass()?.splat(
             ctx,
             &scene.gpu,
             &vis,
@@ -286,16 +328,16 @@ impl Renderer {
             0
         };
         let splat = SplatBuffer::with_coverage(ctx, camera.width, camera.height, coverage_records)?;
-        self.splat.splat(
+        self.splat_pass()?.splat(
             ctx, &scene.gpu, &vis, records, 0, accuracy, &splat, false, &mut times,
         )?;
-        let placement = self.placement.place(
+        let placement = self.placement_pass()?.place(
             ctx,
             &scene.gpu,
             &vis,
             records,
             pass,
-            &self.splat,
+            self.splat_pass()?,
             &splat,
             max_new_records,
             lookahead,
@@ -309,6 +351,7 @@ impl Renderer {
             width,
             height,
             pass_ms: sum_by_pass(times),
+            shader_compile_ms: sum_by_pass(&ctx.take_compile_times()),
             wall_ms: t0.elapsed().as_secs_f64() * 1e3,
             camera_rays: u64::from(width) * u64::from(height),
             cache: Some(CacheFrameStats {
@@ -343,7 +386,7 @@ impl Renderer {
         // Resolve: direct + albedo / pi * interpolated irradiance.
         let mut timer = PassTimer::new(ctx, 1);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        let indirect = self.resolve.record(
+        let indirect = self.resolve_pass()?.record(
             ctx,
             &mut encoder,
             &scene.gpu,
@@ -410,7 +453,7 @@ impl Renderer {
             Some(flags) => SplatBuffer::with_needed_coverage(ctx, vis.width, vis.height, flags)?,
             None => SplatBuffer::with_coverage(ctx, vis.width, vis.height, records.count)?,
         };
-        self.splat.splat(
+        self.splat_pass()?.splat(
             ctx, &scene.gpu, vis, records, 0, accuracy, &out, false, times,
         )?;
         out.read_coverage(ctx)
@@ -484,7 +527,7 @@ impl Renderer {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         let vis = match traced {
             Some(vis) => vis,
-            None => self.visibility.record(
+            None => self.visibility_pass()?.record(
                 ctx,
                 &mut encoder,
                 &scene.gpu,
@@ -493,10 +536,13 @@ impl Renderer {
             )?,
         };
         let direct = if with_direct {
-            Some(
-                self.direct
-                    .record(ctx, &mut encoder, &scene.gpu, &vis, timer.next("direct"))?,
-            )
+            Some(self.direct_pass()?.record(
+                ctx,
+                &mut encoder,
+                &scene.gpu,
+                &vis,
+                timer.next("direct"),
+            )?)
         } else {
             None
         };
@@ -541,6 +587,7 @@ impl Renderer {
                 width,
                 height,
                 pass_ms,
+                shader_compile_ms: sum_by_pass(&self.ctx.take_compile_times()),
                 wall_ms: t0.elapsed().as_secs_f64() * 1e3,
                 camera_rays: u64::from(width) * u64::from(height),
                 cache: None,

@@ -722,12 +722,16 @@ fn render(args: RenderArgs) -> Result<()> {
                 frame.stats.wall_ms
             );
         }
+        let compile: f64 = frame.stats.shader_compile_ms.iter().map(|(_, ms)| ms).sum();
         eprintln!(
-            "{}x{}, {} triangles, BVH {:.1} ms, GPU: {}; wrote {}{}",
+            "{}x{}, {} triangles, BVH {:.1} ms, shader compilation {:.0} ms ({} pipelines), \
+             GPU: {}; wrote {}{}",
             frame.width,
             frame.height,
             prepared.bvh_stats.triangles,
             prepared.bvh_stats.build_ms,
+            compile,
+            frame.stats.shader_compile_ms.len(),
             if passes.is_empty() {
                 "no timestamps".to_string()
             } else {

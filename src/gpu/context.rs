@@ -5,7 +5,9 @@ use crate::{Error, Result};
 use std::sync::{Arc, Mutex};
 
 /// Features radsplat can use when the adapter has them. None is required.
-pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY;
+/// `PIPELINE_CACHE` keeps compiled pipelines on disk between runs ([`PipelineCacheFile`]).
+pub const OPTIONAL_FEATURES: wgpu::Features =
+    wgpu::Features::TIMESTAMP_QUERY.union(wgpu::Features::PIPELINE_CACHE);
 
 /// Number of storage buffers one radsplat pass binds at most (scene tables + pass buffers).
 pub const STORAGE_BUFFERS_PER_STAGE: u32 = 16;
@@ -56,6 +58,113 @@ pub struct GpuContext {
     pub adapter_info: Option<wgpu::AdapterInfo>,
     /// First uncaptured wgpu error (validation, out of memory) or device loss, if any.
     fault: Arc<Mutex<Option<String>>>,
+    /// Shader compilations measured since the last [`GpuContext::take_compile_times`]:
+    /// (pass, ms), see [`super::pipeline::ComputePass`].
+    pub(crate) compile_times: Arc<Mutex<Vec<(&'static str, f64)>>>,
+    /// The driver's pipeline cache, loaded from and saved to disk (headless contexts on
+    /// devices with `PIPELINE_CACHE`; None otherwise).
+    pub(crate) pipeline_cache: Option<PipelineCacheFile>,
+}
+
+/// A wgpu pipeline cache kept in a file between runs, so a driver that compiles pipelines
+/// when they are created (most GPUs) does not compile them again on the next start.
+/// The file is `<dir>/<wgpu's cache key for the adapter>.bin`, with `<dir>` from
+/// `RADSPLAT_CACHE_DIR` (empty: no cache), else `$XDG_CACHE_HOME/radsplat`, else
+/// `$HOME/.cache/radsplat`. wgpu checks the data's header against the device and starts
+/// empty when it does not match (`fallback`), so a stale or foreign file only costs a
+/// compilation. lavapipe compiles at first dispatch and keeps its own Mesa shader cache,
+/// so there the file stays small and changes nothing.
+pub struct PipelineCacheFile {
+    pub cache: wgpu::PipelineCache,
+    path: std::path::PathBuf,
+    loaded_bytes: usize,
+}
+
+impl PipelineCacheFile {
+    /// The cache for `adapter` on `device`, from its file when there is one.
+    fn open(device: &wgpu::Device, info: &wgpu::AdapterInfo) -> Option<Self> {
+        Self::open_in(device, info, &cache_dir()?)
+    }
+
+    /// The cache for `adapter` on `device` kept in `dir` (None where the device has no
+    /// pipeline cache or wgpu knows no key for its backend).
+    pub fn open_in(
+        device: &wgpu::Device,
+        info: &wgpu::AdapterInfo,
+        dir: &std::path::Path,
+    ) -> Option<Self> {
+        if !device.features().contains(wgpu::Features::PIPELINE_CACHE) {
+            return None;
+        }
+        let key = wgpu::util::pipeline_cache_key(info)?;
+        let path = dir.join(format!("{key}.bin"));
+        let data = std::fs::read(&path).ok();
+        // SAFETY: the data is what `get_data` of an earlier run wrote for this adapter's
+        // key; wgpu validates its header against the device and, with `fallback`, starts
+        // an empty cache when it does not fit.
+        let cache = unsafe {
+            device.create_pipeline_cache(&wgpu::PipelineCacheDescriptor {
+                label: Some("radsplat pipelines"),
+                data: data.as_deref(),
+                fallback: true,
+            })
+        };
+        Some(Self {
+            cache,
+            path,
+            loaded_bytes: data.map_or(0, |d| d.len()),
+        })
+    }
+
+    /// The file the cache is kept in.
+    pub fn path(&self) -> &std::path::Path {
+        &self.path
+    }
+
+    /// Writes the cache back when it holds more than was loaded (atomically, under a
+    /// name unique to this process and call, so that concurrent runs never mix bytes).
+    /// Failures only cost the next run a compilation, so they are logged, not returned.
+    pub fn save(&self) {
+        let Some(data) = self.cache.get_data() else {
+            return;
+        };
+        if data.len() <= self.loaded_bytes {
+            return;
+        }
+        static SAVES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = SAVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let Some(dir) = self.path.parent() else {
+            return;
+        };
+        let tmp = dir.join(format!(".pipelines.{}.{n}.tmp", std::process::id()));
+        let result = std::fs::create_dir_all(dir)
+            .and_then(|()| std::fs::write(&tmp, &data))
+            .and_then(|()| std::fs::rename(&tmp, &self.path));
+        if let Err(e) = result {
+            let _ = std::fs::remove_file(&tmp);
+            log::info!("pipeline cache {} not saved: {e}", self.path.display());
+        }
+    }
+}
+
+/// Where pipeline caches are kept (see [`PipelineCacheFile`]); None: no cache.
+fn cache_dir() -> Option<std::path::PathBuf> {
+    use std::path::PathBuf;
+    if let Some(dir) = std::env::var_os("RADSPLAT_CACHE_DIR") {
+        return (!dir.is_empty()).then(|| PathBuf::from(dir));
+    }
+    if let Some(dir) = std::env::var_os("XDG_CACHE_HOME").filter(|d| !d.is_empty()) {
+        return Some(PathBuf::from(dir).join("radsplat"));
+    }
+    let home = std::env::var_os("HOME").filter(|d| !d.is_empty())?;
+    Some(PathBuf::from(home).join(".cache").join("radsplat"))
+}
+
+impl Drop for PipelineCacheFile {
+    /// Saves the cache for the next run when its context goes.
+    fn drop(&mut self) {
+        self.save();
+    }
 }
 
 /// Shadow rays one pass may cast per invocation on llvmpipe (lavapipe). llvmpipe stops
@@ -129,8 +238,10 @@ impl GpuContext {
                 let mut f = fault.lock().unwrap_or_else(|p| p.into_inner());
                 f.get_or_insert_with(|| e.to_string());
             }));
+        let pipeline_cache = PipelineCacheFile::open(&ctx.device, &info);
         Ok(Self {
             adapter_info: Some(info),
+            pipeline_cache,
             ..ctx
         })
     }
@@ -151,7 +262,17 @@ impl GpuContext {
             queue,
             adapter_info: None,
             fault,
+            compile_times: Arc::default(),
+            pipeline_cache: None,
         }
+    }
+
+    /// The shader compilations (pass name, ms) measured since the last call: each pipeline
+    /// is compiled once per process, at its first dispatch, and that time is kept out of
+    /// the pass times (see [`super::pipeline::ComputePass`]).
+    pub fn take_compile_times(&self) -> Vec<(&'static str, f64)> {
+        let mut t = self.compile_times.lock().unwrap_or_else(|p| p.into_inner());
+        std::mem::take(&mut *t)
     }
 
     /// Returns the first recorded wgpu error or device loss as an [`Error::Gpu`].

@@ -13,10 +13,22 @@ pub enum Binding {
 }
 
 /// A compiled compute pass.
+///
+/// Drivers may compile a pipeline's shader only when it is first dispatched (lavapipe
+/// runs its LLVM JIT then: seconds for a tracing pass on a cold shader cache), which would
+/// count the compilation as that pass's GPU time. So the first dispatch of each pipeline
+/// is preceded by an empty one (zero workgroups, same bind groups) in a submission of its
+/// own, waited for and timed; the time goes to [`GpuContext::take_compile_times`] and the
+/// pass times stay those of the work. Later dispatches cost nothing extra.
 pub struct ComputePass {
     pub name: &'static str,
     pub pipeline: wgpu::ComputePipeline,
     pub pass_layout: wgpu::BindGroupLayout,
+    /// What the first-dispatch compilation needs: the device, queue and the log.
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    compile_times: std::sync::Arc<std::sync::Mutex<Vec<(&'static str, f64)>>>,
+    compiled: std::sync::atomic::AtomicBool,
 }
 
 impl ComputePass {
@@ -63,7 +75,7 @@ impl ComputePass {
             module: &module,
             entry_point: Some("main"),
             compilation_options: Default::default(),
-            cache: None,
+            cache: ctx.pipeline_cache.as_ref().map(|c| &c.cache),
         });
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("creating pass {name}: {e}")));
@@ -72,7 +84,48 @@ impl ComputePass {
             name,
             pipeline,
             pass_layout,
+            device: ctx.device.clone(),
+            queue: ctx.queue.clone(),
+            compile_times: ctx.compile_times.clone(),
+            compiled: std::sync::atomic::AtomicBool::new(false),
         })
+    }
+
+    /// Compiles the pipeline by an empty dispatch before its first real one, timed on the
+    /// CPU from submit to completion after the queue went idle (see the type's doc).
+    fn compile_once(&self, scene: &wgpu::BindGroup, pass: &wgpu::BindGroup) {
+        if self
+            .compiled
+            .swap(true, std::sync::atomic::Ordering::Relaxed)
+        {
+            return;
+        }
+        // Work submitted earlier must not count: wait for it first. A failure here (device
+        // loss) shows up again, with its message, where the frame waits for its work.
+        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+        let t0 = std::time::Instant::now();
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some(self.name),
+            });
+        {
+            let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(self.name),
+                timestamp_writes: None,
+            });
+            cpass.set_pipeline(&self.pipeline);
+            cpass.set_bind_group(0, scene, &[]);
+            cpass.set_bind_group(1, pass, &[]);
+            cpass.dispatch_workgroups(0, 0, 0);
+        }
+        self.queue.submit([encoder.finish()]);
+        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        self.compile_times
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push((self.name, ms));
     }
 
     /// Binds `buffers` (in binding order) for this pass.
@@ -127,6 +180,7 @@ impl ComputePass {
         pass: &wgpu::BindGroup,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> wgpu::ComputePass<'e> {
+        self.compile_once(scene, pass);
         let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(self.name),
             timestamp_writes: timestamps,

@@ -170,3 +170,46 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .map(|b| format!("{b:02x}"))
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(beauty: Vec<[f32; 4]>) -> crate::frame::Frame {
+        let n = beauty.len();
+        crate::frame::Frame {
+            width: n as u32,
+            height: 1,
+            beauty,
+            albedo: vec![[0.5; 4]; n],
+            direct: vec![[0.0; 4]; n],
+            indirect: None,
+            visibility: Vec::new(),
+            stats: Default::default(),
+        }
+    }
+
+    /// A NaN or infinite pixel is refused with its count and place; finite frames pass.
+    #[test]
+    fn frames_with_non_finite_pixels_are_not_written() {
+        let path = Path::new("out.exr");
+        check_finite(path, &frame(vec![[1.0, 2.0, 3.0, 1.0]; 3])).expect("finite frame");
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let f = frame(vec![[1.0; 4], [1.0, bad, 0.0, 1.0], [bad; 4]]);
+            let e = check_finite(path, &f).expect_err("non-finite").to_string();
+            assert!(
+                e.contains("2 of 3 pixels") && e.contains("beauty") && e.contains("x 1 y 0"),
+                "{e}"
+            );
+            let e = ImageFormat::Png
+                .encode_frame(Path::new("out.png"), &f, 1.0)
+                .expect_err("PNG too")
+                .to_string();
+            assert!(e.contains("out.png"), "{e}");
+        }
+        let mut f = frame(vec![[1.0; 4]; 2]);
+        f.indirect = Some(vec![[0.0; 4], [f32::NAN; 4]]);
+        let e = check_finite(path, &f).expect_err("indirect").to_string();
+        assert!(e.contains("indirect"), "{e}");
+    }
+}

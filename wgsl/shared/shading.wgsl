@@ -143,77 +143,104 @@ fn rect_light_point(light: Light, k: u32, light_seed: u32) -> vec3f {
 // Scrambles the environment's directions (with the surface's seed).
 const ENVIRONMENT_SEED: u32 = 0xe17u;
 
+// The environment's slot after the lights in `direct_irradiance_samples`' light loop.
+const LIGHT_ENVIRONMENT: u32 = 0xffffffffu;
+
 // Same with `count` samples per area light and for the environment (secondary hits use
 // fewer than camera pixels: the hemisphere sum averages their noise).
+//
+// Every shadow ray goes through the one `visible` call below: lights and the environment
+// are slots of one loop, each with one sample (point, spot, sun) or `count` (rect light,
+// environment), set up by kind before the shared trace. Each call site of the BVH
+// traversal is a full copy of it for the shader compiler (lavapipe's LLVM JIT took
+// seconds per copy on a cold start); the sums are the same expressions in the same order
+// as one branch per kind would give. (llvmpipe's per-loop iteration limit counts this
+// loop's rays together, which `GpuContext::check_shadow_rays` already assumes: it bounds
+// the rays of all lights and the environment summed.)
 fn direct_irradiance_samples(s: Surface, seed: u32, count: u32) -> vec3f {
     let n = s.shading_normal;
     let ng = s.geometric_normal;
+    let env = scene_info.environment;
+    let slots = scene_info.light_count + select(0u, 1u, any(env != vec3f(0.0)));
+    let env_frame = orthonormal_basis(n);
+    let env_seed = hash_combine(seed, ENVIRONMENT_SEED);
     var e = vec3f(0.0);
-    for (var li = 0u; li < scene_info.light_count; li++) {
-        let light = lights[li];
-        let kind = bitcast<u32>(light.a.w);
-        if kind == LIGHT_POINT || kind == LIGHT_SPOT {
-            let to_light = light.a.xyz - s.position;
-            let d2 = dot(to_light, to_light);
-            let l = to_light * inverseSqrt(d2);
-            let cos_s = dot(n, l);
-            if cos_s <= 0.0 || dot(ng, l) <= 0.0 {
-                continue;
-            }
-            var intensity = light.d.xyz;
-            if kind == LIGHT_SPOT {
-                intensity *= smoothstep(light.c.w, light.b.w, dot(-l, light.b.xyz));
-            }
-            if all(intensity == vec3f(0.0)) || !visible(s, light.a.xyz, false) {
-                continue;
-            }
-            e += intensity * cos_s / d2;
-        } else if kind == LIGHT_SUN {
-            let l = light.a.xyz;
-            let cos_s = dot(n, l);
-            if cos_s <= 0.0 || dot(ng, l) <= 0.0 || !visible(s, l, true) {
-                continue;
-            }
-            e += light.d.xyz * cos_s;
-        } else if kind == LIGHT_RECT {
-            let eu = light.b.xyz;
-            let ev = light.c.xyz;
-            let cr = cross(eu, ev);
-            let area = length(cr);
-            let nl = cr / area;
-            var sum = vec3f(0.0);
-            let light_seed = hash_combine(seed, li);
-            for (var k = 0u; k < count; k++) {
+    for (var li = 0u; li < slots; li++) {
+        let is_env = li == scene_info.light_count;
+        let light = lights[min(li, max(scene_info.light_count, 1u) - 1u)];
+        let kind = select(bitcast<u32>(light.a.w), LIGHT_ENVIRONMENT, is_env);
+        let many = kind == LIGHT_RECT || kind == LIGHT_ENVIRONMENT;
+        let samples = select(1u, count, many);
+        // Rect light: its quad's area and normal; its sum of cos cos / d^2 over samples.
+        let cr = cross(light.b.xyz, light.c.xyz);
+        let area = length(cr);
+        let nl = cr / area;
+        let light_seed = hash_combine(seed, li);
+        var sum = vec3f(0.0);
+        var unoccluded = 0u;
+        for (var k = 0u; k < samples; k++) {
+            // The shadow ray of this sample: towards `target_point` (a point, or a
+            // direction when `to_infinity`), traced only when `lit` (the tests are
+            // written as the negated refusals so that NaNs go the same way as in
+            // `direct::reference`).
+            var target_point = vec3f(0.0);
+            var to_infinity = false;
+            var lit = false;
+            var cos_s = 0.0;
+            var cos_l = 0.0;
+            var d2 = 1.0;
+            var intensity = vec3f(0.0);
+            if kind == LIGHT_POINT || kind == LIGHT_SPOT {
+                let to_light = light.a.xyz - s.position;
+                d2 = dot(to_light, to_light);
+                let l = to_light * inverseSqrt(d2);
+                cos_s = dot(n, l);
+                intensity = light.d.xyz;
+                if kind == LIGHT_SPOT {
+                    intensity *= smoothstep(light.c.w, light.b.w, dot(-l, light.b.xyz));
+                }
+                target_point = light.a.xyz;
+                lit = !(cos_s <= 0.0 || dot(ng, l) <= 0.0) && !all(intensity == vec3f(0.0));
+            } else if kind == LIGHT_SUN {
+                let l = light.a.xyz;
+                cos_s = dot(n, l);
+                target_point = l;
+                to_infinity = true;
+                lit = !(cos_s <= 0.0 || dot(ng, l) <= 0.0);
+            } else if kind == LIGHT_RECT {
                 let q = rect_light_point(light, k, light_seed);
                 let to_q = q - s.position;
-                let d2 = dot(to_q, to_q);
+                d2 = dot(to_q, to_q);
                 let l = to_q * inverseSqrt(d2);
-                let cos_s = dot(n, l);
-                let cos_l = -dot(nl, l);
-                if cos_s <= 0.0 || cos_l <= 0.0 || dot(ng, l) <= 0.0 {
-                    continue;
-                }
-                if visible(s, q, false) {
+                cos_s = dot(n, l);
+                cos_l = -dot(nl, l);
+                target_point = q;
+                lit = !(cos_s <= 0.0 || cos_l <= 0.0 || dot(ng, l) <= 0.0);
+            } else if kind == LIGHT_ENVIRONMENT {
+                let dir = env_frame * cosine_hemisphere(sobol_2d(k, env_seed));
+                target_point = dir;
+                to_infinity = true;
+                lit = dot(dir, ng) > 0.0;
+            }
+            if lit && visible(s, target_point, to_infinity) {
+                if kind == LIGHT_RECT {
                     sum += vec3f(cos_s * cos_l / d2);
+                } else if kind == LIGHT_ENVIRONMENT {
+                    unoccluded += 1u;
+                } else if kind == LIGHT_SUN {
+                    e += light.d.xyz * cos_s;
+                } else {
+                    e += intensity * cos_s / d2;
                 }
             }
+        }
+        if kind == LIGHT_RECT {
             e += light.d.xyz * sum * (area / f32(count));
+        } else if kind == LIGHT_ENVIRONMENT {
+            // Constant environment: E = L_env * integral of V cos = pi L_env * mean
+            // visibility over cosine-distributed directions.
+            e += env * (PI * f32(unoccluded) / f32(count));
         }
-    }
-    // Constant environment: E = L_env * integral of V cos = pi L_env * mean visibility
-    // over cosine-distributed directions.
-    let env = scene_info.environment;
-    if any(env != vec3f(0.0)) {
-        let frame = orthonormal_basis(n);
-        var unoccluded = 0u;
-        let env_seed = hash_combine(seed, ENVIRONMENT_SEED);
-        for (var k = 0u; k < count; k++) {
-            let dir = frame * cosine_hemisphere(sobol_2d(k, env_seed));
-            if dot(dir, ng) > 0.0 && visible(s, dir, true) {
-                unoccluded += 1u;
-            }
-        }
-        e += env * (PI * f32(unoccluded) / f32(count));
     }
     return e;
 }

@@ -1,0 +1,167 @@
+//! What a run leaves on disk and prints: a run that fails changes no output file (all of a
+//! run's outputs are committed together or not at all), and a successful run prints only
+//! radsplat's own messages (no driver noise such as libwayland's XDG_RUNTIME_DIR error).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn tmp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("radsplat-out-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+/// Runs radsplat with XDG_RUNTIME_DIR removed (as in a container or over ssh).
+fn radsplat(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_radsplat"))
+        .args(args)
+        .env_remove("XDG_RUNTIME_DIR")
+        .env_remove("NODEVICE_SELECT")
+        .output()
+        .expect("run radsplat");
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(!stderr.contains("panicked"), "radsplat panicked: {stderr}");
+    (out.status.code().unwrap_or(-1), stdout, stderr)
+}
+
+fn entries(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .expect("dir")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 temp path")
+}
+
+/// `render -o out.exr --png nodir/x.png` used to write out.exr, then fail; an existing
+/// out.exr was replaced by a run that reported failure. Every optional output is tried.
+#[test]
+fn a_failed_render_leaves_every_existing_output_as_it_was() {
+    let dir = tmp_dir("render");
+    let scene = common::bundled("cornell-box.toml");
+    let old: Vec<(PathBuf, &[u8])> = vec![
+        (dir.join("out.exr"), b"old exr"),
+        (dir.join("out.png"), b"old png"),
+        (dir.join("stats.json"), b"old stats"),
+        (dir.join("map.png"), b"old map"),
+    ];
+    for (p, bytes) in &old {
+        std::fs::write(p, bytes).expect("old output");
+    }
+    let bad = dir.join("nodir").join("x.png");
+    let bad = s(&bad);
+    let (exr, png, stats, map) = (s(&old[0].0), s(&old[1].0), s(&old[2].0), s(&old[3].0));
+    let scene = s(&scene);
+    let common_args = [
+        "render",
+        scene,
+        "--size",
+        "8x8",
+        "--plane-resolution",
+        "8",
+        "--quiet",
+    ];
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["-o", exr, "--png", bad],
+        vec!["-o", exr, "--png", png, "--stats", bad],
+        vec!["-o", exr, "--record-map", bad, "--stats", stats],
+        vec!["-o", bad, "--png", png, "--record-map", map],
+        // The same file twice is refused before anything is rendered.
+        vec!["-o", png, "--png", png],
+    ];
+    for case in cases {
+        let args: Vec<&str> = common_args.iter().copied().chain(case.clone()).collect();
+        let (code, _, err) = radsplat(&args);
+        assert_ne!(code, 0, "{case:?} should fail");
+        assert!(
+            err.contains("nodir") || err.contains("twice"),
+            "{case:?}: the error names the bad output: {err}"
+        );
+        for (p, bytes) in &old {
+            assert_eq!(
+                std::fs::read(p).expect("old output").as_slice(),
+                *bytes,
+                "{case:?} changed {}",
+                p.display()
+            );
+        }
+        assert_eq!(
+            entries(&dir),
+            ["map.png", "out.exr", "out.png", "stats.json"],
+            "{case:?} left a file behind"
+        );
+    }
+}
+
+/// `reference --png nodir/x.png` likewise leaves its EXR alone; a good run writes both.
+#[test]
+fn a_failed_reference_leaves_its_exr_alone_and_a_good_one_writes_all() {
+    let dir = tmp_dir("reference");
+    let scene = common::bundled("cornell-box.toml");
+    let exr = dir.join("ref.exr");
+    std::fs::write(&exr, b"old").expect("old");
+    let bad = dir.join("nodir").join("x.png");
+    let args = [
+        "reference",
+        s(&scene),
+        "--spp",
+        "1",
+        "--size",
+        "8x8",
+        "--quiet",
+    ];
+    let (code, _, err) = radsplat(&[&args[..], &["-o", s(&exr), "--png", s(&bad)]].concat());
+    assert_ne!(code, 0);
+    assert!(err.contains("nodir"), "{err}");
+    assert_eq!(std::fs::read(&exr).expect("exr"), b"old");
+    let png = dir.join("ref.png");
+    let (code, _, err) = radsplat(&[&args[..], &["-o", s(&exr), "--png", s(&png)]].concat());
+    assert_eq!(code, 0, "{err}");
+    assert_ne!(
+        std::fs::read(&exr).expect("exr"),
+        b"old",
+        "the EXR was rewritten"
+    );
+    assert!(png.is_file());
+    assert_eq!(
+        entries(&dir),
+        ["ref.exr", "ref.png"],
+        "no temporary file left"
+    );
+}
+
+/// Without XDG_RUNTIME_DIR, libwayland (called by Mesa's device-select layer) printed
+/// "error: XDG_RUNTIME_DIR is invalid or not set in the environment." twice on every run,
+/// even with --quiet: a user sees only radsplat's own messages now.
+#[test]
+fn a_quiet_successful_run_prints_nothing() {
+    let dir = tmp_dir("quiet");
+    let scene = common::bundled("cornell-box.toml");
+    let exr = dir.join("out.exr");
+    let (code, out, err) = radsplat(&[
+        "render",
+        s(&scene),
+        "--size",
+        "8x8",
+        "--direct-only",
+        "-o",
+        s(&exr),
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(err, "", "stderr of a quiet run");
+    assert_eq!(out, "", "stdout of a quiet run");
+    let (code, out, err) = radsplat(&["info"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!err.contains("XDG_RUNTIME_DIR"), "{err}");
+    assert!(out.contains("adapter:"), "{out}");
+}
