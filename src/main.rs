@@ -1062,19 +1062,25 @@ fn compare_seq(
     flicker_map: Option<PathBuf>,
     downsample: u32,
 ) -> Result<()> {
+    let mut outputs = OutputSet::new();
+    outputs.plan_opt(plot.as_deref())?;
+    outputs.plan_opt(json.as_deref())?;
+    outputs.plan_opt(flicker_map.as_deref())?;
     let c = radsplat::compare_seq::compare_sequence(a_pattern, ref_pattern, frames, downsample)?;
-    if let Some(path) = flicker_map {
-        c.write_flicker_map(&path)?;
-        println!("wrote {}", path.display());
+    if let Some(path) = &flicker_map {
+        outputs.stage_with(path, |tmp| c.write_flicker_map(tmp))?;
     }
     print!("{}", c.table());
     println!("{}", c.summary_line());
-    if let Some(path) = plot {
-        c.write_plot(&path)?;
-        println!("wrote {}", path.display());
+    if let Some(path) = &plot {
+        outputs.stage_with(path, |tmp| c.write_plot(tmp))?;
     }
-    if let Some(path) = json {
-        c.write_json(&path)?;
+    if let Some(path) = &json {
+        outputs.stage_with(path, |tmp| c.write_json(tmp))?;
+    }
+    outputs.commit()?;
+    for path in [&flicker_map, &plot].into_iter().flatten() {
+        println!("wrote {}", path.display());
     }
     Ok(())
 }

@@ -104,6 +104,26 @@ impl OutputSet {
         Ok(())
     }
 
+    /// Stages the planned output `path` by letting `write` write its temporary file (for
+    /// writers that take a path; their errors name the temporary file).
+    pub fn stage_with(
+        &mut self,
+        path: &Path,
+        write: impl FnOnce(&Path) -> Result<()>,
+    ) -> Result<()> {
+        let planned = self
+            .planned
+            .iter_mut()
+            .find(|p| same_file(&p.path, path))
+            .ok_or_else(|| Error::Output {
+                path: path.to_path_buf(),
+                message: "internal: staged without being planned".into(),
+            })?;
+        write(&planned.tmp)?;
+        planned.staged = true;
+        Ok(())
+    }
+
     /// Renames every staged file into place. Fails, replacing nothing, when a planned
     /// output was never staged (the run did not produce everything it promised).
     pub fn commit(self) -> Result<()> {
