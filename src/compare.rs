@@ -18,6 +18,7 @@
 
 use crate::output::png_out::encode_png_rgb8;
 use crate::output::{read_exr_channels, write_atomically};
+use crate::scene::limits::check_image_size;
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -181,6 +182,9 @@ fn load_radiance(path: &Path, bytes: &[u8]) -> Result<RgbImage> {
     use image::ImageDecoder;
     use image::codecs::hdr::HdrDecoder;
     let bad = |m: String| Error::invalid(path, "Radiance picture", m);
+    // The image crate parses the header (EXPOSURE, COLORCORR, orientation, size); the
+    // pixels are decoded here, so that the claimed size is checked against the file before
+    // anything is allocated from it, and the buffer grows only with what was decoded.
     let decoder =
         HdrDecoder::new_nonstrict(std::io::Cursor::new(bytes)).map_err(|e| bad(e.to_string()))?;
     let meta = decoder.metadata();
@@ -199,11 +203,17 @@ fn load_radiance(path: &Path, bytes: &[u8]) -> Result<RgbImage> {
         return Err(bad(format!("FORMAT={f} is not 32-bit_rle_rgbe")));
     }
     let (width, height) = decoder.dimensions();
-    let len = usize::try_from(decoder.total_bytes()).map_err(|e| bad(e.to_string()))?;
-    let mut buf = vec![0u8; len];
-    decoder
-        .read_image(&mut buf)
-        .map_err(|e| bad(e.to_string()))?;
+    let data = radiance_pixel_data(bytes)
+        .ok_or_else(|| bad("no resolution line after the header".to_string()))?;
+    // Every scanline starts with one whole 4-byte pixel, whatever its encoding (flat, old
+    // run-length or per-component run-length), so h scanlines need at least 4h bytes.
+    check_image_size(
+        path,
+        "Radiance picture",
+        (u64::from(width), u64::from(height)),
+        4 * u64::from(height),
+        data.len() as u64,
+    )?;
     let exposure = meta.exposure.unwrap_or(1.0);
     let cc = meta.color_correction.unwrap_or((1.0, 1.0, 1.0));
     if !(exposure > 0.0 && cc.0 > 0.0 && cc.1 > 0.0 && cc.2 > 0.0) {
@@ -217,13 +227,21 @@ fn load_radiance(path: &Path, bytes: &[u8]) -> Result<RgbImage> {
         1.0 / (exposure * cc.1),
         1.0 / (exposure * cc.2),
     ];
-    let beauty = buf
-        .chunks_exact(12)
-        .map(|p| {
-            let f = |i: usize| f32::from_ne_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
-            [f(0) * scale[0], f(4) * scale[1], f(8) * scale[2]]
-        })
-        .collect();
+    let mut reader = RgbeReader { data, pos: 0 };
+    let mut beauty: Vec<[f32; 3]> = Vec::new();
+    let mut row: Vec<[u8; 4]> = Vec::new();
+    for y in 0..height {
+        reader.scanline(width as usize, &mut row).map_err(|m| {
+            bad(format!(
+                "scanline {y} of {height} (byte {} of the pixel data): {m}",
+                reader.pos
+            ))
+        })?;
+        beauty.extend(row.iter().map(|&p| {
+            let rgb = rgbe_to_rgb(p);
+            [rgb[0] * scale[0], rgb[1] * scale[1], rgb[2] * scale[2]]
+        }));
+    }
     Ok(RgbImage {
         path: path.to_path_buf(),
         width,
@@ -232,6 +250,137 @@ fn load_radiance(path: &Path, bytes: &[u8]) -> Result<RgbImage> {
         indirect: None,
         albedo: None,
     })
+}
+
+/// The bytes after a Radiance picture's header and resolution line: lines up to the first
+/// empty one are the header, the next line is the resolution (the image crate's rule).
+fn radiance_pixel_data(bytes: &[u8]) -> Option<&[u8]> {
+    let header_end = bytes.windows(2).position(|w| w == b"\n\n")? + 2;
+    let rest = &bytes[header_end..];
+    let resolution_end = rest.iter().position(|&b| b == b'\n')? + 1;
+    Some(&rest[resolution_end..])
+}
+
+/// An RGBE pixel as linear RGB, as the image crate converts it (`c * 2^(e - 136)`, so the
+/// values are those radsplat has always read).
+fn rgbe_to_rgb([r, g, b, e]: [u8; 4]) -> [f32; 3] {
+    if e == 0 {
+        return [0.0; 3];
+    }
+    let f = f32::exp2(f32::from(e) - 136.0);
+    [f * f32::from(r), f * f32::from(g), f * f32::from(b)]
+}
+
+/// Decodes RGBE scanlines (flat, old run-length and per-component run-length, as Radiance's
+/// `freadcolrs`) from the pixel data, never reading past it and never allocating more than
+/// one scanline of pixels that were actually decoded.
+struct RgbeReader<'a> {
+    data: &'a [u8],
+    pos: usize,
+}
+
+impl RgbeReader<'_> {
+    fn byte(&mut self) -> std::result::Result<u8, String> {
+        let b = *self
+            .data
+            .get(self.pos)
+            .ok_or_else(|| "the file ends inside the pixel data".to_string())?;
+        self.pos += 1;
+        Ok(b)
+    }
+
+    fn pixel(&mut self) -> std::result::Result<[u8; 4], String> {
+        Ok([self.byte()?, self.byte()?, self.byte()?, self.byte()?])
+    }
+
+    /// One scanline of `width` pixels into `row` (cleared first).
+    fn scanline(
+        &mut self,
+        width: usize,
+        row: &mut Vec<[u8; 4]>,
+    ) -> std::result::Result<(), String> {
+        row.clear();
+        let first = self.pixel()?;
+        // Radiance writes the per-component encoding only for widths 8..=32767, and its
+        // reader only looks for it there: elsewhere (2, 2, x, y) is an ordinary pixel.
+        let is_new_rle =
+            (8..=0x7fff).contains(&width) && first[0] == 2 && first[1] == 2 && first[2] < 128;
+        if !is_new_rle {
+            return self.old_rle(first, width, row);
+        }
+        let encoded_width = (usize::from(first[2]) << 8) | usize::from(first[3]);
+        if encoded_width != width {
+            return Err(format!(
+                "run-length scanline of {encoded_width} pixels in an image {width} wide"
+            ));
+        }
+        // Each component is stored as runs (count > 128: one value repeated count - 128
+        // times) and dumps (count <= 128 literal values), one component after the other.
+        row.resize(width, [0; 4]);
+        for component in 0..4 {
+            let mut x = 0;
+            while x < width {
+                let count = usize::from(self.byte()?);
+                let (run, n) = if count > 128 {
+                    (true, count - 128)
+                } else {
+                    (false, count)
+                };
+                if x + n > width {
+                    return Err(format!(
+                        "run of {n} at pixel {x} does not fit a scanline of {width}"
+                    ));
+                }
+                if run {
+                    let value = self.byte()?;
+                    row[x..x + n].iter_mut().for_each(|p| p[component] = value);
+                } else {
+                    for p in &mut row[x..x + n] {
+                        p[component] = self.byte()?;
+                    }
+                }
+                x += n;
+            }
+        }
+        Ok(())
+    }
+
+    /// The old encoding: flat pixels, where (1, 1, 1, n) repeats the previous pixel n times,
+    /// and consecutive repeat markers multiply by 256 (n, then n << 8, ...).
+    fn old_rle(
+        &mut self,
+        first: [u8; 4],
+        width: usize,
+        row: &mut Vec<[u8; 4]>,
+    ) -> std::result::Result<(), String> {
+        let is_marker = |p: [u8; 4]| p[0] == 1 && p[1] == 1 && p[2] == 1;
+        if is_marker(first) {
+            return Err("a scanline starts with a repeat marker".to_string());
+        }
+        row.push(first);
+        let mut shift = 0u32;
+        while row.len() < width {
+            let p = self.pixel()?;
+            if is_marker(p) {
+                let count = u64::from(p[3]).checked_shl(shift).filter(|_| shift < 32);
+                let last = *row.last().unwrap_or(&first);
+                match count.and_then(|c| usize::try_from(c).ok()) {
+                    Some(c) if row.len() + c <= width => row.resize(row.len() + c, last),
+                    _ => {
+                        return Err(format!(
+                            "repeat marker at pixel {} runs past the scanline of {width}",
+                            row.len()
+                        ));
+                    }
+                }
+                shift += 8;
+            } else {
+                row.push(p);
+                shift = 0;
+            }
+        }
+        Ok(())
+    }
 }
 
 /// RMSE, RMS of the reference and relative RMSE of `a` against `b` (same length).

@@ -311,31 +311,109 @@ struct CacheArgs {
     /// record's own plane noise shows more. Lower a only together with a larger
     /// --plane-resolution: at 16x16 planes a = 0.1 gave more error than a = 0.2 (plane
     /// noise dominates); a = 0.1 wants 64x64 planes, a = 0.4-0.5 gets by with 24x24-32x32.
-    #[arg(short, long, default_value_t = CacheSettings::default().accuracy)]
+    #[arg(short, long, default_value_t = CacheSettings::default().accuracy, value_parser = parse_accuracy)]
     accuracy: f32,
     /// Hemisphere plane resolution P (P x P rays per record): the noise of each record's
     /// irradiance. Goes with -a: fewer plane rays need a larger a (fewer, wider records
     /// average the plane noise over more pixels), see -a.
-    #[arg(long, default_value_t = CacheSettings::default().plane_resolution)]
+    #[arg(long, default_value_t = CacheSettings::default().plane_resolution, value_parser = parse_plane_resolution)]
     plane_resolution: u32,
     /// Hemisphere plane field of view in degrees.
-    #[arg(long, default_value_t = CacheSettings::default().plane_fov_degrees)]
+    #[arg(long, default_value_t = CacheSettings::default().plane_fov_degrees, value_parser = parse_plane_fov)]
     plane_fov: f32,
     /// Light samples per area light at each plane hit.
-    #[arg(long, default_value_t = CacheSettings::default().plane_light_samples)]
+    #[arg(long, default_value_t = CacheSettings::default().plane_light_samples, value_parser = parse_at_least_one)]
     plane_light_samples: u32,
     /// R_min as the validity radius a R_min in pixels at creation.
-    #[arg(long, default_value_t = CacheSettings::default().r_min_pixels)]
+    #[arg(long, default_value_t = CacheSettings::default().r_min_pixels, value_parser = parse_positive)]
     r_min_pixels: f32,
     /// R_max / R_min.
-    #[arg(long, default_value_t = CacheSettings::default().r_max_factor)]
+    #[arg(long, default_value_t = CacheSettings::default().r_max_factor, value_parser = parse_r_max_factor)]
     r_max_factor: f32,
     /// Most records the cache may hold.
-    #[arg(long, default_value_t = CacheSettings::default().record_budget)]
+    #[arg(long, default_value_t = CacheSettings::default().record_budget, value_parser = parse_record_budget)]
     record_budget: u32,
     /// Do not compute or use irradiance gradients.
     #[arg(long)]
     no_gradients: bool,
+}
+
+// Value parsers of `CacheArgs`: clap reports their errors as "invalid value 'V' for
+// '--flag <FLAG>': <rule>", naming the flag and the value, before anything is loaded. The
+// ranges are those of `CacheSettings::validate`, which checks them again for library users.
+
+/// A number from the command line, with the parse error in words.
+fn parse_number<T: std::str::FromStr>(s: &str) -> std::result::Result<T, String> {
+    s.trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))
+}
+
+fn parse_accuracy(s: &str) -> std::result::Result<f32, String> {
+    let a: f32 = parse_number(s)?;
+    if a > 0.0 && a <= 1.0 {
+        Ok(a)
+    } else {
+        Err("the accuracy must be in (0, 1]".into())
+    }
+}
+
+fn parse_plane_resolution(s: &str) -> std::result::Result<u32, String> {
+    let p: u32 = parse_number(s)?;
+    if (2..=512).contains(&p) {
+        Ok(p)
+    } else {
+        Err("the plane resolution must be in 2..=512".into())
+    }
+}
+
+fn parse_plane_fov(s: &str) -> std::result::Result<f32, String> {
+    let fov: f32 = parse_number(s)?;
+    if fov > 1.0 && fov < 179.0 {
+        Ok(fov)
+    } else {
+        Err("the plane field of view must be in (1, 179) degrees".into())
+    }
+}
+
+fn parse_at_least_one(s: &str) -> std::result::Result<u32, String> {
+    let n: u32 = parse_number(s)?;
+    if n >= 1 {
+        Ok(n)
+    } else {
+        Err("must be at least 1".into())
+    }
+}
+
+fn parse_positive(s: &str) -> std::result::Result<f32, String> {
+    let x: f32 = parse_number(s)?;
+    if x > 0.0 && x.is_finite() {
+        Ok(x)
+    } else {
+        Err("must be a positive number".into())
+    }
+}
+
+fn parse_r_max_factor(s: &str) -> std::result::Result<f32, String> {
+    let x: f32 = parse_number(s)?;
+    if x >= 1.0 && x.is_finite() {
+        Ok(x)
+    } else {
+        Err("must be a number >= 1 (R_max / R_min)".into())
+    }
+}
+
+fn parse_record_budget(s: &str) -> std::result::Result<u32, String> {
+    let n: u32 = parse_number(s)?;
+    if n >= 1 {
+        Ok(n)
+    } else {
+        Err(
+            "must be at least 1: no records means no indirect light (for direct light \
+             only, use `render --direct-only`)"
+                .into(),
+        )
+    }
 }
 
 impl CacheArgs {
@@ -364,7 +442,7 @@ fn load_scene_with(
 ) -> Result<radsplat::scene::Scene> {
     let mut scene = load_scene(path)?;
     if let Some(f) = frame {
-        scene.set_frame(f as f32);
+        scene.try_set_frame(f as f32)?;
     }
     if let Some((w, h)) = size {
         scene.camera.width = w;
@@ -1288,10 +1366,21 @@ fn temporal_error(
 ) -> Result<()> {
     use radsplat::temporal::estimate_error::{RecordSites, estimate_error_table};
     settings.validate()?;
+    // Statistics over no records would print a table of 0.00 % errors.
+    if records == 0 {
+        return Err(Error::Usage(
+            "--records 0: must be at least 1 (the table summarises the records' errors)".into(),
+        ));
+    }
+    if stride == 0 {
+        return Err(Error::Usage(
+            "--estimate-stride 0: must be at least 1 (1: the whole plane)".into(),
+        ));
+    }
     let mut scene = load_scene_with(scene_path, None, size, None)?;
     let mut next = scene.clone();
-    scene.set_frame(frame as f32);
-    next.set_frame((frame + 1) as f32);
+    scene.try_set_frame(frame as f32)?;
+    next.try_set_frame((frame + 1) as f32)?;
     let renderer = Renderer::new(GpuContext::new()?)?;
     let anchored = record_anchor == "instance";
     // The scene's a_t and dt_max, as `animate` would use them.
@@ -1305,6 +1394,13 @@ fn temporal_error(
     let table = estimate_error_table(
         &renderer, &scene, &next, settings, records, anchored, stride, &temporal, sites,
     )?;
+    if table.records == 0 {
+        return Err(Error::Usage(format!(
+            "{}: no record could be placed at frame {frame} (no visible surface?), so there \
+             are no errors to report",
+            scene_path.display()
+        )));
+    }
     println!(
         "{}: {} records placed at frame {frame}, E(t+1) estimate vs recomputed (RGB RMS relative error)",
         scene_path.display(),

@@ -275,3 +275,89 @@ fn animate_writes_one_image_per_frame_and_refuses_bad_patterns() {
     assert_eq!(frames[0]["frame"], 3);
     assert!(frames[0]["temporal"]["new"].as_u64().unwrap_or(0) > 0);
 }
+
+#[test]
+fn nonsense_cache_and_table_settings_name_the_flag_and_value() {
+    let scene = common::bundled("cornell-box.toml");
+    let scene = scene.to_str().unwrap();
+    let dir = tmp_dir("nonsense-flags");
+    let exr = dir.join("out.exr");
+    let exr = exr.to_str().unwrap();
+    // (arguments, what the message must contain)
+    let cases: [(&[&str], &[&str]); 6] = [
+        (
+            &["render", scene, "-o", exr, "-a", "0"],
+            &["--accuracy", "'0'", "(0, 1]"],
+        ),
+        (
+            &["render", scene, "-o", exr, "--plane-fov", "200"],
+            &["--plane-fov", "'200'", "(1, 179)"],
+        ),
+        (
+            &["render", scene, "-o", exr, "--plane-resolution", "0"],
+            &["--plane-resolution", "'0'", "2..=512"],
+        ),
+        (
+            &["render", scene, "-o", exr, "--record-budget", "0"],
+            &["--record-budget", "'0'", "--direct-only"],
+        ),
+        (
+            &["render", scene, "-o", exr, "--r-max-factor", "nan"],
+            &["--r-max-factor", "'nan'"],
+        ),
+        (
+            &["temporal-error", scene, "--records", "0"],
+            &["--records 0", "at least 1"],
+        ),
+    ];
+    for (args, parts) in cases {
+        let (code, err) = radsplat(args);
+        assert_ne!(code, 0, "{args:?} succeeded");
+        for part in parts {
+            assert!(err.contains(part), "{args:?}: expected {part:?} in: {err}");
+        }
+    }
+    no_files_in(&dir);
+}
+
+#[test]
+fn cache_settings_errors_name_the_setting_flag_and_value() {
+    use radsplat::records::CacheSettings;
+    let cases = [
+        (
+            CacheSettings {
+                accuracy: 0.0,
+                ..CacheSettings::default()
+            },
+            "-a/--accuracy) 0",
+        ),
+        (
+            CacheSettings {
+                plane_fov_degrees: 200.0,
+                ..CacheSettings::default()
+            },
+            "--plane-fov) 200",
+        ),
+        (
+            CacheSettings {
+                plane_resolution: 0,
+                ..CacheSettings::default()
+            },
+            "--plane-resolution) 0",
+        ),
+        (
+            CacheSettings {
+                record_budget: 0,
+                ..CacheSettings::default()
+            },
+            "--record-budget) 0",
+        ),
+    ];
+    for (settings, want) in cases {
+        let err = settings.validate().expect_err(want).to_string();
+        assert!(err.contains(want), "expected {want:?} in: {err}");
+    }
+    CacheSettings::default()
+        .validate()
+        .expect("the defaults are valid");
+}

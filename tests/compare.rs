@@ -224,3 +224,145 @@ fn surfaces_exclude_pixels_where_the_reference_has_no_albedo() {
     assert!(c.beauty.relative_rmse > 0.5);
     assert!(compare(&b, &a).expect("compare").surfaces.is_none());
 }
+
+// ---------------------------------------------------------------------------------------------
+// Headers that lie (issue 16): refused before anything is allocated from them.
+
+/// A Radiance header claiming `w x h` followed by `data` as the pixel bytes.
+fn radiance_claiming(path: &Path, w: u32, h: u32, data: &[u8]) {
+    let mut bytes = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
+    bytes.extend_from_slice(data);
+    std::fs::write(path, bytes).expect("write");
+}
+
+#[test]
+fn radiance_header_that_lies_is_refused_fast() {
+    let dir = tmp_dir("hdr-lies");
+    let start = std::time::Instant::now();
+    // 60-byte files: one claims 120 GB of pixels, one 10 GB (below u32 overflow, above the
+    // cap), one a size the cap allows but the file cannot hold.
+    for (w, h, want) in [
+        (100_000, 100_000, "at most 268435456"),
+        (30_000, 30_000, "at most 268435456"),
+        (10_000, 10_000, "need at least 40000 bytes"),
+    ] {
+        let path = dir.join(format!("{w}.hdr"));
+        radiance_claiming(&path, w, h, &[128, 64, 32, 129]);
+        assert!(std::fs::metadata(&path).expect("meta").len() <= 64);
+        let err = load_image(&path).expect_err("lying header").to_string();
+        for part in [path.to_str().unwrap_or(""), &format!("{w}x{h}"), want] {
+            assert!(err.contains(part), "expected '{part}' in: {err}");
+        }
+        // The command line refuses it too, without an abort.
+        let (code, _, err) = radsplat(&["compare", s(&path), s(&path)]);
+        assert_ne!(code, 0);
+        assert!(err.contains(&format!("{w}x{h}")), "{err}");
+    }
+    assert!(
+        start.elapsed().as_secs() < 10,
+        "refusing took {:?}",
+        start.elapsed()
+    );
+    // Long enough for the minimum, but the flat pixels run out: the scanline is named.
+    let path = dir.join("short.hdr");
+    radiance_claiming(&path, 4, 4, &[[128, 64, 32, 129]; 5].concat());
+    let err = load_image(&path).expect_err("truncated").to_string();
+    assert!(
+        err.contains("scanline 1 of 4") && err.contains("ends"),
+        "{err}"
+    );
+}
+
+#[test]
+fn radiance_run_length_encodings_decode_like_flat_pixels() {
+    let dir = tmp_dir("hdr-rle");
+    let px = |x: u8| [100 + x, 50, 20 + 2 * x, 130];
+    // 8 x 2 flat: row 0 is px(0..8), row 1 is px(3) eight times.
+    let rows: Vec<Vec<[u8; 4]>> = vec![(0..8).map(px).collect(), vec![px(3); 8]];
+    let flat: Vec<u8> = rows.iter().flatten().flatten().copied().collect();
+    radiance_claiming(&dir.join("flat.hdr"), 8, 2, &flat);
+    // Per-component run-length: row 0 as dumps of 8 values, row 1 as runs of 8.
+    let mut rle = Vec::new();
+    for (y, row) in rows.iter().enumerate() {
+        rle.extend_from_slice(&[2, 2, 0, 8]);
+        for c in 0..4 {
+            if y == 0 {
+                rle.push(8);
+                rle.extend(row.iter().map(|p| p[c]));
+            } else {
+                rle.extend_from_slice(&[128 + 8, row[0][c]]);
+            }
+        }
+    }
+    radiance_claiming(&dir.join("rle.hdr"), 8, 2, &rle);
+    // Old run-length (a repeat marker (1, 1, 1, n)) in a 4-pixel-wide image.
+    let mut old = Vec::new();
+    old.extend_from_slice(&px(1));
+    old.extend_from_slice(&[1, 1, 1, 3]);
+    old.extend_from_slice(&px(2));
+    old.extend_from_slice(&[1, 1, 1, 3]);
+    radiance_claiming(&dir.join("old.hdr"), 4, 2, &old);
+    radiance_claiming(
+        &dir.join("old-flat.hdr"),
+        4,
+        2,
+        &[[px(1); 4], [px(2); 4]].concat().concat(),
+    );
+    let load = |n: &str| load_image(&dir.join(n)).unwrap_or_else(|e| panic!("{n}: {e}"));
+    let (flat, rle) = (load("flat.hdr"), load("rle.hdr"));
+    assert_eq!(flat.beauty.len(), 16);
+    assert_eq!(flat.beauty, rle.beauty);
+    // px(0) = (100, 50, 20) at exponent 130: x 2^(130 - 136).
+    assert_eq!(flat.beauty[0], [100.0 / 64.0, 50.0 / 64.0, 20.0 / 64.0]);
+    assert_eq!(load("old.hdr").beauty, load("old-flat.hdr").beauty);
+    // A repeat marker that runs past the scanline is an error, not a write out of bounds.
+    let mut bad = px(1).to_vec();
+    bad.extend_from_slice(&[1, 1, 1, 200]);
+    radiance_claiming(&dir.join("bad.hdr"), 4, 1, &bad);
+    let err = load_image(&dir.join("bad.hdr"))
+        .expect_err("overrun")
+        .to_string();
+    assert!(err.contains("runs past the scanline"), "{err}");
+}
+
+/// A valid 4x4 EXR whose data window then claims `w x h` pixels.
+fn exr_claiming(path: &Path, w: i32, h: i32) {
+    let ch: Channels = ["R", "G", "B"]
+        .iter()
+        .map(|n| (n.to_string(), vec![1.0; 16]))
+        .collect();
+    let mut bytes = encode_exr(4, 4, &ch).expect("encode");
+    let key = b"dataWindow\0box2i\0";
+    let at = bytes
+        .windows(key.len())
+        .position(|win| win == key)
+        .expect("dataWindow attribute")
+        + key.len()
+        + 4; // the attribute's size
+    // xMin, yMin, xMax, yMax (inclusive).
+    bytes[at + 8..at + 12].copy_from_slice(&(w - 1).to_le_bytes());
+    bytes[at + 12..at + 16].copy_from_slice(&(h - 1).to_le_bytes());
+    std::fs::write(path, bytes).expect("write");
+}
+
+#[test]
+fn exr_header_that_lies_is_refused_fast() {
+    let dir = tmp_dir("exr-lies");
+    let start = std::time::Instant::now();
+    for (w, h, want) in [
+        (100_000, 100_000, "at most 268435456"),
+        (16_000, 16_000, "need at least"),
+    ] {
+        let path = dir.join(format!("{w}.exr"));
+        exr_claiming(&path, w, h);
+        let err = load_image(&path).expect_err("lying header").to_string();
+        for part in [path.to_str().unwrap_or(""), &format!("{w}x{h}"), want] {
+            assert!(err.contains(part), "expected '{part}' in: {err}");
+        }
+    }
+    assert!(start.elapsed().as_secs() < 10, "{:?}", start.elapsed());
+    // The honest file still loads.
+    exr_claiming(&dir.join("ok.exr"), 4, 4);
+    let ok = load_image(&dir.join("ok.exr")).expect("honest EXR");
+    assert_eq!((ok.width, ok.height), (4, 4));
+}

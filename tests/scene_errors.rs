@@ -616,3 +616,333 @@ fn sponza_loads_when_asset_path_set() {
 
 /// Degenerate triangles in the Dabrovic Sponza OBJ (measured: one zero-area face, line 233201).
 const SPONZA_DEGENERATE: usize = 1;
+
+// ---------------------------------------------------------------------------------------------
+// Untrusted sizes and nonsense input (issue 16).
+
+/// CRC-32 (IEEE) of PNG chunks, so a test can rewrite a PNG header and keep it valid.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = 0xffff_ffffu32;
+    for &b in bytes {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xedb8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}
+
+/// A valid 2x2 PNG whose IHDR then claims `width x height` (CRC fixed, so only the size
+/// lies).
+fn lying_png(width: u32, height: u32) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50]))
+        .write_to(
+            &mut std::io::Cursor::new(&mut bytes),
+            image::ImageFormat::Png,
+        )
+        .expect("encode png");
+    // Signature (8), IHDR length (4), "IHDR" (4), width, height, 5 more bytes, CRC.
+    assert_eq!(&bytes[12..16], b"IHDR");
+    bytes[16..20].copy_from_slice(&width.to_be_bytes());
+    bytes[20..24].copy_from_slice(&height.to_be_bytes());
+    let crc = crc32(&bytes[12..29]);
+    bytes[29..33].copy_from_slice(&crc.to_be_bytes());
+    bytes
+}
+
+/// A scene whose one mesh uses a material textured with `texture`.
+fn scene_with_texture(dir: &Path, texture: &str) -> PathBuf {
+    write(
+        dir,
+        "box.obj",
+        &format!("mtllib box.mtl\nusemtl paint\n{TRIANGLE_OBJ}"),
+    );
+    write(dir, "box.mtl", &format!("newmtl paint\nmap_Kd {texture}\n"));
+    scene_with_mesh(dir, "box.obj")
+}
+
+#[test]
+fn texture_whose_header_lies_is_refused_before_decoding() {
+    let dir = test_dir("lying-png");
+    // Above the cap: refused whatever the file holds.
+    std::fs::write(dir.join("huge.png"), lying_png(100_000, 100_000)).expect("write");
+    let start = std::time::Instant::now();
+    let (_, message) = load_error(&scene_with_texture(&dir, "huge.png"));
+    assert_mentions(&message, &["huge.png", "PNG", "100000x100000", "at most"]);
+    // Within the cap, but the 2x2 image's bytes cannot hold 16000x16000 pixels.
+    std::fs::write(dir.join("big.png"), lying_png(16_000, 16_000)).expect("write");
+    let (_, message) = load_error(&scene_with_texture(&dir, "big.png"));
+    assert_mentions(
+        &message,
+        &["big.png", "16000x16000", "need at least", "the file holds"],
+    );
+    // Neither decoded a single pixel: both refusals are immediate.
+    assert!(start.elapsed().as_secs() < 5, "{:?}", start.elapsed());
+    // The honest image still loads.
+    std::fs::write(dir.join("ok.png"), lying_png(2, 2)).expect("write");
+    load_scene(&scene_with_texture(&dir, "ok.png")).expect("a valid 2x2 PNG texture loads");
+}
+
+#[test]
+fn texture_that_is_not_png_or_jpeg_is_named() {
+    let dir = test_dir("hdr-texture");
+    write(
+        &dir,
+        "sky.hdr",
+        "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 1\n\u{1}\u{1}\u{1}\u{1}",
+    );
+    let (_, message) = load_error(&scene_with_texture(&dir, "sky.hdr"));
+    assert_mentions(&message, &["sky.hdr", "PNG or JPEG"]);
+}
+
+#[test]
+fn obj_with_absurd_indices_is_refused_by_line() {
+    let dir = test_dir("absurd-indices");
+    // No vertices at all, but a face claiming vertex 4e9: nothing may be sized by it.
+    write(&dir, "empty.obj", "f 4000000000 1 2\n");
+    let (_, message) = load_error(&scene_with_mesh(&dir, "empty.obj"));
+    assert_mentions(
+        &message,
+        &["empty.obj", "line 1", "4000000000", "0 'v' lines"],
+    );
+    // An index beyond any integer type.
+    write(
+        &dir,
+        "huge.obj",
+        &format!("{TRIANGLE_OBJ}f 1 2 99999999999999999999999\n"),
+    );
+    let (_, message) = load_error(&scene_with_mesh(&dir, "huge.obj"));
+    assert_mentions(&message, &["huge.obj", "line 5", "not an index"]);
+    // A negative index reaching before the first vertex.
+    write(
+        &dir,
+        "neg.obj",
+        &format!("{TRIANGLE_OBJ}f -1 -2 -4000000000\n"),
+    );
+    let (_, message) = load_error(&scene_with_mesh(&dir, "neg.obj"));
+    assert_mentions(&message, &["neg.obj", "line 5", "-4000000000"]);
+}
+
+/// Bytes that are not text: a fixed pseudo-random sequence (the same every run).
+fn random_bytes(n: usize) -> Vec<u8> {
+    let mut x = 0x2545_f491_4f6c_dd1du64;
+    (0..n)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 32) as u8
+        })
+        .collect()
+}
+
+#[test]
+fn mtl_of_random_bytes_is_an_error_naming_the_mtl() {
+    let dir = test_dir("random-mtl");
+    write(
+        &dir,
+        "box.obj",
+        &format!("mtllib box.mtl\nusemtl paint\n{TRIANGLE_OBJ}"),
+    );
+    std::fs::write(dir.join("box.mtl"), random_bytes(512)).expect("write");
+    let (_, message) = load_error(&scene_with_mesh(&dir, "box.obj"));
+    assert_mentions(&message, &["box.mtl", "line 1", "not an OBJ/MTL text file"]);
+
+    // An OBJ of random bytes likewise.
+    std::fs::write(dir.join("noise.obj"), random_bytes(512)).expect("write");
+    let (_, message) = load_error(&scene_with_mesh(&dir, "noise.obj"));
+    assert_mentions(
+        &message,
+        &["noise.obj", "line 1", "not an OBJ/MTL text file"],
+    );
+}
+
+#[test]
+fn mtl_without_materials_used_by_the_obj_is_an_error() {
+    let dir = test_dir("empty-mtl");
+    write(
+        &dir,
+        "box.obj",
+        &format!("mtllib box.mtl\n{TRIANGLE_OBJ}usemtl paint\nf 1 3 2\n"),
+    );
+    // Text, but only statements tobj does not know: no material at all.
+    write(&dir, "box.mtl", "# exported by something\nfoo 1 2 3\nbar\n");
+    let (_, message) = load_error(&scene_with_mesh(&dir, "box.obj"));
+    assert_mentions(
+        &message,
+        &["box.mtl", "no materials", "box.obj", "line 6", "'paint'"],
+    );
+    // An empty library is fine when the OBJ uses no material from it.
+    write(
+        &dir,
+        "plain.obj",
+        &format!("mtllib box.mtl\n{TRIANGLE_OBJ}"),
+    );
+    load_scene(&scene_with_mesh(&dir, "plain.obj")).expect("no usemtl: the empty MTL is unused");
+}
+
+#[test]
+fn light_values_near_f32_max_are_refused() {
+    let dir = test_dir("huge-radiance");
+    write(&dir, "tri.obj", TRIANGLE_OBJ);
+    let mesh = "\n[[mesh]]\nfile = \"tri.obj\"\n";
+    let cases = [
+        (
+            "type = \"rect\"\ncorner = [0, 1, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 0, 1]\n\
+             radiance = [3.0e38, 3.0e38, 3.0e38]\n",
+            "light[0].radiance",
+        ),
+        (
+            "type = \"point\"\nposition = [0, 1, 0]\nintensity = [1, 3.4e38, 1]\n",
+            "light[0].intensity",
+        ),
+        (
+            // Each edge is fine, the radiance too, but radiance x area overflows.
+            "type = \"rect\"\ncorner = [0, 1, 0]\nedge_u = [1e9, 0, 0]\nedge_v = [0, 0, 1e9]\n\
+             radiance = [1e15, 1e15, 1e15]\n",
+            "light[0].radiance",
+        ),
+    ];
+    for (light, field) in cases {
+        let path = write(
+            &dir,
+            "scene.toml",
+            &format!("{CAMERA}{mesh}\n[[light]]\n{light}"),
+        );
+        let (_, message) = load_error(&path);
+        assert_mentions(&message, &["scene.toml", field, "too large"]);
+    }
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!("{CAMERA}{mesh}\n[environment]\nradiance = [1, 1, 3e38]\n"),
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["environment.radiance", "too large"]);
+}
+
+// Keyframes that are each valid but interpolate through a degenerate state: refused at load,
+// naming the frame, the field and the two keyframes.
+
+fn animated_scene(dir: &Path, body: &str) -> PathBuf {
+    write(dir, "tri.obj", TRIANGLE_OBJ);
+    write(
+        dir,
+        "scene.toml",
+        &format!("{CAMERA}\n[animation]\nframes = [0, 10]\n\n{body}"),
+    )
+}
+
+#[test]
+fn scale_through_zero_is_refused_with_the_frame() {
+    let dir = test_dir("scale-through-zero");
+    let path = animated_scene(
+        &dir,
+        "[[mesh]]\nfile = \"tri.obj\"\n\
+         [[mesh.keyframe]]\nframe = 0\nscale = [1, 1, 1]\n\
+         [[mesh.keyframe]]\nframe = 10\nscale = [1, -1, 1]\n",
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(
+        &message,
+        &[
+            "scene.toml",
+            "frame 5",
+            "mesh[0].scale",
+            "singular",
+            "mesh[0].keyframe[0]",
+            "mesh[0].keyframe[1]",
+        ],
+    );
+}
+
+#[test]
+fn rect_light_edge_through_zero_is_refused_with_the_frame() {
+    let dir = test_dir("edge-through-zero");
+    let path = animated_scene(
+        &dir,
+        "[[mesh]]\nfile = \"tri.obj\"\n\n\
+         [[light]]\ntype = \"rect\"\ncorner = [0, 1, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 0, 1]\n\
+         radiance = [5, 5, 5]\n\
+         [[light.keyframe]]\nframe = 2\n\
+         [[light.keyframe]]\nframe = 8\nedge_u = [-1, 0, 0]\n",
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(
+        &message,
+        &[
+            "frame 5",
+            "light[0].edge_u",
+            "no area",
+            "light[0].keyframe[0] at frame 2",
+            "light[0].keyframe[1] at frame 8",
+        ],
+    );
+}
+
+#[test]
+fn camera_view_through_up_is_refused_with_the_frame() {
+    let dir = test_dir("view-through-up");
+    // The camera passes over the target: at frame 5 it looks straight down, along -up.
+    let path = animated_scene(
+        &dir,
+        "[[mesh]]\nfile = \"tri.obj\"\n\n\
+         [[camera.keyframe]]\nframe = 0\nposition = [0, 5, 5]\n\
+         [[camera.keyframe]]\nframe = 10\nposition = [0, 5, -5]\n",
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(
+        &message,
+        &["frame 5", "camera.up", "parallel to the view direction"],
+    );
+}
+
+#[test]
+fn frame_checks_cover_sub_frames_and_explicit_ranges() {
+    let dir = test_dir("sub-frame");
+    // The zero crossing is at frame 0.5: no integer frame is degenerate, so the scene loads,
+    // but evaluating that instant is refused and leaves the scene where it was.
+    let path = animated_scene(
+        &dir,
+        "[[mesh]]\nfile = \"tri.obj\"\n\
+         [[mesh.keyframe]]\nframe = 0\nscale = 1\n\
+         [[mesh.keyframe]]\nframe = 1\nscale = -1\n",
+    );
+    let mut scene = load_scene(&path).expect("integer frames are all valid");
+    scene
+        .check_frames(0..=10)
+        .expect("integer frames are valid");
+    let before = scene.instances[0].transform;
+    let message = scene.try_set_frame(0.5).expect_err("singular").to_string();
+    assert_mentions(&message, &["frame 0.5", "mesh[0].scale"]);
+    assert_eq!(scene.instances[0].transform, before);
+    scene.try_set_frame(1.0).expect("a key is valid");
+    assert_ne!(scene.instances[0].transform, before);
+}
+
+#[test]
+fn a_huge_keyframe_span_loads_without_evaluating_every_frame() {
+    let dir = test_dir("huge-span");
+    // A billion frames between two keys: loading checks a bounded number of them, and
+    // the frames beyond are checked when asked for.
+    let path = animated_scene(
+        &dir,
+        "[[mesh]]\nfile = \"tri.obj\"\n\
+         [[mesh.keyframe]]\nframe = 0\nscale = 1\n\
+         [[mesh.keyframe]]\nframe = 1e9\nscale = -1\n",
+    );
+    let start = std::time::Instant::now();
+    let scene = load_scene(&path).expect("the first 2^18 frames are valid");
+    eprintln!("loaded in {:?}", start.elapsed());
+    assert!(start.elapsed().as_secs() < 60, "{:?}", start.elapsed());
+    let message = scene
+        .check_frame(5e8)
+        .expect_err("scale 0 at frame 5e8")
+        .to_string();
+    assert_mentions(&message, &["frame 500000000", "mesh[0].scale", "singular"]);
+}

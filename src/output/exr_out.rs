@@ -5,6 +5,7 @@
 
 use super::write_atomically;
 use crate::frame::Frame;
+use crate::scene::limits::{MAX_IMAGE_SAMPLES, check_image_size, file_len};
 use crate::{Error, Result};
 use exr::prelude::*;
 use std::path::Path;
@@ -73,7 +74,12 @@ pub fn write_exr(path: &Path, frame: &Frame) -> Result<Vec<u8>> {
 }
 
 /// Reads every channel of the first layer of an EXR file: (width, height, channels).
+///
+/// The headers are read and checked first ([`check_exr_headers`]), so that a file whose
+/// header claims more pixels than the file can hold, or than [`crate::scene::limits::MAX_IMAGE_PIXELS`], is
+/// refused before the decoder allocates its sample buffers from that claim.
 pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Channels)> {
+    check_exr_headers(path)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -97,4 +103,61 @@ pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Channels)> {
         .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
         .collect();
     Ok((size.0 as u32, size.1 as u32, channels))
+}
+
+/// Checks the size every header of the EXR file at `path` claims against the file's length
+/// and the caps of [`crate::scene::limits`], before any pixel is read.
+///
+/// The least a layer needs in the file: one 8-byte offset-table entry and one chunk header
+/// of at least 8 bytes (its y or tile coordinates and its data size) per chunk, and, for
+/// the encodings whose best compression ratio is bounded, that fraction of the raw pixel
+/// bytes: all of them uncompressed, 1/64 for RLE (a run of up to 128 bytes costs 2), 1/1032
+/// for ZIP (deflate's limit). The other encodings are only held to the chunk count.
+pub fn check_exr_headers(path: &Path) -> Result<()> {
+    let bytes = file_len(path)?;
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| match e {
+        exr::error::Error::Io(source) => Error::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        other => Error::invalid(path, "header", other.to_string()),
+    })?;
+    let mut needed = 0u64;
+    for (layer, header) in meta.headers.iter().enumerate() {
+        let (w, h) = (header.layer_size.0 as u64, header.layer_size.1 as u64);
+        let (mut samples, mut raw) = (0u64, 0u64);
+        for channel in &header.channels.list {
+            let (sx, sy) = (channel.sampling.0.max(1), channel.sampling.1.max(1));
+            let count = (w / sx as u64).saturating_mul(h / sy as u64);
+            samples = samples.saturating_add(count);
+            let size = channel.sample_type.bytes_per_sample() as u64;
+            raw = raw.saturating_add(count.saturating_mul(size));
+        }
+        let compressed = match header.compression {
+            Compression::Uncompressed => raw,
+            Compression::RLE => raw / 64,
+            Compression::ZIP1 | Compression::ZIP16 => raw / 1032,
+            _ => 0,
+        };
+        let chunks = (header.chunk_count as u64).saturating_mul(16);
+        needed = needed.saturating_add(chunks.max(compressed));
+        let format = if meta.headers.len() > 1 {
+            format!("OpenEXR layer {layer}")
+        } else {
+            "OpenEXR".to_string()
+        };
+        check_image_size(path, &format, (w, h), needed, bytes)?;
+        if samples > MAX_IMAGE_SAMPLES {
+            return Err(Error::invalid(
+                path,
+                "header",
+                format!(
+                    "{format}: the header claims {w}x{h} pixels in {} channels ({samples} \
+                     values); at most {MAX_IMAGE_SAMPLES} are accepted",
+                    header.channels.list.len()
+                ),
+            ));
+        }
+    }
+    Ok(())
 }

@@ -154,26 +154,70 @@ impl Default for CacheSettings {
 }
 
 impl CacheSettings {
-    /// Checks the ranges; errors name the setting.
+    /// Checks the ranges. Errors name the setting, the value given and the command-line
+    /// flag that sets it.
     pub fn validate(&self) -> Result<()> {
-        let bad = |what: &str| Err(Error::Usage(format!("cache setting {what}")));
+        let bad = |setting: &str, flag: &str, value: String, rule: &str| {
+            Err(Error::Usage(format!(
+                "cache setting {setting} ({flag}) {value}: {rule}"
+            )))
+        };
         if !(self.accuracy > 0.0 && self.accuracy <= 1.0) {
-            return bad("accuracy must be in (0, 1]");
+            return bad(
+                "accuracy",
+                "-a/--accuracy",
+                self.accuracy.to_string(),
+                "must be in (0, 1]",
+            );
         }
         if !(2..=512).contains(&self.plane_resolution) {
-            return bad("plane resolution must be in 2..=512");
+            return bad(
+                "plane_resolution",
+                "--plane-resolution",
+                self.plane_resolution.to_string(),
+                "must be in 2..=512",
+            );
         }
         if !(self.plane_fov_degrees > 1.0 && self.plane_fov_degrees < 179.0) {
-            return bad("plane field of view must be in (1, 179) degrees");
+            return bad(
+                "plane_fov_degrees",
+                "--plane-fov",
+                self.plane_fov_degrees.to_string(),
+                "must be in (1, 179) degrees",
+            );
         }
         if self.plane_light_samples == 0 {
-            return bad("plane light samples must be at least 1");
+            return bad(
+                "plane_light_samples",
+                "--plane-light-samples",
+                "0".into(),
+                "must be at least 1",
+            );
         }
         if !(self.r_min_pixels > 0.0 && self.r_min_pixels.is_finite()) {
-            return bad("r_min_pixels must be positive");
+            return bad(
+                "r_min_pixels",
+                "--r-min-pixels",
+                self.r_min_pixels.to_string(),
+                "must be a positive number",
+            );
         }
         if !(self.r_max_factor >= 1.0 && self.r_max_factor.is_finite()) {
-            return bad("r_max_factor must be >= 1");
+            return bad(
+                "r_max_factor",
+                "--r-max-factor",
+                self.r_max_factor.to_string(),
+                "must be a number >= 1",
+            );
+        }
+        if self.record_budget == 0 {
+            return bad(
+                "record_budget",
+                "--record-budget",
+                "0".into(),
+                "must be at least 1 (no records means no indirect light; for direct light \
+                 only, render with --direct-only)",
+            );
         }
         Ok(())
     }

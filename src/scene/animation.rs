@@ -10,7 +10,9 @@
 //! and values before the first / after the last keyframe hold the end key. Frames are `f32`
 //! so that in-between times (motion blur, sub-frame tests) can be evaluated too.
 
+use super::limits::{MAX_LIGHT_VALUE, MAX_RECT_LIGHT_POWER};
 use super::{Camera, Light, Scene};
+use crate::{Error, Result};
 use glam::{Mat3, Mat4, Quat, Vec3};
 
 /// The animation of a scene: frame range, rate and the keyframe tracks.
@@ -61,6 +63,25 @@ impl<T: Interpolate> Track<T> {
         let (f0, a) = &self.keys[next - 1];
         let (f1, b) = &self.keys[next];
         T::interpolate(a, b, (frame - f0) / (f1 - f0))
+    }
+}
+
+impl<T> Track<T> {
+    /// The keys `frame` lies strictly between, as (index, frame) of each: `None` on a key
+    /// or outside the keys, where the value is a key's (validated at load).
+    fn segment(&self, frame: f32) -> Option<((usize, f32), (usize, f32))> {
+        let next = self.keys.partition_point(|(f, _)| *f <= frame);
+        if next == 0 || next == self.keys.len() || self.keys[next - 1].0 == frame {
+            return None;
+        }
+        Some(((next - 1, self.keys[next - 1].0), (next, self.keys[next].0)))
+    }
+
+    /// The integer frames strictly inside the key span, where interpolated values appear.
+    fn inner_frames(&self) -> std::ops::RangeInclusive<i64> {
+        let first = self.keys.first().map_or(0.0, |k| k.0);
+        let last = self.keys.last().map_or(0.0, |k| k.0);
+        (first.floor() as i64 + 1)..=(last.ceil() as i64 - 1)
     }
 }
 
@@ -378,6 +399,327 @@ impl Scene {
             Some(track) => camera_from_key(&self.camera, &track.sample(frame)),
             None => self.camera.clone(),
         }
+    }
+}
+
+/// The most integer frames inside keyframe spans that loading a scene evaluates and checks
+/// (a fraction of a second): 2^18 frames are 2.9 hours at 25 frames a second. Frames beyond it are
+/// checked by [`Scene::check_frame`] / [`Scene::try_set_frame`] when they are evaluated.
+pub const MAX_FRAMES_CHECKED_AT_LOAD: u64 = 1 << 18;
+
+/// Smallest |determinant| accepted for an instance transform (also at load).
+pub(crate) const MIN_DETERMINANT: f32 = 1e-12;
+
+/// Checks an object-to-world transform: finite and invertible.
+pub(crate) fn check_transform(m: &Mat4) -> std::result::Result<(), String> {
+    if !m.is_finite() {
+        return Err("transform is not finite (NaN or infinity)".to_string());
+    }
+    let det = m.determinant();
+    if !(det.is_finite() && det.abs() > MIN_DETERMINANT) {
+        return Err(format!(
+            "transform is singular (determinant {det}): the object collapses to a plane, a \
+             line or a point"
+        ));
+    }
+    Ok(())
+}
+
+/// A vector for messages: huge components in exponent notation (`3e38`, not 39 digits).
+fn show(v: Vec3) -> String {
+    let c = |x: f32| {
+        if x.abs() >= 1e7 {
+            format!("{x:e}")
+        } else {
+            format!("{x}")
+        }
+    };
+    format!("[{}, {}, {}]", c(v.x), c(v.y), c(v.z))
+}
+
+/// A light value (radiance, intensity, irradiance): finite, non-negative and at most
+/// [`MAX_LIGHT_VALUE`] per channel.
+pub(crate) fn check_light_value(v: Vec3) -> std::result::Result<(), String> {
+    if !v.is_finite() {
+        return Err(format!("must be finite, got {v}"));
+    }
+    if v.min_element() < 0.0 {
+        return Err(format!("must not be negative, got {v}"));
+    }
+    if v.max_element() > MAX_LIGHT_VALUE {
+        return Err(format!(
+            "{} is too large: at most {MAX_LIGHT_VALUE:e} per channel, so that the renderer's \
+             sums of light stay finite in 32-bit floats",
+            show(v)
+        ));
+    }
+    Ok(())
+}
+
+/// Checks a light's state (a static light or one evaluated at a frame); the error names the
+/// parameter at fault.
+pub(crate) fn check_light(light: &Light) -> std::result::Result<(), (&'static str, String)> {
+    let finite = |name: &'static str, v: Vec3| {
+        if v.is_finite() {
+            Ok(())
+        } else {
+            Err((name, format!("must be finite, got {v}")))
+        }
+    };
+    match light {
+        Light::Point {
+            position,
+            intensity,
+        }
+        | Light::Spot {
+            position,
+            intensity,
+            ..
+        } => {
+            finite("position", *position)?;
+            check_light_value(*intensity).map_err(|m| ("intensity", m))
+        }
+        Light::Rect {
+            corner,
+            edge_u,
+            edge_v,
+            radiance,
+        } => {
+            finite("corner", *corner)?;
+            finite("edge_u", *edge_u)?;
+            finite("edge_v", *edge_v)?;
+            if edge_u.length() == 0.0 {
+                return Err(("edge_u", "edge is zero: the light has no area".to_string()));
+            }
+            if edge_v.length() == 0.0 {
+                return Err(("edge_v", "edge is zero: the light has no area".to_string()));
+            }
+            let area = edge_u.cross(*edge_v).length();
+            if !area.is_finite() {
+                return Err((
+                    "edge_u",
+                    format!(
+                        "area |edge_u x edge_v| overflows (edges {} and {})",
+                        show(*edge_u),
+                        show(*edge_v)
+                    ),
+                ));
+            }
+            if area <= 1e-6 * edge_u.length() * edge_v.length() {
+                return Err((
+                    "edge_v",
+                    format!("edges {edge_u} and {edge_v} are parallel: the rectangle has no area"),
+                ));
+            }
+            check_light_value(*radiance).map_err(|m| ("radiance", m))?;
+            let power = radiance.max_element() * area;
+            if !(power.is_finite() && power <= MAX_RECT_LIGHT_POWER) {
+                return Err((
+                    "radiance",
+                    format!(
+                        "radiance {} x area {area:e} = {power:e} is too large: at most \
+                         {MAX_RECT_LIGHT_POWER:e}, so that the renderer's light sums stay \
+                         finite in 32-bit floats",
+                        show(*radiance)
+                    ),
+                ));
+            }
+            Ok(())
+        }
+        Light::Sun { irradiance, .. } => {
+            check_light_value(*irradiance).map_err(|m| ("irradiance", m))
+        }
+    }
+}
+
+/// Checks a camera view (static or evaluated at a frame); the error names the field.
+pub(crate) fn check_camera_key(key: &CameraKey) -> std::result::Result<(), (&'static str, String)> {
+    if !key.position.is_finite() {
+        return Err(("position", format!("must be finite, got {}", key.position)));
+    }
+    if !key.target.is_finite() {
+        return Err(("target", format!("must be finite, got {}", key.target)));
+    }
+    let Some(view) = (key.target - key.position).try_normalize() else {
+        return Err((
+            "target",
+            format!(
+                "equals the position {}: the camera has no view direction",
+                key.position
+            ),
+        ));
+    };
+    if !key.up.is_finite() || view.cross(key.up).length() < 1e-6 {
+        return Err((
+            "up",
+            format!(
+                "{} is parallel to the view direction {view} (target - position): the image \
+                 would have no orientation",
+                key.up
+            ),
+        ));
+    }
+    let fov = key.fov_y_degrees;
+    if !(fov.is_finite() && fov > 0.0 && fov < 180.0) {
+        return Err((
+            "fov_y",
+            format!("vertical field of view must be in (0, 180) degrees, got {fov}"),
+        ));
+    }
+    Ok(())
+}
+
+impl Scene {
+    /// Checks the scene's state at `frame` without changing it: every animated instance
+    /// transform finite and invertible, every animated light finite with a non-degenerate
+    /// shape and a light value within [`MAX_LIGHT_VALUE`], the animated camera with a view
+    /// direction that is not parallel to `up`. Keyframes are each valid on their own (checked
+    /// at load), but the interpolation between two of them may pass through such a state
+    /// (a scale through zero, an edge through zero, the view direction through `up`); the
+    /// error names the frame, the entry and field, and the two keyframes.
+    ///
+    /// Loading a scene already checks every integer frame inside the keyframe spans (up to
+    /// [`MAX_FRAMES_CHECKED_AT_LOAD`]); this is for other frames (sub-frame times, or spans
+    /// longer than that).
+    pub fn check_frame(&self, frame: f32) -> Result<()> {
+        let Some(animation) = &self.animation else {
+            return Ok(());
+        };
+        for (i, track) in &animation.instances {
+            self.check_instance_at(*i, track, frame)?;
+        }
+        for (i, track) in &animation.lights {
+            self.check_light_at(*i, &track.track, frame)?;
+        }
+        if let Some(track) = &animation.camera {
+            self.check_camera_at(track, frame)?;
+        }
+        Ok(())
+    }
+
+    /// [`Scene::check_frame`] for every frame of `frames`. Only frames strictly inside some
+    /// track's keyframe span are evaluated (elsewhere every value is a key's), so the cost is
+    /// bounded by the keyframe spans, not by the range.
+    pub fn check_frames(&self, frames: std::ops::RangeInclusive<u32>) -> Result<()> {
+        self.check_inner_frames(
+            i64::from(*frames.start())..=i64::from(*frames.end()),
+            u64::MAX,
+        )
+    }
+
+    /// Checks the state at `frame` ([`Scene::check_frame`]), then moves the scene there
+    /// ([`Scene::set_frame`]); on an error the scene is unchanged.
+    pub fn try_set_frame(&mut self, frame: f32) -> Result<()> {
+        self.check_frame(frame)?;
+        self.set_frame(frame);
+        Ok(())
+    }
+
+    /// The load-time check: the integer frames inside every track's keyframe span, at most
+    /// [`MAX_FRAMES_CHECKED_AT_LOAD`] in all (the rest are logged as left to
+    /// [`Scene::check_frame`]).
+    pub(crate) fn check_keyframe_spans(&self) -> Result<()> {
+        self.check_inner_frames(i64::MIN..=i64::MAX, MAX_FRAMES_CHECKED_AT_LOAD)
+    }
+
+    /// Checks each track at the integer frames of `range` inside its key span, evaluating at
+    /// most `budget` frames in all.
+    fn check_inner_frames(&self, range: std::ops::RangeInclusive<i64>, budget: u64) -> Result<()> {
+        let Some(animation) = &self.animation else {
+            return Ok(());
+        };
+        let mut left = budget;
+        let mut frames_of = |inner: std::ops::RangeInclusive<i64>| {
+            let lo = (*inner.start()).max(*range.start());
+            let hi = (*inner.end()).min(*range.end());
+            let count = u64::try_from(hi.saturating_sub(lo).saturating_add(1)).unwrap_or(0);
+            let take = count.min(left);
+            left -= take;
+            if take < count {
+                log::warn!(
+                    "{}: keyframes span more than {budget} frames; frames after {} are \
+                     checked when they are rendered",
+                    self.source.display(),
+                    lo.saturating_add(take as i64 - 1)
+                );
+            }
+            (0..take as i64).map(move |k| (lo + k) as f32)
+        };
+        for (i, track) in &animation.instances {
+            for frame in frames_of(track.inner_frames()) {
+                self.check_instance_at(*i, track, frame)?;
+            }
+        }
+        for (i, track) in &animation.lights {
+            for frame in frames_of(track.track.inner_frames()) {
+                self.check_light_at(*i, &track.track, frame)?;
+            }
+        }
+        if let Some(track) = &animation.camera {
+            for frame in frames_of(track.inner_frames()) {
+                self.check_camera_at(track, frame)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The error for `field` at `frame`, naming the keyframes it lies between.
+    fn frame_error<T>(
+        &self,
+        frame: f32,
+        track: &Track<T>,
+        prefix: &str,
+        field: &str,
+        message: String,
+    ) -> Error {
+        let between = match track.segment(frame) {
+            Some(((j0, f0), (j1, f1))) => format!(
+                " (interpolated between {prefix}.keyframe[{j0}] at frame {f0} and \
+                 {prefix}.keyframe[{j1}] at frame {f1}, each valid on its own; add a keyframe \
+                 in between that avoids this)"
+            ),
+            None => String::new(),
+        };
+        Error::invalid(
+            &self.source,
+            format!("frame {frame}: {prefix}.{field}"),
+            format!("{message}{between}"),
+        )
+    }
+
+    fn check_instance_at(&self, i: usize, track: &Track<TransformKey>, frame: f32) -> Result<()> {
+        let key = track.sample(frame);
+        check_transform(&key.matrix()).map_err(|m| {
+            let name = self
+                .instances
+                .get(i)
+                .and_then(|inst| self.meshes.get(inst.mesh as usize))
+                .map_or(String::new(), |mesh| format!(" of mesh '{}'", mesh.name));
+            // Lerped finite keys overflow only in the translation; otherwise the scale is
+            // what makes a rotation-and-scale matrix singular.
+            let (field, value) = if key.translate.is_finite() {
+                ("scale", key.scale)
+            } else {
+                ("translate", key.translate)
+            };
+            self.frame_error(
+                frame,
+                track,
+                &format!("mesh[{i}]"),
+                field,
+                format!("{field} {value}{name}: {m}"),
+            )
+        })
+    }
+
+    fn check_light_at(&self, i: usize, track: &Track<Light>, frame: f32) -> Result<()> {
+        check_light(&track.sample(frame))
+            .map_err(|(field, m)| self.frame_error(frame, track, &format!("light[{i}]"), field, m))
+    }
+
+    fn check_camera_at(&self, track: &Track<CameraKey>, frame: f32) -> Result<()> {
+        check_camera_key(&track.sample(frame))
+            .map_err(|(field, m)| self.frame_error(frame, track, "camera", field, m))
     }
 }
 

@@ -4,7 +4,10 @@
 //! TOML deserializer and are reported as "line N, column M"; errors found while validating
 //! values name the field path (e.g. `mesh[2].scale`) and, where it can be found, its line.
 
-use super::animation::{Animation, CameraKey, LightTrack, RectQuad, Track, TransformKey};
+use super::animation::{
+    Animation, CameraKey, LightTrack, MIN_DETERMINANT, RectQuad, Track, TransformKey, check_light,
+    check_light_value,
+};
 use super::asset_path::resolve_asset;
 use super::obj::{ObjData, load_obj};
 use super::texture::TextureCache;
@@ -15,9 +18,6 @@ use serde::Deserialize;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-
-/// Smallest |determinant| accepted for a mesh transform.
-const MIN_DETERMINANT: f32 = 1e-12;
 
 /// `camera.up` when not given.
 const DEFAULT_UP: [f32; 3] = [0.0, 1.0, 0.0];
@@ -315,6 +315,14 @@ impl Context<'_> {
         }
     }
 
+    /// A light value (radiance, intensity, irradiance, emission): finite, non-negative and
+    /// at most [`super::limits::MAX_LIGHT_VALUE`].
+    fn light3(&self, field: &str, v: [f32; 3]) -> Result<Vec3> {
+        let v = Vec3::from_array(v);
+        check_light_value(v).map_err(|m| self.field_error(field, m))?;
+        Ok(v)
+    }
+
     fn unit_range3(&self, field: &str, v: [f32; 3]) -> Result<Vec3> {
         let v = self.non_negative3(field, v)?;
         if v.max_element() <= 1.0 {
@@ -377,7 +385,7 @@ impl<'a> SceneBuilder<'a> {
         let camera_track = camera_track(ctx, &def.camera)?;
         let settings = render_settings(ctx, def.render.as_ref())?;
         let environment = match def.environment.and_then(|e| e.radiance) {
-            Some(radiance) => ctx.non_negative3("environment.radiance", radiance)?,
+            Some(radiance) => ctx.light3("environment.radiance", radiance)?,
             None => Vec3::ZERO,
         };
         for (i, mesh) in def.mesh.iter().enumerate() {
@@ -446,6 +454,10 @@ impl<'a> SceneBuilder<'a> {
         // its first frame.
         let first = *scene.frames().start();
         scene.set_frame(first as f32);
+        // Keyframes were checked one by one above; the states between them are checked
+        // here, at every integer frame inside the keyframe spans (the frames any frame
+        // range can render).
+        scene.check_keyframe_spans()?;
         if scene.triangle_count() == 0 {
             return Err(ctx.field_error(
                 "mesh",
@@ -551,7 +563,7 @@ impl<'a> SceneBuilder<'a> {
             .transpose()?;
         let emission = def
             .emission
-            .map(|v| ctx.non_negative3(&field("emission"), v))
+            .map(|v| ctx.light3(&field("emission"), v))
             .transpose()?;
         // `texture = ""` removes the texture.
         let texture = match def.texture.as_deref() {
@@ -808,10 +820,10 @@ fn parse_light(ctx: &Context, prefix: &str, def: &LightDef) -> Result<Light> {
     }
     // All required parameters are present (checked above); the defaults below are unused.
     let v3 = |v: Option<[f32; 3]>| v.unwrap_or_default();
-    Ok(match kind {
+    let light = match kind {
         "point" => Light::Point {
             position: ctx.finite3(&field("position"), v3(def.position))?,
-            intensity: ctx.non_negative3(&field("intensity"), v3(def.intensity))?,
+            intensity: ctx.light3(&field("intensity"), v3(def.intensity))?,
         },
         "spot" => {
             let inner = def.inner_angle.unwrap_or_default();
@@ -833,7 +845,7 @@ fn parse_light(ctx: &Context, prefix: &str, def: &LightDef) -> Result<Light> {
             Light::Spot {
                 position: ctx.finite3(&field("position"), v3(def.position))?,
                 direction: ctx.direction3(&field("direction"), v3(def.direction))?,
-                intensity: ctx.non_negative3(&field("intensity"), v3(def.intensity))?,
+                intensity: ctx.light3(&field("intensity"), v3(def.intensity))?,
                 cos_inner: inner.to_radians().cos(),
                 cos_outer: outer.to_radians().cos(),
             }
@@ -858,14 +870,18 @@ fn parse_light(ctx: &Context, prefix: &str, def: &LightDef) -> Result<Light> {
                 corner,
                 edge_u,
                 edge_v,
-                radiance: ctx.non_negative3(&field("radiance"), v3(def.radiance))?,
+                radiance: ctx.light3(&field("radiance"), v3(def.radiance))?,
             }
         }
         _ => Light::Sun {
             direction: ctx.direction3(&field("direction"), v3(def.direction))?,
-            irradiance: ctx.non_negative3(&field("irradiance"), v3(def.irradiance))?,
+            irradiance: ctx.light3(&field("irradiance"), v3(def.irradiance))?,
         },
-    })
+    };
+    // What the checks above leave: products that overflow (a rect light's area, its
+    // radiance x area), the same test every animated frame gets.
+    check_light(&light).map_err(|(name, m)| ctx.field_error(&field(name), m))?;
+    Ok(light)
 }
 
 // ---------------------------------------------------------------------------------------------

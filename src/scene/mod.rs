@@ -3,11 +3,13 @@
 //!
 //! The scene file format (TOML) is documented in `docs/scene-format.md`; parsing lives in
 //! [`mod@file`], OBJ/MTL loading in [`obj`], textures in [`texture`], and asset lookup along
-//! `RADSPLAT_ASSET_PATH` in [`asset_path`]; keyframed animation in [`animation`].
+//! `RADSPLAT_ASSET_PATH` in [`asset_path`]; keyframed animation in [`animation`]; the caps on
+//! sizes and values that untrusted input may claim in [`limits`].
 
 pub mod animation;
 pub mod asset_path;
 pub mod file;
+pub mod limits;
 pub mod obj;
 pub mod texture;
 

@@ -119,9 +119,28 @@ pub fn load_obj(path: &Path) -> Result<ObjData> {
     let tobj_materials = tobj_materials
         .map_err(|e| Error::invalid(path, "mtllib", format!("cannot load materials: {e}")))?;
 
-    let materials = convert_materials(&tobj_materials, &libraries.into_inner())?;
+    let libraries = libraries.into_inner();
+    let materials = convert_materials(&tobj_materials, &libraries)?;
     for (line, name) in &scan.usemtls {
         if !materials.iter().any(|m| m.material.name == *name) {
+            // Libraries that define nothing at all while the OBJ uses materials are the
+            // wrong file (or an empty one): its faces would all silently turn grey.
+            if let Some(empty) = libraries.first().filter(|_| materials.is_empty()) {
+                let all: Vec<String> = libraries
+                    .iter()
+                    .map(|l| l.path.display().to_string())
+                    .collect();
+                return Err(Error::invalid(
+                    &empty.path,
+                    "MTL data",
+                    format!(
+                        "defines no materials (no 'newmtl' statement), but {} line {line} \
+                         uses material '{name}' (material libraries: {})",
+                        path.display(),
+                        all.join(", ")
+                    ),
+                ));
+            }
             log::warn!(
                 "{}: line {line}: no MTL defines material '{name}'; its faces get '{}'",
                 path.display(),
@@ -142,13 +161,60 @@ pub fn load_obj(path: &Path) -> Result<ObjData> {
 }
 
 /// Reads a text file. Invalid UTF-8 (e.g. Latin-1 in comments of old exporters) is replaced
-/// rather than rejected: only ASCII matters in OBJ/MTL syntax.
+/// rather than rejected: only ASCII matters in OBJ/MTL syntax. A leading byte-order mark is
+/// dropped. A file that is not text at all (control bytes outside comments, or a statement
+/// keyword that is not ASCII: a binary file, or the wrong file) is an error naming the first
+/// such line, since tobj would silently ignore every line of it.
 fn read_text(path: &Path) -> Result<String> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    Ok(match String::from_utf8(bytes) {
+    let mut text = match String::from_utf8(bytes) {
         Ok(text) => text,
         Err(e) => String::from_utf8_lossy(e.as_bytes()).into_owned(),
-    })
+    };
+    if text.starts_with('\u{feff}') {
+        text.drain(..'\u{feff}'.len_utf8());
+    }
+    check_text(path, &text)?;
+    Ok(text)
+}
+
+/// Errors at the first line of `text` that no OBJ or MTL writer produces: a control
+/// character (other than tab, carriage return, vertical tab, form feed and the DOS end-of-file
+/// mark) before any `#`
+/// comment, or a first word (the statement keyword) with a character that is not printable
+/// ASCII. Comments may hold anything but line breaks.
+fn check_text(path: &Path, text: &str) -> Result<()> {
+    for (index, line) in text.split('\n').enumerate() {
+        let content = line.split_once('#').map_or(line, |(before, _)| before);
+        let err = |message: String| {
+            Error::invalid(
+                path,
+                format!("line {}", index + 1),
+                format!("{message}: this is not an OBJ/MTL text file"),
+            )
+        };
+        if let Some(c) = content
+            .chars()
+            .find(|c| c.is_control() && !matches!(c, '\t' | '\r' | '\x0b' | '\x0c' | '\x1a'))
+        {
+            return Err(err(format!("control character U+{:04X}", u32::from(c))));
+        }
+        if let Some(keyword) = content.split_whitespace().next() {
+            if !keyword.chars().all(|c| c.is_ascii_graphic()) {
+                let shown: String = keyword.chars().take(16).collect();
+                return Err(err(format!(
+                    "statement '{}' is not a keyword (not printable ASCII{})",
+                    shown.escape_debug(),
+                    if keyword.contains('\u{fffd}') {
+                        "; the file is not valid UTF-8 there"
+                    } else {
+                        ""
+                    }
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// What the pre-scan of an OBJ file learned.
@@ -448,6 +514,10 @@ fn scan_mtl(path: &Path, text: &str) -> Result<HashMap<String, usize>> {
                 }
                 if keyword == "Ke" && rgb.min_element() < 0.0 {
                     return Err(err(format!("'Ke' (emission) is negative: '{rest}'")));
+                }
+                if keyword == "Ke" {
+                    super::animation::check_light_value(rgb)
+                        .map_err(|m| err(format!("'Ke' (emission): {m}")))?;
                 }
             }
             "Ns" | "Ni" | "d" if parse_floats::<1>(&args).is_none() => {

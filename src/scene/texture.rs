@@ -2,8 +2,10 @@
 //! materials is decoded once.
 
 use super::Texture;
+use super::limits::{MAX_IMAGE_PIXELS, check_image_size, file_len};
 use crate::{Error, Result};
 use image::imageops::FilterType;
+use image::{ImageDecoder, ImageFormat};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -15,14 +17,50 @@ pub const MAX_TEXTURE_SIZE: u32 = 2048;
 /// first. Grey, grey+alpha and RGB images get expanded; 16-bit images are reduced to 8 bits.
 /// Images larger than [`MAX_TEXTURE_SIZE`] on a side are downsampled (triangle filter, aspect
 /// ratio kept) so that the larger side is `MAX_TEXTURE_SIZE`.
+///
+/// Only PNG and JPEG files are read (told apart by their content). The size the image's
+/// header claims is checked before decoding: at most [`MAX_IMAGE_PIXELS`], and no more than
+/// the file's bytes can hold ([`min_encoded_bytes`]).
 pub fn load_texture(path: &Path) -> Result<Texture> {
-    let reader = image::ImageReader::open(path)
+    let file_bytes = file_len(path)?;
+    let mut reader = image::ImageReader::open(path)
         .map_err(|e| Error::io(path, e))?
         .with_guessed_format()
         .map_err(|e| Error::io(path, e))?;
-    let image = reader
-        .decode()
-        .map_err(|e| Error::invalid(path, "image data", format!("cannot decode image: {e}")))?;
+    let format = match reader.format() {
+        Some(f @ (ImageFormat::Png | ImageFormat::Jpeg)) => f,
+        other => {
+            let found = other.map_or("an unknown format".to_string(), |f| format!("{f:?}"));
+            return Err(Error::invalid(
+                path,
+                "image data",
+                format!("a texture must be a PNG or JPEG image; this file is {found}"),
+            ));
+        }
+    };
+    // The largest decoded buffer is 16-bit RGBA (8 bytes a pixel) of the largest image.
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(MAX_IMAGE_PIXELS * 8);
+    reader.limits(limits);
+    let cannot_decode = |e: image::ImageError| {
+        Error::invalid(path, "image data", format!("cannot decode image: {e}"))
+    };
+    let decoder = reader.into_decoder().map_err(cannot_decode)?;
+    let (width, height) = decoder.dimensions();
+    let name = if format == ImageFormat::Png {
+        "PNG"
+    } else {
+        "JPEG"
+    };
+    let pixels = u64::from(width) * u64::from(height);
+    check_image_size(
+        path,
+        name,
+        (u64::from(width), u64::from(height)),
+        min_encoded_bytes(format, pixels),
+        file_bytes,
+    )?;
+    let image = image::DynamicImage::from_decoder(decoder).map_err(cannot_decode)?;
     let mut rgba = image.to_rgba8();
     let (width, height) = rgba.dimensions();
     if width == 0 || height == 0 {
@@ -49,6 +87,17 @@ pub fn load_texture(path: &Path) -> Result<Texture> {
         height,
         texels,
     })
+}
+
+/// The least number of bytes a PNG or JPEG file of `pixels` pixels can have, from each
+/// format's best compression: a PNG holds at least 1 bit a pixel (1-bit grey) deflated at
+/// most 1032:1; a JPEG codes every 8x8 block of its full-resolution component with at least
+/// one bit (a DC code), so 1/512 byte a pixel.
+fn min_encoded_bytes(format: ImageFormat, pixels: u64) -> u64 {
+    match format {
+        ImageFormat::Png => pixels / (8 * 1032),
+        _ => pixels / 512,
+    }
 }
 
 /// Size after scaling the larger side down to [`MAX_TEXTURE_SIZE`], keeping the aspect ratio
