@@ -36,13 +36,14 @@ fn bounce_radiance(s: Surface, seed: u32, k: u32) -> vec3f {
         return vec3f(0.0); // below the geometric surface: the ray cannot leave it
     }
     let origin = offset_ray_origin(s.position, s.geometric_normal);
-    let hit = trace_closest(Ray(origin, 0.0, dir, INF));
-    if hit.instance == NO_HIT {
+    // The bounce ray and its hit's shadow rays through one traversal (cheaper to compile).
+    let shaded = trace_and_shade(
+        Ray(origin, 0.0, dir, INF), hash_combine(seed, k), scene_info.light_samples);
+    if shaded.hit.instance == NO_HIT {
         return vec3f(0.0);
     }
-    let h = surface_at(hit, dir);
-    let e = direct_irradiance(h, hash_combine(seed, k));
-    return surface_albedo(h) * (1.0 / PI) * e + indirect_emission(h);
+    let h = shaded.surface;
+    return surface_albedo(h) * (1.0 / PI) * shaded.irradiance + indirect_emission(h);
 }
 
 @compute @workgroup_size(8, 8)

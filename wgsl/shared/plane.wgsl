@@ -30,10 +30,13 @@ fn trace_plane_sample(site: RecordSite, pixel: u32) -> TracedSample {
     // surface itself: no light, no distance.
     if dot(dir, site.geometric_normal) > 0.0 {
         let origin = offset_ray_origin(site.position, site.geometric_normal);
-        let hit = trace_closest(Ray(origin, 0.0, dir, INF));
+        // The ray and its hit's shadow rays through one traversal (cheaper to compile).
+        let shaded = trace_and_shade(
+            Ray(origin, 0.0, dir, INF), hash_combine(site.seed, pixel), params.light_samples);
+        let hit = shaded.hit;
         if hit.instance != NO_HIT {
-            let s = surface_at(hit, dir);
-            let e = direct_irradiance_samples(s, hash_combine(site.seed, pixel), params.light_samples);
+            let s = shaded.surface;
+            let e = shaded.irradiance;
             out.sample.radiance = surface_albedo(s) * (1.0 / PI) * e + indirect_emission(s);
             out.sample.depth = hit.t * dot(dir, site.normal);
             out.hit = PlaneHit(hit.instance, hit.triangle, hit.u, hit.v);

@@ -112,7 +112,7 @@ fn indirect_emission(s: Surface) -> vec3f {
 
 // Shadow ray from the surface to `target_point` (excluded), or towards a direction when
 // `to_infinity`.
-fn visible(s: Surface, target_point: vec3f, to_infinity: bool) -> bool {
+fn shadow_ray(s: Surface, target_point: vec3f, to_infinity: bool) -> Ray {
     let origin = offset_ray_origin(s.position, s.geometric_normal);
     var ray: Ray;
     ray.origin = origin;
@@ -124,7 +124,12 @@ fn visible(s: Surface, target_point: vec3f, to_infinity: bool) -> bool {
         ray.dir = target_point - origin;
         ray.tmax = 1.0 - 1.0e-4;
     }
-    return !occluded(ray);
+    return ray;
+}
+
+// Whether nothing blocks the shadow ray of `shadow_ray(s, target_point, to_infinity)`.
+fn visible(s: Surface, target_point: vec3f, to_infinity: bool) -> bool {
+    return !occluded(shadow_ray(s, target_point, to_infinity));
 }
 
 // Direct irradiance at a surface from every light and the constant environment, with
@@ -143,104 +148,217 @@ fn rect_light_point(light: Light, k: u32, light_seed: u32) -> vec3f {
 // Scrambles the environment's directions (with the surface's seed).
 const ENVIRONMENT_SEED: u32 = 0xe17u;
 
-// The environment's slot after the lights in `direct_irradiance_samples`' light loop.
+// The environment's slot after the lights in the shadow-sample loop.
 const LIGHT_ENVIRONMENT: u32 = 0xffffffffu;
+
+// One shadow sample: the ray's target (a point, or a direction when `to_infinity`),
+// whether it is traced at all (`lit`), and what its contribution needs.
+struct ShadowSample {
+    target_point: vec3f,
+    to_infinity: bool,
+    lit: bool,
+    cos_s: f32,
+    cos_l: f32,
+    d2: f32,
+    intensity: vec3f,
+}
+
+// Direct irradiance as a loop over shadow samples: lights and the environment are slots,
+// each with one sample (point, spot, sun) or `count` (rect light, environment). The loop
+// is a state machine (`shadow_loop_next` finds the next sample to trace, `shadow_loop_add`
+// counts it when visible) so that its callers trace every ray through one call of `trace`:
+// each call site is a full copy of the traversal for the shader compiler (lavapipe's LLVM
+// JIT took about 0.9 s per copy on a cold start), and a shading pass had five. The sums are
+// the same expressions in the same order as one branch per light kind (the golden hashes
+// hold). llvmpipe's per-loop iteration limit then counts a pass's rays together, which
+// `GpuContext::check_shadow_rays` (all lights and the environment summed, plus the one
+// primary ray of `trace_and_shade`) and the reference's per-invocation budget assume.
+struct ShadowLoop {
+    slots: u32,        // lights, plus the environment when it is not black
+    count: u32,        // samples per rect light and for the environment
+    slot: u32,         // current slot
+    k: u32,            // next sample of the current slot
+    seed: u32,
+    env_frame: mat3x3f,
+    env_seed: u32,
+    sum: vec3f,        // rect light: sum of cos cos / d^2 over its visible samples
+    unoccluded: u32,   // environment: visible samples
+    e: vec3f,          // the irradiance of the finished samples
+    sample: ShadowSample,
+}
+
+fn shadow_loop_start(s: Surface, seed: u32, count: u32) -> ShadowLoop {
+    var st: ShadowLoop;
+    let env = scene_info.environment;
+    st.slots = scene_info.light_count + select(0u, 1u, any(env != vec3f(0.0)));
+    st.count = count;
+    st.slot = 0u;
+    st.k = 0u;
+    st.seed = seed;
+    st.env_frame = orthonormal_basis(s.shading_normal);
+    st.env_seed = hash_combine(seed, ENVIRONMENT_SEED);
+    st.sum = vec3f(0.0);
+    st.unoccluded = 0u;
+    st.e = vec3f(0.0);
+    return st;
+}
+
+// The light of slot `slot` (any light for the environment's slot: unused there).
+fn slot_light(slot: u32) -> Light {
+    return lights[min(slot, max(scene_info.light_count, 1u) - 1u)];
+}
+
+fn slot_kind(slot: u32, light: Light) -> u32 {
+    return select(bitcast<u32>(light.a.w), LIGHT_ENVIRONMENT, slot == scene_info.light_count);
+}
+
+// Sample k of slot `slot` at surface `s` (the tests are written as the negated refusals
+// so that NaNs go the same way as in `direct::reference`).
+fn shadow_sample(st: ShadowLoop, s: Surface, light: Light, kind: u32) -> ShadowSample {
+    let n = s.shading_normal;
+    let ng = s.geometric_normal;
+    var out = ShadowSample(vec3f(0.0), false, false, 0.0, 0.0, 1.0, vec3f(0.0));
+    if kind == LIGHT_POINT || kind == LIGHT_SPOT {
+        let to_light = light.a.xyz - s.position;
+        out.d2 = dot(to_light, to_light);
+        let l = to_light * inverseSqrt(out.d2);
+        out.cos_s = dot(n, l);
+        out.intensity = light.d.xyz;
+        if kind == LIGHT_SPOT {
+            out.intensity *= smoothstep(light.c.w, light.b.w, dot(-l, light.b.xyz));
+        }
+        out.target_point = light.a.xyz;
+        out.lit = !(out.cos_s <= 0.0 || dot(ng, l) <= 0.0) && !all(out.intensity == vec3f(0.0));
+    } else if kind == LIGHT_SUN {
+        let l = light.a.xyz;
+        out.cos_s = dot(n, l);
+        out.target_point = l;
+        out.to_infinity = true;
+        out.lit = !(out.cos_s <= 0.0 || dot(ng, l) <= 0.0);
+    } else if kind == LIGHT_RECT {
+        let nl = normalize_rect_normal(light);
+        let q = rect_light_point(light, st.k, hash_combine(st.seed, st.slot));
+        let to_q = q - s.position;
+        out.d2 = dot(to_q, to_q);
+        let l = to_q * inverseSqrt(out.d2);
+        out.cos_s = dot(n, l);
+        out.cos_l = -dot(nl, l);
+        out.target_point = q;
+        out.lit = !(out.cos_s <= 0.0 || out.cos_l <= 0.0 || dot(ng, l) <= 0.0);
+    } else if kind == LIGHT_ENVIRONMENT {
+        let dir = st.env_frame * cosine_hemisphere(sobol_2d(st.k, st.env_seed));
+        out.target_point = dir;
+        out.to_infinity = true;
+        out.lit = dot(dir, ng) > 0.0;
+    }
+    return out;
+}
+
+// A rect light's unit normal (its edges' cross product over its area).
+fn normalize_rect_normal(light: Light) -> vec3f {
+    let cr = cross(light.b.xyz, light.c.xyz);
+    return cr / length(cr);
+}
+
+// Moves to the next sample to trace (in `st.sample`), adding each finished slot to `st.e`;
+// false when every slot is done.
+fn shadow_loop_next(st: ptr<function, ShadowLoop>, s: Surface) -> bool {
+    loop {
+        if (*st).slot >= (*st).slots {
+            return false;
+        }
+        let light = slot_light((*st).slot);
+        let kind = slot_kind((*st).slot, light);
+        let samples = select(1u, (*st).count, kind == LIGHT_RECT || kind == LIGHT_ENVIRONMENT);
+        if (*st).k >= samples {
+            if kind == LIGHT_RECT {
+                let area = length(cross(light.b.xyz, light.c.xyz));
+                (*st).e += light.d.xyz * (*st).sum * (area / f32((*st).count));
+            } else if kind == LIGHT_ENVIRONMENT {
+                // Constant environment: E = L_env * integral of V cos = pi L_env * mean
+                // visibility over cosine-distributed directions.
+                (*st).e += scene_info.environment
+                    * (PI * f32((*st).unoccluded) / f32((*st).count));
+            }
+            (*st).slot += 1u;
+            (*st).k = 0u;
+            (*st).sum = vec3f(0.0);
+            (*st).unoccluded = 0u;
+            continue;
+        }
+        let candidate = shadow_sample(*st, s, light, kind);
+        (*st).k += 1u;
+        if candidate.lit {
+            (*st).sample = candidate;
+            return true;
+        }
+    }
+    return false;
+}
+
+// Counts the current sample (`st.sample`, of slot `st.slot`) as visible.
+fn shadow_loop_add(st: ptr<function, ShadowLoop>) {
+    let light = slot_light((*st).slot);
+    let kind = slot_kind((*st).slot, light);
+    let smp = (*st).sample;
+    if kind == LIGHT_RECT {
+        (*st).sum += vec3f(smp.cos_s * smp.cos_l / smp.d2);
+    } else if kind == LIGHT_ENVIRONMENT {
+        (*st).unoccluded += 1u;
+    } else if kind == LIGHT_SUN {
+        (*st).e += light.d.xyz * smp.cos_s;
+    } else {
+        (*st).e += smp.intensity * smp.cos_s / smp.d2;
+    }
+}
 
 // Same with `count` samples per area light and for the environment (secondary hits use
 // fewer than camera pixels: the hemisphere sum averages their noise).
-//
-// Every shadow ray goes through the one `visible` call below: lights and the environment
-// are slots of one loop, each with one sample (point, spot, sun) or `count` (rect light,
-// environment), set up by kind before the shared trace. Each call site of the BVH
-// traversal is a full copy of it for the shader compiler (lavapipe's LLVM JIT took
-// seconds per copy on a cold start); the sums are the same expressions in the same order
-// as one branch per kind would give. (llvmpipe's per-loop iteration limit counts this
-// loop's rays together, which `GpuContext::check_shadow_rays` already assumes: it bounds
-// the rays of all lights and the environment summed.)
 fn direct_irradiance_samples(s: Surface, seed: u32, count: u32) -> vec3f {
-    let n = s.shading_normal;
-    let ng = s.geometric_normal;
-    let env = scene_info.environment;
-    let slots = scene_info.light_count + select(0u, 1u, any(env != vec3f(0.0)));
-    let env_frame = orthonormal_basis(n);
-    let env_seed = hash_combine(seed, ENVIRONMENT_SEED);
-    var e = vec3f(0.0);
-    for (var li = 0u; li < slots; li++) {
-        let is_env = li == scene_info.light_count;
-        let light = lights[min(li, max(scene_info.light_count, 1u) - 1u)];
-        let kind = select(bitcast<u32>(light.a.w), LIGHT_ENVIRONMENT, is_env);
-        let many = kind == LIGHT_RECT || kind == LIGHT_ENVIRONMENT;
-        let samples = select(1u, count, many);
-        // Rect light: its quad's area and normal; its sum of cos cos / d^2 over samples.
-        let cr = cross(light.b.xyz, light.c.xyz);
-        let area = length(cr);
-        let nl = cr / area;
-        let light_seed = hash_combine(seed, li);
-        var sum = vec3f(0.0);
-        var unoccluded = 0u;
-        for (var k = 0u; k < samples; k++) {
-            // The shadow ray of this sample: towards `target_point` (a point, or a
-            // direction when `to_infinity`), traced only when `lit` (the tests are
-            // written as the negated refusals so that NaNs go the same way as in
-            // `direct::reference`).
-            var target_point = vec3f(0.0);
-            var to_infinity = false;
-            var lit = false;
-            var cos_s = 0.0;
-            var cos_l = 0.0;
-            var d2 = 1.0;
-            var intensity = vec3f(0.0);
-            if kind == LIGHT_POINT || kind == LIGHT_SPOT {
-                let to_light = light.a.xyz - s.position;
-                d2 = dot(to_light, to_light);
-                let l = to_light * inverseSqrt(d2);
-                cos_s = dot(n, l);
-                intensity = light.d.xyz;
-                if kind == LIGHT_SPOT {
-                    intensity *= smoothstep(light.c.w, light.b.w, dot(-l, light.b.xyz));
-                }
-                target_point = light.a.xyz;
-                lit = !(cos_s <= 0.0 || dot(ng, l) <= 0.0) && !all(intensity == vec3f(0.0));
-            } else if kind == LIGHT_SUN {
-                let l = light.a.xyz;
-                cos_s = dot(n, l);
-                target_point = l;
-                to_infinity = true;
-                lit = !(cos_s <= 0.0 || dot(ng, l) <= 0.0);
-            } else if kind == LIGHT_RECT {
-                let q = rect_light_point(light, k, light_seed);
-                let to_q = q - s.position;
-                d2 = dot(to_q, to_q);
-                let l = to_q * inverseSqrt(d2);
-                cos_s = dot(n, l);
-                cos_l = -dot(nl, l);
-                target_point = q;
-                lit = !(cos_s <= 0.0 || cos_l <= 0.0 || dot(ng, l) <= 0.0);
-            } else if kind == LIGHT_ENVIRONMENT {
-                let dir = env_frame * cosine_hemisphere(sobol_2d(k, env_seed));
-                target_point = dir;
-                to_infinity = true;
-                lit = dot(dir, ng) > 0.0;
-            }
-            if lit && visible(s, target_point, to_infinity) {
-                if kind == LIGHT_RECT {
-                    sum += vec3f(cos_s * cos_l / d2);
-                } else if kind == LIGHT_ENVIRONMENT {
-                    unoccluded += 1u;
-                } else if kind == LIGHT_SUN {
-                    e += light.d.xyz * cos_s;
-                } else {
-                    e += intensity * cos_s / d2;
-                }
-            }
-        }
-        if kind == LIGHT_RECT {
-            e += light.d.xyz * sum * (area / f32(count));
-        } else if kind == LIGHT_ENVIRONMENT {
-            // Constant environment: E = L_env * integral of V cos = pi L_env * mean
-            // visibility over cosine-distributed directions.
-            e += env * (PI * f32(unoccluded) / f32(count));
+    var st = shadow_loop_start(s, seed, count);
+    while shadow_loop_next(&st, s) {
+        if visible(s, st.sample.target_point, st.sample.to_infinity) {
+            shadow_loop_add(&st);
         }
     }
-    return e;
+    return st.e;
+}
+
+// What `trace_and_shade` found: the closest hit (instance NO_HIT on a miss), its surface
+// and the direct irradiance there.
+struct ShadedHit {
+    hit: Hit,
+    surface: Surface,
+    irradiance: vec3f,
+}
+
+// The closest hit of `primary` and `direct_irradiance_samples(surface, seed, count)` at it,
+// with the primary ray and every shadow ray traced by one call of `trace` (see
+// `ShadowLoop`): the same hit and the same bytes as tracing and shading apart.
+fn trace_and_shade(primary: Ray, seed: u32, count: u32) -> ShadedHit {
+    var out: ShadedHit;
+    out.irradiance = vec3f(0.0);
+    var st: ShadowLoop;
+    var ray = primary;
+    var shadow = false;
+    loop {
+        let h = trace(ray, shadow);
+        if !shadow {
+            out.hit = h;
+            if h.instance == NO_HIT {
+                break;
+            }
+            out.surface = surface_at(h, primary.dir);
+            st = shadow_loop_start(out.surface, seed, count);
+        } else if h.instance == NO_HIT {
+            shadow_loop_add(&st);
+        }
+        if !shadow_loop_next(&st, out.surface) {
+            out.irradiance = st.e;
+            break;
+        }
+        ray = shadow_ray(out.surface, st.sample.target_point, st.sample.to_infinity);
+        shadow = true;
+    }
+    return out;
 }
