@@ -164,6 +164,11 @@ enum Command {
         /// below 8), 1 with extrapolated.
         #[arg(long)]
         estimate_stride: Option<u32>,
+        /// At most N new records placed per frame (replacements do not count): pixels
+        /// left uncovered get records in later frames, spreading a walkthrough's new views
+        /// over frames. Default: every uncovered pixel gets one. Needs temporal caching.
+        #[arg(long, value_name = "N")]
+        max_new_records: Option<u32>,
         #[command(flatten)]
         cache: CacheArgs,
         /// Also write a lifespan map per frame (PNG pattern with `#`): record sites from
@@ -514,6 +519,7 @@ fn main() -> ExitCode {
             plane_budget_mib,
             replace,
             estimate_stride,
+            max_new_records,
             cache,
             lifespan_map,
             stats,
@@ -527,6 +533,7 @@ fn main() -> ExitCode {
             cache: cache.settings(),
             temporal_accuracy,
             max_lifespan,
+            max_new_records,
             temporal: (temporal == "on").then_some(TemporalSettings {
                 gradients: if temporal_gradients == "extrapolated" {
                     TemporalGradients::Extrapolated
@@ -678,9 +685,9 @@ fn progress(quiet: bool, steps: u64) -> ProgressBar {
         return ProgressBar::hidden();
     }
     let bar = ProgressBar::new(steps);
-    if let Ok(style) =
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} {msg}")
-    {
+    if let Ok(style) = ProgressStyle::with_template(
+        "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} (ETA {eta}) {msg}",
+    ) {
         bar.set_style(style);
     }
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
@@ -1218,6 +1225,8 @@ struct AnimateArgs<'a> {
     /// a_t and dt_max given on the command line (else the scene's, else the defaults).
     temporal_accuracy: Option<f32>,
     max_lifespan: Option<u32>,
+    /// `--max-new-records` (checked here, so the error names the flag).
+    max_new_records: Option<u32>,
     /// None: the per-frame baseline.
     temporal: Option<TemporalSettings>,
     lifespan_map: Option<PathBuf>,
@@ -1227,8 +1236,23 @@ struct AnimateArgs<'a> {
 
 fn animate(mut args: AnimateArgs) -> Result<()> {
     use radsplat::output::{frame_path, lifespan_map};
-    use radsplat::temporal::animation::{AnimationOptions, render_animation};
+    use radsplat::temporal::animation::{AnimationOptions, AnimationStep, render_animation};
     args.cache.validate()?;
+    match (args.max_new_records, args.temporal.as_mut()) {
+        (Some(0), _) => {
+            return Err(Error::Usage(
+                "--max-new-records 0: the cap on new records per frame must be at least 1".into(),
+            ));
+        }
+        (Some(n), None) => {
+            return Err(Error::Usage(format!(
+                "--max-new-records {n} caps the records a frame adds to the temporal cache: \
+                 drop --temporal off (a frame from scratch would stay partly uncovered)"
+            )));
+        }
+        (n, Some(t)) => t.max_new_records = n,
+        (None, None) => {}
+    }
     let scene = load_scene_with(args.scene_path, None, args.size, args.light_samples)?;
     if let Some(t) = args.temporal.as_mut() {
         t.apply_scene(
@@ -1271,16 +1295,32 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
     let renderer = Renderer::new(GpuContext::new()?)?;
     radsplat::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
     let count = frames.end() - frames.start() + 1;
-    let bar = progress(args.quiet, u64::from(count));
-    bar.set_message("rendering");
     let options = AnimationOptions {
         frames: frames.clone(),
         cache: args.cache.clone(),
         temporal: args.temporal.clone(),
     };
+    // Interpolated gradients: pass 1 computes the records, pass 2 renders each frame up to
+    // dt_max frames behind it; the bar counts the steps of both.
+    let two_pass = args
+        .temporal
+        .as_ref()
+        .is_some_and(|t| t.gradients == TemporalGradients::Interpolated);
+    let passes = if two_pass { 2 } else { 1 };
+    let bar = progress(args.quiet, u64::from(count) * passes);
+    bar.set_message("rendering");
+    // The last frame written (pass 2's position), for the messages of pass 1.
+    let written = std::cell::Cell::new(None::<u32>);
+    let pass_2 = || match written.get() {
+        Some(t) => format!("; pass 2 (images) wrote frame {t}"),
+        None => "; pass 2 (images) waits for the records' successors".to_string(),
+    };
     let max_lifespan = args.temporal.as_ref().map_or(1, |t| t.max_lifespan);
     let exposure = scene.settings.exposure;
-    let stats = render_animation(
+    // Per-frame statistics only for --stats (their JSON is written at the end; without
+    // --stats nothing grows with the range).
+    let mut per_frame = Vec::new();
+    let summary = render_animation(
         &renderer,
         &scene,
         &options,
@@ -1304,23 +1344,37 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
                     &rgb,
                 )?;
             }
+            if args.stats.is_some() {
+                per_frame.push(f.stats.clone());
+            }
+            written.set(Some(f.frame_number));
             let s = &f.stats.temporal;
             bar.inc(1);
+            let pass_1 = match f.first_pass_at {
+                Some(t) => format!("pass 1 (records) at frame {t}; pass 2 (images) wrote "),
+                None => "wrote ".to_string(),
+            };
             bar.set_message(format!(
-                "frame {}: {} records ({} new, {} replaced, {} deleted)",
+                "{pass_1}frame {}: {} records ({} new, {} replaced, {} deleted)",
                 f.frame_number, s.alive, s.new, s.replaced, s.deleted
             ));
             Ok(())
         },
-        |t, n| bar.set_message(format!("frame {t}: {n} new records")),
+        |t, step| match step {
+            AnimationStep::Placing { new_records } if two_pass => bar.set_message(format!(
+                "pass 1 (records) frame {t}: {new_records} new records{}",
+                pass_2()
+            )),
+            AnimationStep::Placing { new_records } => {
+                bar.set_message(format!("frame {t}: {new_records} new records"))
+            }
+            AnimationStep::Computed => bar.inc(1),
+        },
     )?;
     bar.finish_and_clear();
-    let wall_s: f64 = stats.iter().map(|s| s.wall_ms).sum::<f64>() / 1e3;
-    let rays: u64 = stats.iter().map(|s| s.temporal.plane_rays).sum();
-    let created: u64 = stats
-        .iter()
-        .map(|s| u64::from(s.temporal.new + s.temporal.replaced))
-        .sum();
+    let wall_s = summary.wall_ms / 1e3;
+    let rays = summary.plane_rays;
+    let created = summary.records_computed;
     if !args.quiet {
         println!(
             "{count} frames in {wall_s:.2} s ({:.2} s/frame); records computed {created}, \
@@ -1347,7 +1401,7 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
             wall_s,
             records_computed: created,
             plane_rays: rays,
-            frames: &stats,
+            frames: &per_frame,
         })
         .map_err(|e| Error::Usage(format!("stats JSON: {e}")))?;
         write_atomically(path, json.as_bytes())?;

@@ -46,6 +46,11 @@ fn sliding_cube(
     (scenes, prepared)
 }
 
+/// Record `id` of `cache` (retained: these tests release nothing).
+fn record(cache: &TemporalCache, id: u32) -> &radsplat::temporal::TemporalRecord {
+    cache.record(id).expect("record retained")
+}
+
 /// Renders frame `t` of a moving sequence with its estimate at t+1 (`scenes` and their
 /// `prepared` GPU copies go one frame further than the frames rendered), checking for
 /// wgpu errors.
@@ -144,8 +149,10 @@ fn moving_cube_expires_replaces_and_deletes_records() {
         totals.2 += stats.deleted;
     }
     // Every record expires within dt_max frames: by frame 9 all of frame 0's are gone.
-    let first_frame_ids: Vec<u32> = (0..temporal.history.len() as u32)
-        .filter(|&id| temporal.history[id as usize].birth == 0)
+    let first_frame_ids: Vec<u32> = temporal
+        .records()
+        .filter(|(_, r)| r.birth == 0)
+        .map(|(id, _)| id)
         .collect();
     assert!(
         first_frame_ids
@@ -155,10 +162,10 @@ fn moving_cube_expires_replaces_and_deletes_records() {
     assert!(totals.1 > 0, "no record was replaced");
     assert!(totals.2 > 0, "no record was deleted");
     // Lifespans stay within dt_max; a replacement sits where the record it replaces was.
-    for r in &temporal.history {
+    for (_, r) in temporal.records() {
         assert!(r.last_frame >= r.birth && r.last_frame < r.birth + 4);
         if let Some(l) = r.successor {
-            let next = &temporal.history[l as usize];
+            let next = record(&temporal, l);
             assert_eq!(next.record.position, r.record.position);
             assert_eq!(next.birth, r.last_frame + 1);
         }
@@ -170,20 +177,21 @@ fn moving_cube_expires_replaces_and_deletes_records() {
         let local = base.inverse().transform_point3(p);
         local.x.abs() < 0.51 && local.z.abs() < 0.51 && local.y > -0.01 && local.y < 1.01
     };
-    let on_cube: Vec<u32> = (0..temporal.history.len() as u32)
-        .filter(|&id| {
-            let r = &temporal.history[id as usize];
+    let on_cube: Vec<u32> = temporal
+        .records()
+        .filter(|(_, r)| {
             r.birth == 0
                 && Vec3::from(r.record.normal).y.abs() < 0.5
                 && cube_at_0(r.record.position())
         })
+        .map(|(id, _)| id)
         .collect();
     assert!(!on_cube.is_empty());
     let mut chain_deleted = 0;
     for &id in &on_cube {
         // Follow the replacements at this place to the last one.
         let mut last = id;
-        while let Some(l) = temporal.history[last as usize].successor {
+        while let Some(l) = record(&temporal, last).successor {
             last = l;
         }
         if !temporal.alive().contains(&last) {
@@ -237,7 +245,7 @@ fn expired_records_are_replaced_exactly_when_they_cover_the_new_frame() {
             let (frame, stats) = moving_frame(&mut temporal, &renderer, &scenes, &prepared, t);
             let (kept, expired): (Vec<u32>, Vec<u32>) = before
                 .into_iter()
-                .partition(|&id| temporal.history[id as usize].last_frame >= t);
+                .partition(|&id| record(&temporal, id).last_frame >= t);
             // Kept records first, then the expired ones, all where they are at t.
             let records: Vec<_> = kept
                 .iter()
@@ -253,7 +261,7 @@ fn expired_records_are_replaced_exactly_when_they_cover_the_new_frame() {
             );
             for (k, &id) in expired.iter().enumerate() {
                 let covers = counts[kept.len() + k];
-                let successor = temporal.history[id as usize].successor;
+                let successor = record(&temporal, id).successor;
                 assert_eq!(
                     successor.is_some(),
                     covers > 0,
@@ -261,7 +269,7 @@ fn expired_records_are_replaced_exactly_when_they_cover_the_new_frame() {
                      successor {successor:?}"
                 );
                 if let Some(l) = successor {
-                    assert_eq!(temporal.history[l as usize].birth, t);
+                    assert_eq!(record(&temporal, l).birth, t);
                     replaced += 1;
                 } else {
                     deleted += 1;
@@ -522,7 +530,7 @@ fn anchored_records_move_with_their_instance() {
     let m9 = scenes[9].instances[1].transform;
     let mut checked = 0;
     for &id in cache.alive() {
-        let r = &cache.history[id as usize];
+        let r = record(&cache, id);
         if r.birth != 0 || r.record.instance != 1 {
             continue;
         }
@@ -554,7 +562,8 @@ fn render_sequence(
         temporal,
     };
     let mut exrs = Vec::new();
-    let stats = render_animation(
+    let mut stats = Vec::new();
+    render_animation(
         renderer,
         &scene,
         &options,
@@ -564,6 +573,7 @@ fn render_sequence(
                 radsplat::output::exr_out::encode_exr(f.frame.width, f.frame.height, &channels)
                     .expect("exr"),
             );
+            stats.push(f.stats.clone());
             Ok(())
         },
         |_, _| {},

@@ -7,6 +7,7 @@ use crate::frame::{Frame, PreparedScene, Renderer};
 use crate::records::{CacheSettings, Record};
 use crate::scene::Scene;
 use crate::{Error, Result};
+use std::collections::VecDeque;
 use std::ops::RangeInclusive;
 use std::time::Instant;
 
@@ -30,6 +31,55 @@ pub struct AnimationFrame<'a> {
     pub records: Vec<Record>,
     pub lifespans: Vec<u32>,
     pub stats: &'a AnimationFrameStats,
+    /// With interpolated gradients, the last frame the first pass has computed when this
+    /// one is handed over (at most dt_max frames ahead, see
+    /// [`TemporalCache::second_pass_ready`]); None with one pass.
+    pub first_pass_at: Option<u32>,
+    /// Records and frame lists the temporal cache retains at this point
+    /// ([`TemporalCache::history_len`], [`TemporalCache::frames_retained`]); 0 for the
+    /// per-frame baseline.
+    pub retained_records: usize,
+    pub retained_frames: usize,
+}
+
+/// What [`render_animation`] reports as it goes (for a progress display), with the frame
+/// it concerns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AnimationStep {
+    /// Placing the frame's records: this many new so far (in the only pass, or in the
+    /// first of interpolated gradients).
+    Placing { new_records: u32 },
+    /// The first pass of interpolated gradients computed the frame's records. The frame
+    /// is rendered (and handed to `on_frame`) once each of its records has its successor
+    /// or has ended: at most dt_max frames later.
+    Computed,
+}
+
+/// Totals over the frames rendered (each frame's statistics go to `on_frame`).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct AnimationSummary {
+    pub frames: u32,
+    /// Sum of the frames' wall times (ms).
+    pub wall_ms: f64,
+    /// Hemisphere rays of the records computed.
+    pub plane_rays: u64,
+    /// Records computed (new and replacements).
+    pub records_computed: u64,
+    /// The most records and frame lists the temporal cache retained at once (bounded by
+    /// dt_max, not by the range).
+    pub max_retained_records: usize,
+    pub max_retained_frames: usize,
+}
+
+impl AnimationSummary {
+    fn add(&mut self, stats: &AnimationFrameStats, retained: (usize, usize)) {
+        self.frames += 1;
+        self.wall_ms += stats.wall_ms;
+        self.plane_rays += stats.temporal.plane_rays;
+        self.records_computed += u64::from(stats.temporal.new + stats.temporal.replaced);
+        self.max_retained_records = self.max_retained_records.max(retained.0);
+        self.max_retained_frames = self.max_retained_frames.max(retained.1);
+    }
 }
 
 /// Statistics of one animation frame (the `--stats` JSON of `animate`).
@@ -50,14 +100,20 @@ pub fn scene_is_dynamic(scene: &Scene) -> bool {
 }
 
 /// Renders `options.frames` of `scene` (set to each frame in turn), calling `on_frame`
-/// after each. Returns the per-frame statistics.
+/// after each frame is rendered, in order, and `progress` as the work goes. With
+/// interpolated gradients the first pass (records) runs ahead and the second (images)
+/// follows it at most dt_max frames behind, as soon as every record of its frame has its
+/// successor: the first frame is written after about dt_max frames, whatever the range,
+/// and the cache releases what only rendered frames needed, so memory is bounded by
+/// dt_max frames, not by the range (the bytes are those of two passes over the whole
+/// range). Returns the totals; each frame's statistics go to `on_frame`.
 pub fn render_animation(
     renderer: &Renderer,
     scene: &Scene,
     options: &AnimationOptions,
     mut on_frame: impl FnMut(AnimationFrame<'_>) -> Result<()>,
-    mut progress: impl FnMut(u32, u32),
-) -> Result<Vec<AnimationFrameStats>> {
+    mut progress: impl FnMut(u32, AnimationStep),
+) -> Result<AnimationSummary> {
     let (first, last) = (*options.frames.start(), *options.frames.end());
     if first > last {
         return Err(Error::Usage(format!("empty frame range {first}..{last}")));
@@ -79,12 +135,20 @@ pub fn render_animation(
         None => None,
     };
     // Interpolated gradients need every record's successor: a first pass places and
-    // computes the records of the whole range, the second renders the frames.
+    // computes the records, the second renders each frame once its records' successors
+    // are known (at most dt_max frames later).
     let two_pass = options
         .temporal
         .as_ref()
         .is_some_and(|t| t.gradients == TemporalGradients::Interpolated);
-    let mut all = Vec::new();
+    let mut summary = AnimationSummary::default();
+    // Frames the first pass computed that wait for the second (at most dt_max + 1), and
+    // the second pass's own scene (it runs behind the first).
+    let mut pending: VecDeque<AnimationFrameStats> = VecDeque::new();
+    let mut second = SecondPass {
+        scene: scene.clone(),
+        prepared: None,
+    };
     let t0 = Instant::now();
     let mut prepared = prepare(&mut current, first, None)?;
     let mut prepare_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -99,7 +163,7 @@ pub fn render_animation(
         } else {
             None
         };
-        let frame_progress = |n: u32| progress(t, n);
+        let frame_progress = |n: u32| progress(t, AnimationStep::Placing { new_records: n });
         let (frame, temporal_stats, records, lifespans) = match temporal.as_mut() {
             Some(cache) => {
                 let (frame, stats) = cache.render_frame(
@@ -115,7 +179,11 @@ pub fn render_animation(
                     two_pass,
                     frame_progress,
                 )?;
-                let (records, lifespans) = cache.alive_records(t);
+                let (records, lifespans) = if two_pass {
+                    (Vec::new(), Vec::new())
+                } else {
+                    cache.alive_records(t)
+                };
                 (frame, stats, records, lifespans)
             }
             None => {
@@ -147,17 +215,52 @@ pub fn render_animation(
             frame_stats: frame.stats.clone(),
             temporal: temporal_stats,
         };
-        if !two_pass {
-            on_frame(AnimationFrame {
-                frame_number: t,
-                frame: &frame,
-                scene: &current,
-                records,
-                lifespans,
-                stats: &stats,
-            })?;
+        match temporal.as_mut() {
+            Some(cache) if two_pass => {
+                pending.push_back(stats);
+                progress(t, AnimationStep::Computed);
+                // Every frame whose records all have their successors, in order.
+                while pending
+                    .front()
+                    .is_some_and(|s| cache.second_pass_ready(s.frame, last))
+                {
+                    let Some(stats) = pending.pop_front() else {
+                        break;
+                    };
+                    second.render(
+                        renderer,
+                        cache,
+                        &mut prepare,
+                        dynamic,
+                        stats,
+                        t,
+                        &mut on_frame,
+                        &mut summary,
+                    )?;
+                }
+            }
+            _ => {
+                let retained = temporal
+                    .as_ref()
+                    .map_or((0, 0), |c| (c.history_len(), c.frames_retained()));
+                on_frame(AnimationFrame {
+                    frame_number: t,
+                    frame: &frame,
+                    scene: &current,
+                    records,
+                    lifespans,
+                    stats: &stats,
+                    first_pass_at: None,
+                    retained_records: retained.0,
+                    retained_frames: retained.1,
+                })?;
+                summary.add(&stats, retained);
+                // Nothing renders this frame again.
+                if let Some(cache) = temporal.as_mut() {
+                    cache.release_frames_before(t + 1);
+                }
+            }
         }
-        all.push(stats);
         // Next frame's scene: the one prepared ahead, else prepare it now.
         if t < last {
             let p0 = Instant::now();
@@ -176,35 +279,76 @@ pub fn render_animation(
             prepare_ms = p0.elapsed().as_secs_f64() * 1e3;
         }
     }
-    if let (true, Some(cache)) = (two_pass, temporal.as_mut()) {
-        let mut scene_t = scene.clone();
-        let mut prepared: Option<PreparedScene> = None;
-        for (t, stats) in (first..=last).zip(all.iter_mut()) {
-            let start = Instant::now();
-            if prepared.is_none() || dynamic {
-                prepared = Some(prepare(&mut scene_t, t, prepared.as_ref())?);
-            } else {
-                scene_t.set_frame(t as f32);
-            }
-            let Some(p) = prepared.as_ref() else {
-                continue;
-            };
-            let frame = cache.render_second_pass(renderer, p, &scene_t.camera, t)?;
-            stats.wall_ms += start.elapsed().as_secs_f64() * 1e3;
-            // Both passes' GPU time in the frame's stats.
-            let mut all = stats.frame_stats.pass_ms.clone();
-            all.extend(frame.stats.pass_ms.iter().cloned());
-            stats.frame_stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
-            let (records, lifespans) = cache.records_of_frame(t);
-            on_frame(AnimationFrame {
-                frame_number: t,
-                frame: &frame,
-                scene: &scene_t,
-                records,
-                lifespans,
+    // The range is done: every record has its successor or has ended.
+    if let Some(cache) = temporal.as_mut() {
+        while let Some(stats) = pending.pop_front() {
+            second.render(
+                renderer,
+                cache,
+                &mut prepare,
+                dynamic,
                 stats,
-            })?;
+                last,
+                &mut on_frame,
+                &mut summary,
+            )?;
         }
     }
-    Ok(all)
+    Ok(summary)
+}
+
+/// The second pass of interpolated gradients: its scene, behind the first pass's.
+struct SecondPass {
+    scene: Scene,
+    prepared: Option<PreparedScene>,
+}
+
+impl SecondPass {
+    /// Renders frame `stats.frame` over the records of the first pass (which is at frame
+    /// `first_pass_at`), hands it to `on_frame` and releases what only it needed.
+    #[allow(clippy::too_many_arguments)]
+    fn render(
+        &mut self,
+        renderer: &Renderer,
+        cache: &mut TemporalCache,
+        prepare: &mut impl FnMut(&mut Scene, u32, Option<&PreparedScene>) -> Result<PreparedScene>,
+        dynamic: bool,
+        mut stats: AnimationFrameStats,
+        first_pass_at: u32,
+        on_frame: &mut impl FnMut(AnimationFrame<'_>) -> Result<()>,
+        summary: &mut AnimationSummary,
+    ) -> Result<()> {
+        let t = stats.frame;
+        let start = Instant::now();
+        let p = match self.prepared.take() {
+            Some(p) if !dynamic => {
+                self.scene.set_frame(t as f32);
+                p
+            }
+            previous => prepare(&mut self.scene, t, previous.as_ref())?,
+        };
+        let frame = cache.render_second_pass(renderer, &p, &self.scene.camera, t)?;
+        self.prepared = Some(p);
+        stats.wall_ms += start.elapsed().as_secs_f64() * 1e3;
+        // Both passes' GPU time in the frame's stats.
+        let mut all = stats.frame_stats.pass_ms.clone();
+        all.extend(frame.stats.pass_ms.iter().cloned());
+        stats.frame_stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
+        let (records, lifespans) = cache.records_of_frame(t);
+        let retained = (cache.history_len(), cache.frames_retained());
+        on_frame(AnimationFrame {
+            frame_number: t,
+            frame: &frame,
+            scene: &self.scene,
+            records,
+            lifespans,
+            stats: &stats,
+            first_pass_at: Some(first_pass_at),
+            retained_records: retained.0,
+            retained_frames: retained.1,
+        })?;
+        summary.add(&stats, retained);
+        cache.release_frames_before(t + 1);
+        Ok(())
+    }
 }

@@ -25,6 +25,7 @@ use crate::scene::{Camera, Scene};
 use crate::visibility::VisibilityBuffer;
 use crate::{Error, Result};
 use glam::Mat4;
+use std::collections::{HashSet, VecDeque};
 
 /// Settings of temporal caching (decision 9; CLI `animate`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -50,6 +51,10 @@ pub struct TemporalSettings {
     /// then extrapolate the record by that ratio instead of by its own estimate. None:
     /// [`TemporalSettings::estimate_stride_for`] chooses.
     pub estimate_stride: Option<u32>,
+    /// At most this many new records placed per frame (replacements are not counted);
+    /// pixels left uncovered get records in later frames. Spreads the cost of a
+    /// walkthrough's new views over frames. None: every uncovered pixel gets one.
+    pub max_new_records: Option<u32>,
 }
 
 /// When replacements refresh their predecessor's plane ([`plane_refresh`]).
@@ -105,6 +110,7 @@ impl Default for TemporalSettings {
             plane_budget_bytes: 512 << 20,
             replacement: Replacement::Visible,
             estimate_stride: None,
+            max_new_records: None,
         }
     }
 }
@@ -154,6 +160,11 @@ impl TemporalSettings {
         if self.max_lifespan == 0 {
             return Err(Error::Usage(
                 "the maximum record lifespan must be at least 1 frame".into(),
+            ));
+        }
+        if self.max_new_records == Some(0) {
+            return Err(Error::Usage(
+                "the most new records per frame must be at least 1, not 0 (none: no cap)".into(),
             ));
         }
         Ok(())
@@ -408,13 +419,20 @@ pub struct TemporalCache {
     refresh: plane_refresh::RefreshPass,
     /// Retained planes of live records (plane refresh).
     planes: plane_refresh::PlaneStore,
-    /// Every record ever created (ids are indices).
-    pub history: Vec<TemporalRecord>,
+    /// The records created so far, by id from `history_base` on (ids count every record
+    /// ever created; [`TemporalCache::release_frames_before`] drops the oldest).
+    history: VecDeque<TemporalRecord>,
+    /// Id of `history[0]`.
+    history_base: u32,
     /// Ids of the records used in the last frame, in frame order.
     alive: Vec<u32>,
-    /// Per frame rendered (from the first): the records used (the second pass of
-    /// interpolated gradients renders exactly these).
+    /// Per frame rendered and not released: the records used (the second pass of
+    /// interpolated gradients renders exactly these). Released frames that are the birth
+    /// of a live record stay, without their ids, for their transforms and lights (plane
+    /// refresh).
     frames: Vec<FrameRecords>,
+    /// Frames before this one are released: no second pass renders them any more.
+    released_before: u32,
     /// Pixels each of `alive` covered in the last frame (for [`Replacement::Covering`]).
     coverage: Vec<u32>,
     /// The frame's records on the GPU and their estimates at t+1 (same indices), and with
@@ -422,6 +440,9 @@ pub struct TemporalCache {
     frame_records: RecordCache,
     next_records: RecordCache,
     subset_records: RecordCache,
+    /// The records of the frame the second pass renders: its own buffer, so that the
+    /// first pass, running ahead, finds its own exactly as it left them.
+    second_records: RecordCache,
     last_frame_rendered: Option<u32>,
     /// Planes refreshed so far, their samples traced again, and records computed in frames
     /// with replacements ([`RefreshMode::Auto`]).
@@ -448,13 +469,16 @@ impl TemporalCache {
                 settings.plane_budget_bytes,
                 cache.plane_resolution,
             ),
-            history: Vec::new(),
+            history: VecDeque::new(),
+            history_base: 0,
             alive: Vec::new(),
             frames: Vec::new(),
+            released_before: 0,
             coverage: Vec::new(),
             frame_records: RecordCache::new(ctx)?,
             next_records: RecordCache::new(ctx)?,
             subset_records: RecordCache::new(ctx)?,
+            second_records: RecordCache::new(ctx)?,
             last_frame_rendered: None,
             refresh_totals: (0, 0, 0),
         })
@@ -483,6 +507,105 @@ impl TemporalCache {
     /// Ids of the records used in the last frame, in frame order.
     pub fn alive(&self) -> &[u32] {
         &self.alive
+    }
+
+    /// Record `id` over its life; None for an id not created yet or released
+    /// ([`TemporalCache::release_frames_before`]).
+    pub fn record(&self, id: u32) -> Option<&TemporalRecord> {
+        id.checked_sub(self.history_base)
+            .and_then(|i| self.history.get(i as usize))
+    }
+
+    /// The records retained, with their ids, oldest first (all records ever created
+    /// unless frames were released).
+    pub fn records(&self) -> impl Iterator<Item = (u32, &TemporalRecord)> {
+        (self.history_base..).zip(&self.history)
+    }
+
+    /// How many records the cache retains (their history: first frame, estimate, tau,
+    /// successor). Without [`TemporalCache::release_frames_before`] it grows with every
+    /// record created; with it, it stays about the records of 2 dt_max frames.
+    pub fn history_len(&self) -> usize {
+        self.history.len()
+    }
+
+    /// How many frames' record lists the cache retains (see
+    /// [`TemporalCache::history_len`]).
+    pub fn frames_retained(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// Record `id`, which must be retained (ids come from the cache's own lists).
+    fn rec(&self, id: u32) -> &TemporalRecord {
+        &self.history[(id - self.history_base) as usize]
+    }
+
+    fn rec_mut(&mut self, id: u32) -> &mut TemporalRecord {
+        &mut self.history[(id - self.history_base) as usize]
+    }
+
+    /// The id the next record created gets.
+    fn next_id(&self) -> u64 {
+        u64::from(self.history_base) + self.history.len() as u64
+    }
+
+    /// Whether frame `t`, rendered by the first pass, can be rendered by the second pass
+    /// now, with the bytes it would have once frame `end` (the last of the range) is
+    /// rendered: every record of frame t has met its successor or its end. A record's
+    /// successor (or its deletion) is decided in the first frame rendered after its last
+    /// frame L, and never changes after; a record with L >= `end` gets none in the range.
+    /// With dt_max, L < t_k + dt_max <= t + dt_max, so the first pass needs to be at most
+    /// dt_max frames ahead (exactly L + 1 for the longest-lived record of frame t).
+    pub fn second_pass_ready(&self, t: u32, end: u32) -> bool {
+        let Some(rendered) = self.last_frame_rendered else {
+            return false;
+        };
+        if t < self.released_before {
+            return false;
+        }
+        match self.frames.iter().find(|f| f.frame == t) {
+            Some(f) => f.ids.iter().all(|&id| {
+                let last = self.rec(id).last_frame;
+                last < rendered || last >= end
+            }),
+            None => false,
+        }
+    }
+
+    /// Releases what only frames before `t` needed: their record lists and the records no
+    /// later frame uses (the second pass of interpolated gradients calls this behind
+    /// itself, so memory stays bounded by dt_max frames, not the range). Records still
+    /// alive and the lists of frames from `t` on stay, and so do the instance transforms
+    /// and lights of the first frames of live records (plane refresh compares with them).
+    pub fn release_frames_before(&mut self, t: u32) {
+        self.released_before = self.released_before.max(t);
+        let (from, current) = (self.released_before, self.last_frame_rendered);
+        let births: HashSet<u32> = self.alive.iter().map(|&id| self.rec(id).birth).collect();
+        self.frames.retain_mut(|f| {
+            if f.frame >= from || Some(f.frame) == current {
+                true
+            } else if births.contains(&f.frame) {
+                f.ids = Vec::new();
+                true
+            } else {
+                false
+            }
+        });
+        // Ids grow with the frame a record is born in, and a record's successor comes
+        // after it: everything from the lowest id a kept frame or the last frame uses on
+        // is kept (deleted records among them too: at most those born since).
+        let needed = self
+            .frames
+            .iter()
+            .flat_map(|f| f.ids.iter())
+            .chain(&self.alive)
+            .copied()
+            .min();
+        let keep_from = needed.map_or(self.next_id(), u64::from);
+        while u64::from(self.history_base) < keep_from && !self.history.is_empty() {
+            self.history.pop_front();
+            self.history_base += 1;
+        }
     }
 
     /// Renders frame `t` (frames must come in increasing order). `dynamic`: whether
@@ -522,11 +645,11 @@ impl TemporalCache {
             .iter()
             .copied()
             .enumerate()
-            .partition::<Vec<_>, _>(|&(_, id)| t <= self.history[id as usize].last_frame);
+            .partition::<Vec<_>, _>(|&(_, id)| t <= self.rec(id).last_frame);
         let kept: Vec<u32> = kept.into_iter().map(|(_, id)| id).collect();
         let kept_records: Vec<Record> = kept
             .iter()
-            .map(|&id| self.world_record(self.history[id as usize].at(t), id, &transforms))
+            .map(|&id| self.world_record(self.rec(id).at(t), id, &transforms))
             .collect();
         let mut times = Vec::new();
         let (deciding, covering, visibility) = self.expired_coverage(
@@ -563,7 +686,7 @@ impl TemporalCache {
         let lights = (scenes.scene.lights.clone(), scenes.scene.environment);
         // Refresh mode auto decides on the frames before this one.
         let refreshing = self.refreshing();
-        replace.sort_by_key(|&id| (self.history[id as usize].birth, id));
+        replace.sort_by_key(|&id| (self.rec(id).birth, id));
         let runs = self.replacement_runs(&replace, t, &transforms, &lights, refreshing);
         let anchored = self.settings.anchor == RecordAnchor::Instance;
         let mut capture = plane_refresh::PlaneCapture {
@@ -635,7 +758,7 @@ impl TemporalCache {
             &mut self.frame_records,
             &self.pass,
             CachedFrameOptions {
-                max_new_records: None,
+                max_new_records: self.settings.max_new_records,
                 lookahead: lookahead.as_mut(),
                 count_coverage: self.settings.replacement == Replacement::Covering,
                 placement_only,
@@ -661,7 +784,7 @@ impl TemporalCache {
             t,
             dynamic,
             &transforms,
-        );
+        )?;
         stats.lifespans = lifespans;
         let mut alive = kept;
         alive.extend(new_ids);
@@ -807,15 +930,24 @@ impl TemporalCache {
         t: u32,
         dynamic: bool,
         transforms: &[Mat4],
-    ) -> (Vec<u32>, Vec<u32>) {
-        let first_id = self.history.len();
+    ) -> Result<(Vec<u32>, Vec<u32>)> {
+        let first_id = self.next_id();
+        // Ids are u32 (the light-sample seeds of replacements hash them).
+        if first_id + computed.records.len() as u64 > u64::from(u32::MAX) {
+            return Err(Error::Usage(format!(
+                "frame {t}: more than {} records created in one animation (ids are 32-bit); \
+                 render the range in parts",
+                u32::MAX
+            )));
+        }
+        let first_id = first_id as u32;
         for (index, plane) in kept_planes {
             if let Some(j) = (index as usize).checked_sub(first) {
-                self.planes.planes.insert((first_id + j) as u32, plane);
+                self.planes.planes.insert(first_id + j as u32, plane);
             }
         }
         for (j, &old) in replace.iter().enumerate() {
-            self.history[old as usize].successor = Some((self.history.len() + j) as u32);
+            self.rec_mut(old).successor = Some(first_id + j as u32);
         }
         let bins = self.settings.max_lifespan.max(1) as usize;
         let mut lifespans = if computed.records.is_empty() {
@@ -842,10 +974,10 @@ impl TemporalCache {
                         })
                 }
             };
-            let id = self.history.len() as u32;
+            let id = self.next_id() as u32;
             let last = last_frame(t, tau, &self.settings, dynamic);
             lifespans[((last - t) as usize).min(bins - 1)] += 1;
-            self.history.push(TemporalRecord {
+            self.history.push_back(TemporalRecord {
                 record,
                 next,
                 birth: t,
@@ -857,7 +989,7 @@ impl TemporalCache {
             });
             ids.push(id);
         }
-        (ids, lifespans)
+        Ok((ids, lifespans))
     }
 
     /// The sites of the replacements `replace` (ids in order of birth) at frame `t`, in
@@ -876,7 +1008,7 @@ impl TemporalCache {
     ) -> Vec<ReplacementRun> {
         let mut runs: Vec<ReplacementRun> = Vec::new();
         for &id in replace {
-            let rec = &self.history[id as usize];
+            let rec = self.rec(id);
             let unmoved = rec
                 .anchor
                 .is_none_or(|a| transforms.get(a.instance as usize) == Some(&a.transform));
@@ -961,7 +1093,7 @@ impl TemporalCache {
         candidates.extend(
             expired
                 .iter()
-                .map(|&(_, id)| self.world_record(self.history[id as usize].at(t), id, transforms)),
+                .map(|&(_, id)| self.world_record(self.rec(id).at(t), id, transforms)),
         );
         self.frame_records.upload(ctx, &candidates)?;
         let accuracy = self.pass.settings.accuracy;
@@ -984,7 +1116,7 @@ impl TemporalCache {
     /// when the instances have `transforms`: unchanged for records that keep their world
     /// position, carried by its instance's motion since then otherwise.
     fn world_record(&self, record: Record, id: u32, transforms: &[Mat4]) -> Record {
-        match &self.history[id as usize].anchor {
+        match &self.rec(id).anchor {
             Some(anchor) => match transforms.get(anchor.instance as usize) {
                 Some(&now) => motion::move_record(&record, &anchor.motion_to(now)),
                 None => record,
@@ -995,7 +1127,7 @@ impl TemporalCache {
 
     /// The record `id` at frame `t` with this cache's temporal gradients (interpolated
     /// towards its successor when it has one, else extrapolated), where it is at frame `t`
-    /// (which must have been rendered).
+    /// (which must have been rendered). `id` must be retained ([`TemporalCache::record`]).
     pub fn record_at(&self, id: u32, t: u32) -> Record {
         self.record_at_with(id, t, self.transforms_of_frame(t))
     }
@@ -1012,10 +1144,10 @@ impl TemporalCache {
     /// [`TemporalCache::record_at`] with frame `t`'s instance transforms already looked up
     /// (one lookup per frame, not per record).
     fn record_at_with(&self, id: u32, t: u32, transforms: &[Mat4]) -> Record {
-        let r = &self.history[id as usize];
+        let r = self.rec(id);
         let at_birth_place = match (self.settings.gradients, r.successor) {
             (TemporalGradients::Interpolated, Some(l)) => {
-                let mut successor = self.history[l as usize];
+                let mut successor = *self.rec(l);
                 // The successor as it would be at this record's place at its first frame
                 // (the same place on the instance).
                 if let (Some(mine), Some(its)) = (r.anchor, successor.anchor) {
@@ -1031,7 +1163,8 @@ impl TemporalCache {
 
     /// Second pass of interpolated gradients: renders frame `t` again over exactly the
     /// records the first pass used there, now interpolated between each record and its
-    /// successor (no placement: coverage is the first pass's).
+    /// successor (no placement: coverage is the first pass's). Its bytes are final once
+    /// [`TemporalCache::second_pass_ready`] says so; frames released are refused.
     pub fn render_second_pass(
         &mut self,
         renderer: &Renderer,
@@ -1039,6 +1172,12 @@ impl TemporalCache {
         camera: &Camera,
         t: u32,
     ) -> Result<Frame> {
+        if t < self.released_before {
+            return Err(Error::Usage(format!(
+                "frame {t} was released (frames before {} are)",
+                self.released_before
+            )));
+        }
         let ids = self
             .frames
             .iter()
@@ -1050,11 +1189,11 @@ impl TemporalCache {
             .iter()
             .map(|&id| self.record_at_with(id, t, transforms))
             .collect();
-        self.frame_records.upload(&renderer.ctx, &records)?;
+        self.second_records.upload(&renderer.ctx, &records)?;
         let (frame, _) = renderer.render_cached_frame(
             scene,
             camera,
-            &mut self.frame_records,
+            &mut self.second_records,
             &self.pass,
             CachedFrameOptions {
                 max_new_records: Some(0),
@@ -1071,11 +1210,12 @@ impl TemporalCache {
         self.records_with_lifespans(&self.alive, t)
     }
 
-    /// Same for the records frame `t` used (any frame rendered so far).
+    /// Same for the records frame `t` used (any frame rendered so far and not released;
+    /// empty otherwise).
     pub fn records_of_frame(&self, t: u32) -> (Vec<Record>, Vec<u32>) {
         match self.frames.iter().find(|f| f.frame == t) {
-            Some(f) => self.records_with_lifespans(&f.ids, t),
-            None => (Vec::new(), Vec::new()),
+            Some(f) if t >= self.released_before => self.records_with_lifespans(&f.ids, t),
+            _ => (Vec::new(), Vec::new()),
         }
     }
 
@@ -1083,7 +1223,7 @@ impl TemporalCache {
         let transforms = self.transforms_of_frame(t);
         ids.iter()
             .map(|&id| {
-                let r = &self.history[id as usize];
+                let r = self.rec(id);
                 let lifespan = r.last_frame.saturating_sub(r.birth).saturating_add(1);
                 (self.record_at_with(id, t, transforms), lifespan)
             })
