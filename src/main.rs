@@ -1265,6 +1265,9 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
         t.validate()?;
     }
     let frames = args.frames.clone().unwrap_or_else(|| scene.frames());
+    // Every frame's state before any work (its cost follows the keyframe spans, not the
+    // range): a keyframe pair that interpolates through a degenerate state is refused here.
+    scene.check_frames(frames.clone())?;
     let output = args.output.unwrap_or_else(|| {
         let stem = args
             .scene_path

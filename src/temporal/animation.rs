@@ -127,7 +127,8 @@ pub fn render_animation(
     // and shares the mesh and texture buffers of the frame before.
     let mut prepare =
         |s: &mut Scene, t: u32, previous: Option<&PreparedScene>| -> Result<PreparedScene> {
-            s.set_frame(t as f32);
+            // Checked: an interpolated state that degenerates is an error naming the frame.
+            s.try_set_frame(t as f32)?;
             renderer.prepare_frame(s, &mut bvh, previous)
         };
     let mut temporal = match &options.temporal {
@@ -271,7 +272,7 @@ pub fn render_animation(
                 }
                 // Nothing that lights the scene moves: only the camera changes.
                 None if !dynamic => {
-                    current.set_frame((t + 1) as f32);
+                    current.try_set_frame((t + 1) as f32)?;
                     prepared
                 }
                 None => prepare(&mut current, t + 1, Some(&prepared))?,
@@ -322,7 +323,7 @@ impl SecondPass {
         let start = Instant::now();
         let p = match self.prepared.take() {
             Some(p) if !dynamic => {
-                self.scene.set_frame(t as f32);
+                self.scene.try_set_frame(t as f32)?;
                 p
             }
             previous => prepare(&mut self.scene, t, previous.as_ref())?,
