@@ -282,7 +282,7 @@ fn sah_split(
 ) -> Option<Split> {
     let m = refs.len();
     let mut best: Option<Split> = None;
-    for axis in 0..3 {
+    for axis in [0usize, 1, 2] {
         let k = bin_scale(cbounds, axis);
         if k == 0.0 {
             continue;

@@ -607,6 +607,58 @@ mod tests {
         }
     }
 
+    /// An obvhs tree over budget is replaced by ours even when the input looks ordinary:
+    /// here obvhs's builder is stood in for by a chain (one primitive per level).
+    #[test]
+    fn over_budget_tree_is_rebuilt_within_budget() {
+        use obvhs::bvh2::node::Bvh2Node;
+        let n = 300;
+        let boxes: Vec<Aabb> = (0..n)
+            .map(|i| Aabb {
+                min: Vec3A::new(2.0 * i as f32, 0.0, 0.0),
+                max: Vec3A::new(2.0 * i as f32 + 1.0, 1.0, 1.0),
+            })
+            .collect();
+        assert_eq!(bounded::degenerate(&boxes, None), None, "an ordinary input");
+        let chain = || {
+            // Inner node k (at 2k, root 0) has leaf k at 2k+1 and the next inner at 2k+2.
+            let mut nodes = vec![Bvh2Node::default(); 2 * n - 1];
+            let mut below = boxes[n - 1];
+            nodes[2 * n - 2] = Bvh2Node::new(boxes[n - 1], 1, (n - 1) as u32);
+            for k in (0..n - 1).rev() {
+                nodes[2 * k + 1] = Bvh2Node::new(boxes[k], 1, k as u32);
+                below = below.union(&boxes[k]);
+                nodes[2 * k] = Bvh2Node::new(below, 0, 2 * k as u32 + 1);
+            }
+            Bvh2 {
+                nodes,
+                primitive_indices: (0..n as u32).collect(),
+                max_depth: 2 * n,
+                ..Bvh2::default()
+            }
+        };
+        let chain_need =
+            wide::stack_need(&wide::collapse(&chain(), 4, Open::LargestArea, &|f, c| {
+                (f, c)
+            }));
+        assert!(
+            chain_need > TLAS_STACK_BUDGET,
+            "the chain is over budget: {chain_need}"
+        );
+        let built = build_robust(&boxes, None, 1, TLAS_STACK_BUDGET, chain);
+        assert!(
+            matches!(built.builder, Builder::TooDeep(_)),
+            "{:?}",
+            built.builder
+        );
+        assert!(
+            built.stack_need <= TLAS_STACK_BUDGET,
+            "{}",
+            built.stack_need
+        );
+        assert_eq!(built.bvh.primitive_indices.len(), n);
+    }
+
     /// Frame-to-frame update costs on the 66 bouncing spheres: a full build, a TLAS
     /// rebuild and a TLAS refit per frame, in milliseconds (median over the frames).
     /// `cargo test --release --lib bvh::tests::tlas_update_timings -- --ignored --nocapture`
