@@ -37,7 +37,7 @@ use wide::Open;
 /// 96 rather than a smaller power of two because no 4-wide tree over the largest inputs
 /// the encoding accepts fits in less: 2^27 triangles in leaves of 8 need 12 wide levels
 /// even perfectly balanced, 2^27 instances one per leaf 14, and each level pushes up to 3
-/// entries (78 in all, 90 with the height slack of [`bounded`]).
+/// entries (78 in all, at most 45 + 48 = 93 with the height slack of [`bounded`]).
 pub const TRAVERSAL_STACK: u32 = 96;
 /// Stack entries a BLAS may need. An obvhs BLAS above it is rebuilt with [`bounded`],
 /// which stays within it for any mesh of fewer than 2^27 triangles.
