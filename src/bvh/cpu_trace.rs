@@ -1,5 +1,6 @@
-//! CPU reference ray tracer: every instance's triangles flattened into world space and
-//! traversed with obvhs's own CPU traversal. It is independent of our two-level GPU
+//! CPU reference ray tracer: every instance's triangles flattened into world space, in one
+//! BVH2 ([`super::build_triangles`]: obvhs's, or ours for degenerate input) traversed with
+//! obvhs's own CPU traversal. It is independent of our two-level GPU
 //! layout, which is what makes it a useful reference for the GPU kernels.
 
 use crate::scene::Scene;
@@ -9,7 +10,6 @@ use obvhs::{
     ray::{Ray, RayHit},
     triangle::Triangle,
 };
-use std::time::Duration;
 
 /// A closest hit found on the CPU.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,7 +35,8 @@ pub struct CpuTracer {
 }
 
 impl CpuTracer {
-    /// Flattens the scene and builds the BVH (obvhs `medium_build`).
+    /// Flattens the scene and builds the BVH (obvhs `medium_build`, see
+    /// [`super::build_triangles`]).
     pub fn new(scene: &Scene) -> Self {
         let mut tris = Vec::new();
         let mut ids = Vec::new();
@@ -56,9 +57,10 @@ impl CpuTracer {
                 ids.push((ii as u32, ti as u32));
             }
         }
-        let mut core = Duration::ZERO;
-        let bvh =
-            obvhs::bvh2::builder::build_bvh2_from_tris(&tris, super::blas_params(), &mut core);
+        // obvhs's tree for ordinary scenes, ours where PLOC degenerates (the same choice
+        // as for a BLAS; a CPU traversal has no fixed stack, the budget only keeps the
+        // tree shallow).
+        let bvh = super::build_triangles(&tris, super::blas_params(), super::BLAS_STACK_BUDGET).bvh;
         let triangles = bvh
             .primitive_indices
             .iter()

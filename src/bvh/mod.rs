@@ -3,20 +3,133 @@
 //! instances move. Every hit is reported as (instance, mesh-local primitive, barycentrics),
 //! which maps it to the same surface point in any later frame (`docs/architecture.md`).
 //!
-//! Both levels are built on the CPU with obvhs (PLOC + reinsertion, `medium_build` preset),
-//! collapsed into 4-wide nodes with quantised child boxes ([`wide`]) and uploaded in the
-//! [`gpu_layout`] formats that `wgsl/shared/bvh.wgsl` traverses.
+//! Both levels are built on the CPU, collapsed into 4-wide nodes with quantised child boxes
+//! ([`wide`]) and uploaded in the [`gpu_layout`] formats that `wgsl/shared/bvh.wgsl`
+//! traverses.
+//!
+//! **Builder choice** ([`build_robust`]). Ordinary inputs are built with obvhs (PLOC +
+//! reinsertion, `medium_build` preset), whose trees traverse well. PLOC is quadratic in
+//! time and builds chain-like trees on fans (disc caps, sphere poles), coincident copies
+//! and nested boxes, so those inputs (found by the O(n) test [`bounded::degenerate`]) and
+//! every obvhs tree whose traversal stack need exceeds its level's budget
+//! ([`BLAS_STACK_BUDGET`], [`TLAS_STACK_BUDGET`]) are built by [`bounded`] instead: binned
+//! SAH in O(n log n) with a height bound that keeps the stack need within the budget for
+//! any input the GPU encoding accepts (< 2^27 triangles and instances). The two budgets
+//! together fit the shader's stack ([`TRAVERSAL_STACK`]), so no scene is rejected for its
+//! depth. See `docs/bvh-performance.md` ("Degenerate inputs").
 
+pub mod bounded;
 pub mod cpu_trace;
 pub mod gpu_layout;
 pub mod trace_pass;
 pub mod wide;
 
 use crate::scene::{Mesh, Scene};
+use bounded::Degenerate;
 use glam::{Mat4, Vec3, Vec3A};
 use gpu_layout::{GpuInstance, GpuNode, GpuTriangle, GpuTriangleShading};
 use obvhs::{BvhBuildParams, aabb::Aabb, bvh2::Bvh2, triangle::Triangle};
 use std::time::{Duration, Instant};
+use wide::Open;
+
+/// Entries of the GPU traversal stack (`BVH_STACK_SIZE` in `wgsl/shared/bvh.wgsl`).
+///
+/// 96 rather than a smaller power of two because no 4-wide tree over the largest inputs
+/// the encoding accepts fits in less: 2^27 triangles in leaves of 8 need 12 wide levels
+/// even perfectly balanced, 2^27 instances one per leaf 14, and each level pushes up to 3
+/// entries (78 in all, at most 45 + 48 = 93 with the height slack of [`bounded`]).
+pub const TRAVERSAL_STACK: u32 = 96;
+/// Stack entries a BLAS may need. An obvhs BLAS above it is rebuilt with [`bounded`],
+/// which stays within it for any mesh of fewer than 2^27 triangles.
+pub const BLAS_STACK_BUDGET: u32 = 45;
+/// Stack entries the TLAS may need (same rule, fewer than 2^27 instances).
+pub const TLAS_STACK_BUDGET: u32 = 48;
+const _: () = assert!(BLAS_STACK_BUDGET + TLAS_STACK_BUDGET < TRAVERSAL_STACK);
+
+/// Which builder made a BVH, and why.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Builder {
+    /// obvhs (PLOC), the default.
+    Obvhs,
+    /// [`bounded`], because the input is degenerate for PLOC.
+    Degenerate(Degenerate),
+    /// [`bounded`], because obvhs's tree needed this many stack entries, above the budget
+    /// (at least this many when it was too tall to collapse).
+    TooDeep(u32),
+}
+
+impl Builder {
+    /// How trees of this builder are collapsed to 4-wide nodes: obvhs's as before (the
+    /// GPU bytes of ordinary scenes do not change), ours height first (which is what
+    /// bounds their stack need).
+    pub fn open(self) -> Open {
+        match self {
+            Builder::Obvhs => Open::LargestArea,
+            _ => Open::Tallest,
+        }
+    }
+}
+
+/// A BVH2, the builder that made it and its 4-wide tree's stack need.
+pub struct Built {
+    pub bvh: Bvh2,
+    pub builder: Builder,
+    pub stack_need: u32,
+}
+
+/// Builds a BVH2 over `boxes` with obvhs (`obvhs`, which must build over the same
+/// primitives in the same order), unless the input is degenerate for PLOC or obvhs's tree
+/// needs more than `budget` stack entries: then with [`bounded`] (leaves of at most
+/// `max_leaf`). `corners` (triangles only) feed the fan test.
+pub fn build_robust(
+    boxes: &[Aabb],
+    corners: Option<&[[Vec3A; 3]]>,
+    max_leaf: u32,
+    budget: u32,
+    obvhs: impl FnOnce() -> Bvh2,
+) -> Built {
+    let ours = |builder| {
+        let height = bounded::height_bound(boxes.len(), max_leaf, budget);
+        let bvh = bounded::build(boxes, max_leaf, height);
+        let stack_need = wide::stack_need(&wide::collapse(&bvh, 4, Open::Tallest, &|f, c| (f, c)));
+        Built {
+            bvh,
+            builder,
+            stack_need,
+        }
+    };
+    if let Some(d) = bounded::degenerate(boxes, corners) {
+        return ours(Builder::Degenerate(d));
+    }
+    let bvh = obvhs();
+    // A wide level spans at most three BVH2 levels and pushes at least one entry, so a
+    // taller tree is over budget; not collapsing it also keeps the recursion shallow.
+    let height = bounded::node_heights(&bvh).first().copied().unwrap_or(0);
+    if height > 3 * budget {
+        return ours(Builder::TooDeep(height / 3));
+    }
+    let stack_need = wide::stack_need(&wide::collapse(&bvh, 4, Open::LargestArea, &|f, c| (f, c)));
+    if stack_need > budget {
+        return ours(Builder::TooDeep(stack_need));
+    }
+    Built {
+        bvh,
+        builder: Builder::Obvhs,
+        stack_need,
+    }
+}
+
+/// [`build_robust`] over triangles: obvhs's triangle builder with `params`, ours with
+/// `params`' leaf size (at most 8, the GPU leaf encoding holds 16), within `budget`.
+pub fn build_triangles(tris: &[Triangle], params: BvhBuildParams, budget: u32) -> Built {
+    let boxes: Vec<Aabb> = tris.iter().map(|t| t.aabb()).collect();
+    let corners: Vec<[Vec3A; 3]> = tris.iter().map(|t| [t.v0, t.v1, t.v2]).collect();
+    let max_leaf = params.max_prims_per_leaf.clamp(1, 8);
+    build_robust(&boxes, Some(&corners), max_leaf, budget, || {
+        let mut core = Duration::ZERO;
+        obvhs::bvh2::builder::build_bvh2_from_tris(tris, params, &mut core)
+    })
+}
 
 /// obvhs build presets, from fastest build to best traversal.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -63,6 +176,11 @@ pub struct Blas {
     pub triangles: Vec<Triangle>,
     /// For each triangle in leaf order, its index in the mesh.
     pub mesh_triangle: Vec<u32>,
+    /// Which builder made `bvh` (and so how it is collapsed).
+    pub builder: Builder,
+    /// Traversal stack entries of its 4-wide tree, at most [`BLAS_STACK_BUDGET`] for
+    /// meshes of fewer than 2^27 triangles.
+    pub stack_need: u32,
 }
 
 impl Blas {
@@ -71,7 +189,8 @@ impl Blas {
         Self::build_params(mesh, preset.params())
     }
 
-    /// Builds the BLAS of a mesh with explicit obvhs parameters.
+    /// Builds the BLAS of a mesh with explicit obvhs parameters (used when obvhs builds
+    /// it, see [`build_robust`]).
     pub fn build_params(mesh: &Mesh, params: BvhBuildParams) -> Blas {
         let tris: Vec<Triangle> = mesh
             .indices
@@ -82,14 +201,26 @@ impl Blas {
                 v2: mesh.positions[t[2] as usize].into(),
             })
             .collect();
-        let mut core = Duration::ZERO;
-        let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, params, &mut core);
+        let built = build_triangles(&tris, params, BLAS_STACK_BUDGET);
+        let bvh = built.bvh;
         let mesh_triangle = bvh.primitive_indices.clone();
         let triangles = mesh_triangle.iter().map(|&i| tris[i as usize]).collect();
+        if built.builder != Builder::Obvhs {
+            log::debug!(
+                "mesh '{}' ({} triangles): BVH built by radsplat's bounded builder ({:?}), \
+                 stack need {}",
+                mesh.name,
+                tris.len(),
+                built.builder,
+                built.stack_need
+            );
+        }
         Blas {
             bvh,
             triangles,
             mesh_triangle,
+            builder: built.builder,
+            stack_need: built.stack_need,
         }
     }
 }
@@ -119,8 +250,17 @@ pub struct SceneBvh {
     pub mesh_offsets: Vec<(u32, u32)>,
     pub times: BuildTimes,
     /// Traversal stack entries needed at most: the worst BLAS plus the TLAS (each level
-    /// of a path pushes up to three children; see [`wide::stack_need`]).
+    /// of a path pushes up to three children; see [`wide::stack_need`]). At most
+    /// `BLAS_STACK_BUDGET + TLAS_STACK_BUDGET`, below [`TRAVERSAL_STACK`], for any scene
+    /// the GPU encoding accepts.
     pub max_depth: u32,
+    /// The mesh whose BLAS needs the most stack entries (`None` without meshes), and
+    /// that need, for the device-limit message.
+    pub deepest_blas: Option<(u32, u32)>,
+    /// Per mesh, the builder of its BLAS.
+    pub blas_builders: Vec<Builder>,
+    /// The builder of the TLAS.
+    pub tlas_builder: Builder,
     /// Stack need of the worst BLAS alone, so that `max_depth` can be recomputed when only
     /// the TLAS changes.
     blas_stack_need: u32,
@@ -150,12 +290,19 @@ impl SceneBvh {
         let mut shading = Vec::new();
         let mut mesh_offsets = Vec::new();
         let mut max_depth = 0u32;
-        for (mesh, blas) in scene.meshes.iter().zip(&blases) {
+        let mut deepest_blas = None;
+        for (mi, (mesh, blas)) in scene.meshes.iter().zip(&blases).enumerate() {
             let node_base = blas_nodes.len() as u32;
             let tri_base = triangles.len() as u32;
             mesh_offsets.push((node_base, tri_base));
-            let wide = wide::collapse(&blas.bvh, 4, &|first, count| (first + tri_base, count));
-            max_depth = max_depth.max(wide::stack_need(&wide));
+            let wide = wide::collapse(&blas.bvh, 4, blas.builder.open(), &|first, count| {
+                (first + tri_base, count)
+            });
+            let need = wide::stack_need(&wide);
+            if deepest_blas.is_none_or(|(_, worst)| need > worst) {
+                deepest_blas = Some((mi as u32, need));
+            }
+            max_depth = max_depth.max(need);
             blas_nodes.extend(wide.iter().map(|n| GpuNode::new(n, node_base)));
             for (tri, &mesh_tri) in blas.triangles.iter().zip(&blas.mesh_triangle) {
                 triangles.push(GpuTriangle::new(tri));
@@ -172,6 +319,9 @@ impl SceneBvh {
             mesh_offsets,
             times: BuildTimes::default(),
             max_depth,
+            deepest_blas,
+            blas_builders: blases.iter().map(|b| b.builder).collect(),
+            tlas_builder: Builder::Obvhs,
             blas_stack_need: max_depth,
             tlas_bvh: Bvh2::default(),
         };
@@ -190,7 +340,9 @@ impl SceneBvh {
     pub fn update_instances(&mut self, scene: &Scene) {
         self.check_meshes(scene);
         let t0 = Instant::now();
-        self.tlas_bvh = build_tlas(&instance_bounds(scene));
+        let built = build_tlas(&instance_bounds(scene));
+        self.tlas_bvh = built.bvh;
+        self.tlas_builder = built.builder;
         self.encode_instances(scene);
         self.times = BuildTimes {
             blas_ms: 0.0,
@@ -246,7 +398,7 @@ impl SceneBvh {
         let node_base = self.blas_nodes.len() as u32;
         let bvh = &self.tlas_bvh;
         // One instance per leaf (tlas_params): a leaf entry names the instance itself.
-        let wide = wide::collapse(bvh, 4, &|first, _| {
+        let wide = wide::collapse(bvh, 4, self.tlas_builder.open(), &|first, _| {
             (bvh.primitive_indices[first as usize], 1)
         });
         self.tlas_nodes = wide.iter().map(|n| GpuNode::new(n, node_base)).collect();
@@ -294,9 +446,11 @@ pub fn instance_bounds(scene: &Scene) -> Vec<Aabb> {
 }
 
 /// Builds the TLAS (BVH2) over instance bounds; leaves hold exactly one instance.
-fn build_tlas(bounds: &[Aabb]) -> Bvh2 {
-    let mut core = Duration::ZERO;
-    obvhs::bvh2::builder::build_bvh2(bounds, tlas_params(), &mut core)
+fn build_tlas(bounds: &[Aabb]) -> Built {
+    build_robust(bounds, None, 1, TLAS_STACK_BUDGET, || {
+        let mut core = Duration::ZERO;
+        obvhs::bvh2::builder::build_bvh2(bounds, tlas_params(), &mut core)
+    })
 }
 
 /// Object-space transform helpers shared by the CPU reference and the GPU layout.
@@ -313,13 +467,11 @@ pub fn scene_bounds(scene: &Scene) -> (Vec3, Vec3) {
     (aabb.min.into(), aabb.max.into())
 }
 
-/// Actual depth of a BVH (obvhs's `max_depth` field is a stack-size hint, not the depth).
+/// Actual depth of a BVH in nodes (a lone leaf has depth 1; obvhs's `max_depth` field is
+/// a stack-size hint, not the depth). Iterative, so chain-like trees cannot overflow the
+/// call stack.
 pub fn tree_depth(bvh: &Bvh2) -> u32 {
-    if bvh.nodes.is_empty() {
-        0
-    } else {
-        bvh.depth(0) as u32
-    }
+    bounded::node_heights(bvh).first().map_or(0, |h| h + 1)
 }
 
 #[cfg(test)]
@@ -400,6 +552,111 @@ mod tests {
         for b in instance_bounds(&moved) {
             assert!(Vec3::from(b.min).cmpge(lo).all() && Vec3::from(b.max).cmple(hi).all());
         }
+    }
+
+    /// The bundled scenes are ordinary: every BLAS, the TLAS and the CPU reference's
+    /// flattened BVH stay obvhs's (so their GPU bytes and golden images do not change).
+    #[test]
+    fn bundled_scenes_keep_obvhs_trees() {
+        let mut names = vec![
+            "cornell-box.toml",
+            "cornell-sphere.toml",
+            "cube-in-box.toml",
+            "cube-in-box-anim.toml",
+            "moving-light.toml",
+            "spheres.toml",
+        ];
+        // Sponza (a third-party asset) too where the shared scenes are installed.
+        if std::env::var_os("RADSPLAT_ASSET_PATH").is_some_and(|v| !v.is_empty()) {
+            names.push("sponza.toml");
+        } else {
+            eprintln!("RADSPLAT_ASSET_PATH is not set: sponza.toml not checked");
+        }
+        for name in names {
+            let scene = bundled(name);
+            let bvh = SceneBvh::build(&scene);
+            assert!(
+                bvh.blas_builders.iter().all(|&b| b == Builder::Obvhs),
+                "{name}: {:?}",
+                bvh.blas_builders
+            );
+            assert_eq!(bvh.tlas_builder, Builder::Obvhs, "{name}");
+            let mut flat = Vec::new();
+            for inst in &scene.instances {
+                let mesh = &scene.meshes[inst.mesh as usize];
+                for t in &mesh.indices {
+                    let p = |k: usize| {
+                        Vec3A::from(
+                            inst.transform
+                                .transform_point3(mesh.positions[t[k] as usize]),
+                        )
+                    };
+                    flat.push(Triangle {
+                        v0: p(0),
+                        v1: p(1),
+                        v2: p(2),
+                    });
+                }
+            }
+            let built = build_triangles(&flat, blas_params(), BLAS_STACK_BUDGET);
+            assert_eq!(built.builder, Builder::Obvhs, "{name}: CPU reference");
+            eprintln!(
+                "{name}: stack need {} (worst BLAS {:?}), CPU reference {}",
+                bvh.max_depth, bvh.deepest_blas, built.stack_need
+            );
+        }
+    }
+
+    /// An obvhs tree over budget is replaced by ours even when the input looks ordinary:
+    /// here obvhs's builder is stood in for by a chain (one primitive per level).
+    #[test]
+    fn over_budget_tree_is_rebuilt_within_budget() {
+        use obvhs::bvh2::node::Bvh2Node;
+        let n = 300;
+        let boxes: Vec<Aabb> = (0..n)
+            .map(|i| Aabb {
+                min: Vec3A::new(2.0 * i as f32, 0.0, 0.0),
+                max: Vec3A::new(2.0 * i as f32 + 1.0, 1.0, 1.0),
+            })
+            .collect();
+        assert_eq!(bounded::degenerate(&boxes, None), None, "an ordinary input");
+        let chain = || {
+            // Inner node k (at 2k, root 0) has leaf k at 2k+1 and the next inner at 2k+2.
+            let mut nodes = vec![Bvh2Node::default(); 2 * n - 1];
+            let mut below = boxes[n - 1];
+            nodes[2 * n - 2] = Bvh2Node::new(boxes[n - 1], 1, (n - 1) as u32);
+            for k in (0..n - 1).rev() {
+                nodes[2 * k + 1] = Bvh2Node::new(boxes[k], 1, k as u32);
+                below = below.union(&boxes[k]);
+                nodes[2 * k] = Bvh2Node::new(below, 0, 2 * k as u32 + 1);
+            }
+            Bvh2 {
+                nodes,
+                primitive_indices: (0..n as u32).collect(),
+                max_depth: 2 * n,
+                ..Bvh2::default()
+            }
+        };
+        let chain_need =
+            wide::stack_need(&wide::collapse(&chain(), 4, Open::LargestArea, &|f, c| {
+                (f, c)
+            }));
+        assert!(
+            chain_need > TLAS_STACK_BUDGET,
+            "the chain is over budget: {chain_need}"
+        );
+        let built = build_robust(&boxes, None, 1, TLAS_STACK_BUDGET, chain);
+        assert!(
+            matches!(built.builder, Builder::TooDeep(_)),
+            "{:?}",
+            built.builder
+        );
+        assert!(
+            built.stack_need <= TLAS_STACK_BUDGET,
+            "{}",
+            built.stack_need
+        );
+        assert_eq!(built.bvh.primitive_indices.len(), n);
     }
 
     /// Frame-to-frame update costs on the 66 bouncing spheres: a full build, a TLAS

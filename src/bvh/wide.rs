@@ -1,4 +1,4 @@
-//! Wide BVH nodes for the GPU: obvhs's BVH2 collapsed into 4-wide nodes, and the
+//! Wide BVH nodes for the GPU: a BVH2 collapsed into 4-wide nodes, and the
 //! conservative 8-bit quantisation of their child boxes ([`super::gpu_layout::GpuNode`]).
 
 use obvhs::{aabb::Aabb, bvh2::Bvh2};
@@ -24,11 +24,29 @@ pub struct WideNode {
     pub children: Vec<Child>,
 }
 
+/// Which inner child [`collapse`] opens next when filling a wide node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Open {
+    /// Largest surface area first: the best traversal order for obvhs's trees, whose
+    /// depth it does not bound.
+    LargestArea,
+    /// Greatest height first (largest area among equals): every inner child of a wide
+    /// node is then at least two BVH2 levels lower than the node, so a BVH2 of height
+    /// `h` gives at most `ceil(h / 2)` wide levels. Used for the trees of
+    /// [`super::bounded`], whose height is bounded.
+    Tallest,
+}
+
 /// Collapses a BVH2 into `width`-wide nodes (root at 0, pre-order). An inner child is
-/// opened (replaced by its two children) largest surface area first, until the node is
-/// full. `leaf` maps a BVH2 leaf to its (first, count). The root is always a wide node,
-/// even when the BVH2 is a single leaf (or empty: then it has no children).
-pub fn collapse(bvh: &Bvh2, width: usize, leaf: &dyn Fn(u32, u32) -> (u32, u32)) -> Vec<WideNode> {
+/// opened (replaced by its two children) in the `open` order, until the node is full.
+/// `leaf` maps a BVH2 leaf to its (first, count). The root is always a wide node, even
+/// when the BVH2 is a single leaf (or empty: then it has no children).
+pub fn collapse(
+    bvh: &Bvh2,
+    width: usize,
+    open: Open,
+    leaf: &dyn Fn(u32, u32) -> (u32, u32),
+) -> Vec<WideNode> {
     let mut out = Vec::new();
     if bvh.nodes.is_empty() {
         out.push(WideNode {
@@ -37,7 +55,11 @@ pub fn collapse(bvh: &Bvh2, width: usize, leaf: &dyn Fn(u32, u32) -> (u32, u32))
         });
         return out;
     }
-    collapse_node(bvh, 0, width, leaf, &mut out);
+    let heights = match open {
+        Open::LargestArea => vec![],
+        Open::Tallest => super::bounded::node_heights(bvh),
+    };
+    collapse_node(bvh, 0, width, &heights, leaf, &mut out);
     out
 }
 
@@ -45,6 +67,7 @@ fn collapse_node(
     bvh: &Bvh2,
     node: usize,
     width: usize,
+    heights: &[u32],
     leaf: &dyn Fn(u32, u32) -> (u32, u32),
     out: &mut Vec<WideNode>,
 ) -> u32 {
@@ -54,6 +77,9 @@ fn collapse_node(
     } else {
         vec![n.first_index as usize, n.first_index as usize + 1]
     };
+    // Without heights (Open::LargestArea) every node counts as height 0, so the order is
+    // the area order alone.
+    let height = |k: usize| heights.get(k).copied().unwrap_or(0);
     while kids.len() < width {
         let best = kids
             .iter()
@@ -62,7 +88,10 @@ fn collapse_node(
             .max_by(|a, b| {
                 let sa = bvh.nodes[*a.1].aabb.half_area();
                 let sb = bvh.nodes[*b.1].aabb.half_area();
-                sa.total_cmp(&sb).then(b.0.cmp(&a.0))
+                height(*a.1)
+                    .cmp(&height(*b.1))
+                    .then(sa.total_cmp(&sb))
+                    .then(b.0.cmp(&a.0))
             })
             .map(|(i, _)| i);
         let Some(i) = best else { break };
@@ -81,7 +110,9 @@ fn collapse_node(
             let (first, count) = leaf(c.first_index, c.prim_count);
             children.push(Child::Leaf { first, count });
         } else {
-            children.push(Child::Inner(collapse_node(bvh, k, width, leaf, out)));
+            children.push(Child::Inner(collapse_node(
+                bvh, k, width, heights, leaf, out,
+            )));
         }
     }
     out[me].children = children;
@@ -207,7 +238,7 @@ mod tests {
         }];
         let mut core = std::time::Duration::ZERO;
         let bvh = obvhs::bvh2::builder::build_bvh2(&aabbs, super::super::tlas_params(), &mut core);
-        let nodes = collapse(&bvh, 4, &|f, c| (f, c));
+        let nodes = collapse(&bvh, 4, Open::LargestArea, &|f, c| (f, c));
         assert_eq!(nodes.len(), 1);
         assert_eq!(nodes[0].children.len(), 1);
         let gpu = GpuNode::new(&nodes[0], 0);

@@ -8,7 +8,7 @@ use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 
 /// Must match `BVH_STACK_SIZE` in `wgsl/shared/bvh.wgsl`.
-pub const BVH_STACK_SIZE: u32 = 64;
+pub const BVH_STACK_SIZE: u32 = crate::bvh::TRAVERSAL_STACK;
 
 /// Width in texels of the BVH node texture (binding 0): 512 nodes of four texels per row.
 /// Must match `bvh_texel` in `wgsl/shared/scene.wgsl`; within WebGPU's default 2D limit.
@@ -285,18 +285,27 @@ impl GpuScene {
         light_samples: u32,
         previous: Option<&GpuScene>,
     ) -> Result<Self> {
-        if bvh.max_depth >= BVH_STACK_SIZE {
-            return Err(Error::DeviceLimit(format!(
-                "BVH depth {} exceeds the traversal stack of {BVH_STACK_SIZE} entries",
-                bvh.max_depth
-            )));
-        }
         // Leaf entries pack the first primitive into 27 bits (`wgsl/shared/bvh.wgsl`).
+        // Checked first: below these counts the BVH builder keeps the stack need within
+        // the stack (`bvh::TRAVERSAL_STACK`), so the depth check below cannot fire.
         if bvh.triangles.len() >= 1 << 27 || bvh.instances.len() >= 1 << 27 {
             return Err(Error::DeviceLimit(format!(
                 "{} triangles / {} instances exceed the BVH leaf encoding (2^27)",
                 bvh.triangles.len(),
                 bvh.instances.len()
+            )));
+        }
+        if bvh.max_depth >= BVH_STACK_SIZE {
+            let (mesh, need) = bvh.deepest_blas.unwrap_or((0, 0));
+            let name = scene
+                .meshes
+                .get(mesh as usize)
+                .map_or("", |m| m.name.as_str());
+            return Err(Error::DeviceLimit(format!(
+                "BVH of mesh '{name}' ({need} stack entries) with the TLAS ({} entries) needs \
+                 {} entries, more than the traversal stack of {BVH_STACK_SIZE}",
+                bvh.max_depth - need,
+                bvh.max_depth
             )));
         }
         let materials = gpu_materials(scene);

@@ -6,7 +6,9 @@
 //!include shared/ray.wgsl
 //!include shared/scene.wgsl
 
-const BVH_STACK_SIZE: u32 = 64u;
+// `bvh::TRAVERSAL_STACK`: enough for any tree the builders make over < 2^27 triangles and
+// instances (src/bvh/mod.rs).
+const BVH_STACK_SIZE: u32 = 96u;
 
 // A traversal entry is one u32: an inner node's index, or, with LEAF_BIT set, a leaf's
 // first primitive (bits 4..30) and primitive count - 1 (bits 0..3); EMPTY marks an unused
