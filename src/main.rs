@@ -1028,9 +1028,18 @@ fn reference(
     }
     outputs.commit()?;
     if !quiet {
+        // Compilation of the passes (the frame's, and the reference pass's own).
+        let compile: f64 = result
+            .frame
+            .stats
+            .shader_compile_ms
+            .iter()
+            .map(|(_, ms)| *ms)
+            .chain(renderer.ctx.take_compile_times().iter().map(|(_, ms)| *ms))
+            .sum();
         eprintln!(
-            "{}x{}, {spp} spp, {} light samples: direct {:.0} ms, indirect {:.0} ms in {} \
-             dispatches ({} bounce rays); wrote {}{}",
+            "{}x{}, {spp} spp, {} light samples: shader compilation {compile:.0} ms, direct \
+             {:.0} ms, indirect {:.0} ms in {} dispatches ({} bounce rays); wrote {}{}",
             result.frame.width,
             result.frame.height,
             scene.settings.light_samples,
