@@ -10,7 +10,11 @@
 @group(1) @binding(4) var<storage, read_write> direct_out: array<vec4f>; // reflected direct light
 
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3u) {
+fn main(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    bvh_stack_init(lane);
     if id.x >= camera.width || id.y >= camera.height {
         return;
     }

@@ -32,7 +32,11 @@ struct RefreshParams {
 @group(1) @binding(7) var<storage, read_write> work_groups: array<atomic<u32>, 3>;
 
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3u) {
+fn main(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    bvh_stack_init(lane);
     let res = params.resolution;
     if id.x >= res || id.y >= res || id.z >= params.count {
         return;

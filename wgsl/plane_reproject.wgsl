@@ -45,7 +45,11 @@ fn plane_index(x: f32) -> i32 {
 }
 
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3u) {
+fn main(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    bvh_stack_init(lane);
     let cells_res = params.estimate_resolution;
     if id.x >= cells_res || id.y >= cells_res || id.z >= params.count {
         return;

@@ -18,6 +18,7 @@ fn main(
     @builtin(num_workgroups) groups: vec3u,
     @builtin(local_invocation_index) lane: u32,
 ) {
+    bvh_stack_init(lane);
     let sample = work_item(group, groups, lane);
     if sample == NO_WORK {
         return;

@@ -47,7 +47,11 @@ fn bounce_radiance(s: Surface, seed: u32, k: u32) -> vec3f {
 }
 
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3u) {
+fn main(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    bvh_stack_init(lane);
     let y = params.row_begin + id.y;
     if id.x >= camera.width || y >= params.row_end || y >= camera.height {
         return;

@@ -14,7 +14,12 @@ struct TraceParams {
 @group(1) @binding(2) var<storage, read_write> hits: array<Hit>;
 
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
+fn main(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(num_workgroups) groups: vec3u,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    bvh_stack_init(lane);
     let i = id.x + id.y * groups.x * 64u;
     if i >= params.count {
         return;

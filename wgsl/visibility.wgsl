@@ -6,7 +6,11 @@
 @group(1) @binding(1) var<storage, read_write> vis: array<VisSample>;
 
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3u) {
+fn main(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    bvh_stack_init(lane);
     if id.x >= camera.width || id.y >= camera.height {
         return;
     }

@@ -12,6 +12,14 @@ pub const OPTIONAL_FEATURES: wgpu::Features =
 /// Number of storage buffers one radsplat pass binds at most (scene tables + pass buffers).
 pub const STORAGE_BUFFERS_PER_STAGE: u32 = 16;
 
+/// Invocations per workgroup of every pass that traces rays (their BVH stacks share
+/// the workgroup's memory: `BVH_WORKGROUP_INVOCATIONS` in `wgsl/shared/bvh.wgsl`).
+pub const TRACING_WORKGROUP_INVOCATIONS: u32 = 64;
+
+/// Workgroup memory of the traversal stacks of one tracing workgroup, in bytes.
+pub const TRAVERSAL_STACKS_BYTES: u32 =
+    TRACING_WORKGROUP_INVOCATIONS * crate::bvh::TRAVERSAL_STACK * 4;
+
 /// The limits radsplat needs from a device. Engines that hand us their device must have
 /// created it with at least these. Buffer sizes of a given scene or resolution are
 /// checked against the device's actual limits before anything is allocated.
@@ -22,6 +30,9 @@ pub fn required_limits() -> wgpu::Limits {
         max_compute_invocations_per_workgroup: 256,
         max_compute_workgroup_size_x: 256,
         max_compute_workgroup_size_y: 8,
+        // Tracing passes keep their 64 invocations' BVH stacks in workgroup memory
+        // (wgsl/shared/bvh.wgsl): 64 x 96 u32 = 24 KiB.
+        max_compute_workgroup_storage_size: TRAVERSAL_STACKS_BYTES,
         ..wgpu::Limits::downlevel_defaults()
     }
 }
@@ -354,6 +365,11 @@ fn missing_limit(have: &wgpu::Limits, need: &wgpu::Limits) -> Option<String> {
             "max_compute_workgroup_size_x",
             have.max_compute_workgroup_size_x,
             need.max_compute_workgroup_size_x,
+        ),
+        (
+            "max_compute_workgroup_storage_size",
+            have.max_compute_workgroup_storage_size,
+            need.max_compute_workgroup_storage_size,
         ),
     ];
     checks

@@ -189,6 +189,48 @@ pub fn module(device: &wgpu::Device, name: &str) -> Result<wgpu::ShaderModule> {
 mod tests {
     use super::*;
 
+    /// Every pass that can trace rays gives each invocation its own slice of the workgroup's
+    /// traversal stacks before tracing (else invocations would share slice 0 and corrupt
+    /// each other's traversal) and runs the 64 invocations the stacks are sized for.
+    #[test]
+    fn every_tracing_pass_has_its_own_traversal_stack() {
+        use crate::gpu::context::TRACING_WORKGROUP_INVOCATIONS as N;
+        let bvh = source("shared/bvh.wgsl").expect("bvh.wgsl");
+        let stacks = N * crate::bvh::TRAVERSAL_STACK;
+        assert!(
+            bvh.contains(&format!("var<workgroup> bvh_stacks: array<u32, {stacks}>;"))
+                && bvh.contains(&format!("const BVH_WORKGROUP_INVOCATIONS: u32 = {N}u;")),
+            "bvh.wgsl's stack array must hold {N} x {} entries",
+            crate::bvh::TRAVERSAL_STACK
+        );
+        let mut tracing = Vec::new();
+        for (name, _) in SOURCES.iter().filter(|(n, _)| !n.starts_with("shared/")) {
+            let text = compose(name).expect("compose");
+            // Every pass that includes the traversal (the shading code calls it), whether
+            // its entry point traces or not: the rule is then plain to keep.
+            if !text.contains("fn trace(") {
+                continue;
+            }
+            tracing.push(*name);
+            let own = source(name).expect("pass source");
+            assert!(
+                own.contains("bvh_stack_init(lane);"),
+                "{name} never calls bvh_stack_init"
+            );
+            let size = own
+                .split("@workgroup_size(")
+                .nth(1)
+                .and_then(|r| r.split(')').next())
+                .expect("workgroup size");
+            let invocations: u32 = size
+                .split(',')
+                .map(|d| d.trim().parse::<u32>().expect("literal size"))
+                .product();
+            assert_eq!(invocations, N, "{name}: @workgroup_size({size})");
+        }
+        assert!(tracing.len() >= 9, "tracing passes found: {tracing:?}");
+    }
+
     #[test]
     fn every_pass_composes_and_validates() {
         for (name, _) in SOURCES.iter().filter(|(n, _)| !n.starts_with("shared/")) {
