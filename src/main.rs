@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use radsplat::gpu::GpuContext;
-use radsplat::output::{ImageFormat, OutputSet, write_atomically, write_png};
+use radsplat::output::{ImageFormat, OutputSet};
 use radsplat::records::CacheSettings;
 use radsplat::scene::load_scene;
 use radsplat::temporal::{
@@ -1288,9 +1288,9 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
     // Check every output name and directory before rendering anything.
     let format = ImageFormat::from_path(&frame_path(&output, *frames.start())?)?;
     radsplat::output::output_dir(&frame_path(&output, *frames.start())?)?;
-    if let Some(stats) = &args.stats {
-        radsplat::output::output_dir(stats)?;
-    }
+    // The stats JSON is written at the end; its path is checked and reserved now.
+    let mut stats_output = OutputSet::new();
+    stats_output.plan_opt(args.stats.as_deref())?;
     if let Some(map) = &args.lifespan_map {
         if args.temporal.is_none() {
             return Err(Error::Usage(
@@ -1337,9 +1337,17 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
         &scene,
         &options,
         |f| {
+            // A frame's image and its lifespan map appear together or not at all.
             let path = frame_path(&output, f.frame_number)?;
-            format.write_frame(&path, f.frame, exposure)?;
-            if let Some(map) = &args.lifespan_map {
+            let mut frame_outputs = OutputSet::new();
+            frame_outputs.plan(&path)?;
+            let map_path = match &args.lifespan_map {
+                Some(map) => Some(frame_path(map, f.frame_number)?),
+                None => None,
+            };
+            frame_outputs.plan_opt(map_path.as_deref())?;
+            frame_outputs.stage(&path, &format.encode_frame(&path, f.frame, exposure)?)?;
+            if let Some(map_path) = &map_path {
                 let camera = radsplat::visibility::GpuCamera::new(&f.scene.camera);
                 let rgb = lifespan_map(
                     f.frame,
@@ -1349,13 +1357,10 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
                     max_lifespan,
                     exposure,
                 );
-                write_png(
-                    &frame_path(map, f.frame_number)?,
-                    f.frame.width,
-                    f.frame.height,
-                    &rgb,
-                )?;
+                let png = encode_png(map_path, f.frame.width, f.frame.height, &rgb)?;
+                frame_outputs.stage(map_path, &png)?;
             }
+            frame_outputs.commit()?;
             if args.stats.is_some() {
                 per_frame.push(f.stats.clone());
             }
@@ -1416,9 +1421,9 @@ fn animate(mut args: AnimateArgs) -> Result<()> {
             frames: &per_frame,
         })
         .map_err(|e| Error::Usage(format!("stats JSON: {e}")))?;
-        write_atomically(path, json.as_bytes())?;
+        stats_output.stage(path, json.as_bytes())?;
     }
-    Ok(())
+    stats_output.commit()
 }
 
 fn temporal_error(
@@ -1432,6 +1437,8 @@ fn temporal_error(
 ) -> Result<()> {
     use radsplat::temporal::estimate_error::{RecordSites, estimate_error_table};
     settings.validate()?;
+    let mut outputs = OutputSet::new();
+    outputs.plan_opt(json)?;
     // Statistics over no records would print a table of 0.00 % errors.
     if records == 0 {
         return Err(Error::Usage(
@@ -1508,7 +1515,7 @@ fn temporal_error(
     if let Some(path) = json {
         let text =
             serde_json::to_string_pretty(&table).map_err(|e| Error::Usage(format!("JSON: {e}")))?;
-        write_atomically(path, text.as_bytes())?;
+        outputs.stage(path, text.as_bytes())?;
     }
-    Ok(())
+    outputs.commit()
 }

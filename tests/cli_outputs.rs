@@ -165,3 +165,30 @@ fn a_quiet_successful_run_prints_nothing() {
     assert!(!err.contains("XDG_RUNTIME_DIR"), "{err}");
     assert!(out.contains("adapter:"), "{out}");
 }
+
+/// `animate` checks its stats path before the first frame: a bad one writes no frame.
+#[test]
+fn an_animation_with_a_bad_stats_path_writes_no_frame() {
+    let dir = tmp_dir("animate");
+    let scene = common::bundled("cube-in-box-anim.toml");
+    let pattern = dir.join("f_####.exr");
+    let bad = dir.join("nodir").join("s.json");
+    let (code, _, err) = radsplat(&[
+        "animate",
+        s(&scene),
+        "--frames",
+        "0..1",
+        "--size",
+        "8x8",
+        "--plane-resolution",
+        "8",
+        "-o",
+        s(&pattern),
+        "--stats",
+        s(&bad),
+        "--quiet",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("nodir"), "{err}");
+    assert!(entries(&dir).is_empty(), "{:?}", entries(&dir));
+}
