@@ -183,7 +183,9 @@ impl Drop for PipelineCacheFile {
 /// entry into it, and carries on with whatever the loop had computed: a pixel that traces
 /// more rays than that budget of BVH steps allows silently gets misses and unoccluded
 /// shadow rays (measured: 4,096 light samples per pixel gave the Cornell box a quarter of
-/// its direct light). 256 rays stay below it for BVHs of up to ~250 steps per ray.
+/// its direct light). 256 rays stay below it for BVHs of up to ~250 steps per ray; a
+/// plane sample traces its primary ray through the same loop (`trace_and_shade`), and 257
+/// rays of 250 steps are still 64,250 iterations.
 pub const LLVMPIPE_MAX_SHADOW_RAYS: u32 = 256;
 
 impl GpuContext {
