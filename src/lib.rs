@@ -13,6 +13,7 @@
 
 pub mod bench;
 pub mod bvh;
+pub mod commands;
 pub mod compare;
 pub mod compare_seq;
 pub mod direct;

@@ -1,16 +1,12 @@
 //! The `radsplat` command line.
 
 use clap::{Parser, Subcommand};
-use indicatif::{ProgressBar, ProgressStyle};
-use radsplat::gpu::GpuContext;
-use radsplat::output::{ImageFormat, OutputSet};
+use radsplat::commands;
 use radsplat::records::CacheSettings;
-use radsplat::scene::load_scene;
 use radsplat::temporal::{
     RecordAnchor, RefreshMode, Replacement, TemporalGradients, TemporalSettings,
 };
-use radsplat::{Error, Renderer, Result};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -437,31 +433,6 @@ impl CacheArgs {
     }
 }
 
-/// Loads a scene with the command line's overrides: an animation frame, the resolution
-/// and the light samples (at least 1).
-fn load_scene_with(
-    path: &Path,
-    frame: Option<u32>,
-    size: Option<(u32, u32)>,
-    light_samples: Option<u32>,
-) -> Result<radsplat::scene::Scene> {
-    let mut scene = load_scene(path)?;
-    if let Some(f) = frame {
-        scene.try_set_frame(f as f32)?;
-    }
-    if let Some((w, h)) = size {
-        scene.camera.width = w;
-        scene.camera.height = h;
-    }
-    if let Some(n) = light_samples {
-        if n == 0 {
-            return Err(Error::Usage("--light-samples must be at least 1".into()));
-        }
-        scene.settings.light_samples = n;
-    }
-    Ok(scene)
-}
-
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -493,7 +464,7 @@ fn main() -> ExitCode {
             cache,
             record_map,
             quiet,
-        } => render(RenderArgs {
+        } => commands::render::render(commands::render::RenderArgs {
             scene_path: &scene,
             output,
             png,
@@ -524,7 +495,7 @@ fn main() -> ExitCode {
             lifespan_map,
             stats,
             quiet,
-        } => animate(AnimateArgs {
+        } => commands::animate::animate(commands::animate::AnimateArgs {
             scene_path: &scene,
             frames,
             output,
@@ -573,7 +544,7 @@ fn main() -> ExitCode {
             record_anchor,
             estimate_stride,
             json,
-        } => temporal_error(
+        } => commands::temporal_error::temporal_error(
             &scene,
             frame,
             (records, &sites),
@@ -582,7 +553,7 @@ fn main() -> ExitCode {
             (&record_anchor, estimate_stride),
             json.as_deref(),
         ),
-        Command::Info => info(),
+        Command::Info => commands::info::info(),
         Command::PlaneError {
             scene,
             points,
@@ -592,7 +563,7 @@ fn main() -> ExitCode {
             light_samples,
             json,
             quiet,
-        } => plane_error(
+        } => commands::plane_error::plane_error(
             &scene,
             points,
             mc_samples,
@@ -620,7 +591,7 @@ fn main() -> ExitCode {
             light_samples,
             stats,
             quiet,
-        } => reference(
+        } => commands::reference::reference(
             &scene,
             spp,
             frame,
@@ -639,7 +610,7 @@ fn main() -> ExitCode {
             downsample,
             minus,
             json,
-        } => compare(
+        } => commands::compare::compare(
             &a,
             &b,
             minus.as_deref(),
@@ -656,7 +627,7 @@ fn main() -> ExitCode {
             json,
             flicker_map,
             downsample,
-        } => compare_seq(
+        } => commands::compare::compare_seq(
             &a_pattern,
             &ref_pattern,
             frames,
@@ -669,7 +640,7 @@ fn main() -> ExitCode {
             scene,
             out_dir,
             size,
-        } => export_rad(&scene, &out_dir, size),
+        } => commands::export_rad::export_rad(&scene, &out_dir, size),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -680,842 +651,6 @@ fn main() -> ExitCode {
     }
 }
 
-fn progress(quiet: bool, steps: u64) -> ProgressBar {
-    if quiet {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(steps);
-    if let Ok(style) = ProgressStyle::with_template(
-        "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} (ETA {eta}) {msg}",
-    ) {
-        bar.set_style(style);
-    }
-    bar.enable_steady_tick(std::time::Duration::from_millis(120));
-    bar
-}
-
-struct RenderArgs<'a> {
-    scene_path: &'a Path,
-    output: Option<PathBuf>,
-    png: Option<PathBuf>,
-    size: Option<(u32, u32)>,
-    light_samples: Option<u32>,
-    stats: Option<PathBuf>,
-    /// None: direct light only.
-    cache: Option<CacheSettings>,
-    record_map: Option<PathBuf>,
-    quiet: bool,
-}
-
-fn render(args: RenderArgs) -> Result<()> {
-    let RenderArgs {
-        scene_path,
-        output,
-        png,
-        size,
-        light_samples,
-        stats,
-        cache,
-        record_map,
-        quiet,
-    } = args;
-    if let Some(c) = &cache {
-        c.validate()?;
-    }
-    if record_map.is_some() && cache.is_none() {
-        return Err(Error::Usage(
-            "--record-map needs GI (drop --direct-only)".into(),
-        ));
-    }
-    let bar = progress(quiet, 5);
-    bar.set_message("loading scene");
-    let scene = load_scene_with(scene_path, None, size, light_samples)?;
-    let output = output.unwrap_or_else(|| {
-        let stem = scene_path.file_stem().unwrap_or_default().to_string_lossy();
-        PathBuf::from(format!("{stem}.exr"))
-    });
-    let format = ImageFormat::from_path(&output)?;
-    // Every output is checked now and replaced only once all of them are written.
-    let mut outputs = OutputSet::new();
-    outputs.plan(&output)?;
-    outputs.plan_opt(png.as_deref())?;
-    outputs.plan_opt(record_map.as_deref())?;
-    outputs.plan_opt(stats.as_deref())?;
-    bar.inc(1);
-    bar.set_message("starting GPU");
-    let renderer = Renderer::new(GpuContext::new()?)?;
-    radsplat::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
-    bar.inc(1);
-    bar.set_message("building BVH");
-    let prepared = renderer.prepare(&scene)?;
-    bar.inc(1);
-    bar.set_message("rendering");
-    let mut records = Vec::new();
-    let frame = match &cache {
-        None => renderer.render_frame(&prepared, &scene.camera)?,
-        Some(settings) => {
-            let mut cache = renderer.new_cache(settings)?;
-            let frame =
-                renderer.render_gi_frame(&prepared, &scene.camera, &mut cache, None, |n| {
-                    bar.set_message(format!("rendering: {n} records"));
-                })?;
-            if record_map.is_some() {
-                records = cache.read(&renderer.ctx)?;
-            }
-            frame
-        }
-    };
-    bar.inc(1);
-    bar.set_message("writing");
-    let exposure = scene.settings.exposure;
-    outputs.stage(&output, &format.encode_frame(&output, &frame, exposure)?)?;
-    if let Some(path) = &record_map {
-        let camera = radsplat::visibility::GpuCamera::new(&scene.camera);
-        let rgb = radsplat::output::record_map(&frame, &camera, &records, exposure);
-        outputs.stage(path, &encode_png(path, frame.width, frame.height, &rgb)?)?;
-    }
-    if let Some(png) = &png {
-        outputs.stage(png, &ImageFormat::Png.encode_frame(png, &frame, exposure)?)?;
-    }
-    if let Some(stats_path) = &stats {
-        let json = serde_json_string(&prepared.bvh_stats, &frame.stats);
-        outputs.stage(stats_path, json.as_bytes())?;
-    }
-    outputs.commit()?;
-    bar.inc(1);
-    bar.finish_and_clear();
-    if !quiet {
-        let passes: Vec<String> = frame
-            .stats
-            .pass_ms
-            .iter()
-            .map(|(n, ms)| format!("{n} {ms:.1} ms"))
-            .collect();
-        if let Some(c) = &frame.stats.cache {
-            eprintln!(
-                "records: {} ({} new in {} rounds{}), {} plane rays, {} visible pixels uncovered, wall {:.0} ms",
-                c.records,
-                c.placement.new_records,
-                c.placement.rounds,
-                if c.placement.limit_reached {
-                    ", LIMIT REACHED"
-                } else {
-                    ""
-                },
-                c.plane_rays,
-                c.uncovered_pixels,
-                frame.stats.wall_ms
-            );
-        }
-        let compile: f64 = frame.stats.shader_compile_ms.iter().map(|(_, ms)| ms).sum();
-        eprintln!(
-            "{}x{}, {} triangles, BVH {:.1} ms, shader compilation {:.0} ms ({} pipelines), \
-             GPU: {}; wrote {}{}",
-            frame.width,
-            frame.height,
-            prepared.bvh_stats.triangles,
-            prepared.bvh_stats.build_ms,
-            compile,
-            frame.stats.shader_compile_ms.len(),
-            if passes.is_empty() {
-                "no timestamps".to_string()
-            } else {
-                passes.join(", ")
-            },
-            output.display(),
-            png.map(|p| format!(" and {}", p.display()))
-                .unwrap_or_default()
-        );
-    }
-    Ok(())
-}
-
-/// 8-bit RGB as PNG bytes, errors naming `path`.
-fn encode_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<Vec<u8>> {
-    radsplat::output::png_out::encode_png_rgb8(width, height, rgb).map_err(|message| {
-        Error::Output {
-            path: path.to_path_buf(),
-            message,
-        }
-    })
-}
-
-fn serde_json_string(bvh: &radsplat::frame::BvhStats, frame: &radsplat::FrameStats) -> String {
-    #[derive(serde::Serialize)]
-    struct Stats<'a> {
-        bvh: &'a radsplat::frame::BvhStats,
-        frame: &'a radsplat::FrameStats,
-    }
-    serde_json::to_string_pretty(&Stats { bvh, frame }).unwrap_or_default()
-}
-
-#[allow(clippy::too_many_arguments)]
-fn plane_error(
-    scene_path: &Path,
-    points: usize,
-    mc_samples: u32,
-    fovs: &[f32],
-    plane_resolution: u32,
-    light_samples: u32,
-    json: Option<PathBuf>,
-    quiet: bool,
-) -> Result<()> {
-    let scene = load_scene(scene_path)?;
-    let settings = CacheSettings {
-        plane_resolution,
-        plane_light_samples: light_samples,
-        ..CacheSettings::default()
-    };
-    for &fov in fovs {
-        CacheSettings {
-            plane_fov_degrees: fov,
-            ..settings.clone()
-        }
-        .validate()?;
-    }
-    if points == 0 || mc_samples == 0 {
-        return Err(Error::Usage(
-            "--points and --mc-samples must be positive".into(),
-        ));
-    }
-    let mut outputs = OutputSet::new();
-    outputs.plan_opt(json.as_deref())?;
-    let bar = progress(quiet, points as u64);
-    let table = radsplat::records::plane_error::plane_error_table(
-        &scene,
-        &settings,
-        points,
-        mc_samples,
-        fovs,
-        |done| bar.set_position(done as u64),
-    );
-    bar.finish_and_clear();
-    print!("{}", radsplat::records::plane_error::format_table(&table));
-    if let Some(path) = json {
-        let text = serde_json::to_string_pretty(&table).map_err(|e| Error::Output {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
-        outputs.stage(&path, text.as_bytes())?;
-    }
-    outputs.commit()
-}
-
-fn info() -> Result<()> {
-    let ctx = GpuContext::new()?;
-    if let Some(a) = &ctx.adapter_info {
-        println!("adapter:      {}", a.name);
-        println!("backend:      {:?}", a.backend);
-        println!("device type:  {:?}", a.device_type);
-        println!("driver:       {} ({})", a.driver, a.driver_info);
-    }
-    let l = ctx.device.limits();
-    println!("limits:");
-    println!(
-        "  max_storage_buffer_binding_size   {} MiB",
-        l.max_storage_buffer_binding_size >> 20
-    );
-    println!(
-        "  max_buffer_size                   {} MiB",
-        l.max_buffer_size >> 20
-    );
-    println!(
-        "  max_storage_buffers_per_stage     {}",
-        l.max_storage_buffers_per_shader_stage
-    );
-    println!(
-        "  max_compute_workgroups_per_dim    {}",
-        l.max_compute_workgroups_per_dimension
-    );
-    println!(
-        "  max_compute_invocations_per_wg    {}",
-        l.max_compute_invocations_per_workgroup
-    );
-    println!(
-        "  max_compute_workgroup_storage     {} KiB",
-        l.max_compute_workgroup_storage_size >> 10
-    );
-    let side =
-        ((ctx.max_binding_size() / radsplat::visibility::VIS_SAMPLE_BYTES) as f64).sqrt() as u64;
-    println!("  largest square image              {side}x{side}");
-    println!("features used:");
-    println!(
-        "  TIMESTAMP_QUERY (per-pass GPU times): {}",
-        ctx.has_timestamps()
-    );
-    println!(
-        "required by radsplat: {:?}",
-        radsplat::gpu::required_limits().max_storage_buffers_per_shader_stage
-    );
-    Ok(())
-}
-
-#[allow(clippy::too_many_arguments)]
-fn reference(
-    scene_path: &Path,
-    spp: u32,
-    frame: Option<u32>,
-    output: Option<PathBuf>,
-    png: Option<PathBuf>,
-    size: Option<(u32, u32)>,
-    light_samples: Option<u32>,
-    stats: Option<PathBuf>,
-    quiet: bool,
-) -> Result<()> {
-    use radsplat::reference::{ReferenceOptions, ReferencePass};
-    if spp == 0 {
-        return Err(Error::Usage("--spp must be at least 1".into()));
-    }
-    let scene = load_scene_with(scene_path, frame, size, light_samples)?;
-    let output = output.unwrap_or_else(|| {
-        let stem = scene_path.file_stem().unwrap_or_default().to_string_lossy();
-        PathBuf::from(format!("{stem}-reference.exr"))
-    });
-    let format = ImageFormat::from_path(&output)?;
-    let mut outputs = OutputSet::new();
-    outputs.plan(&output)?;
-    outputs.plan_opt(png.as_deref())?;
-    outputs.plan_opt(stats.as_deref())?;
-    let t0 = std::time::Instant::now();
-    let renderer = Renderer::new(GpuContext::new()?)?;
-    radsplat::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
-    let pass = ReferencePass::new(&renderer.ctx)?;
-    let prepared = renderer.prepare(&scene)?;
-    let options = ReferenceOptions::new(spp);
-    let bar = progress(quiet, 1);
-    bar.set_message(format!("reference, {spp} spp"));
-    let result = pass.render(
-        &renderer,
-        &prepared,
-        &scene.camera,
-        &options,
-        &mut |done, total| {
-            bar.set_length(total as u64);
-            bar.set_position(done as u64);
-        },
-    )?;
-    bar.finish_and_clear();
-    let exposure = scene.settings.exposure;
-    radsplat::output::check_finite(&output, &result.frame)?;
-    let bytes = match format {
-        ImageFormat::Exr => result.encode_exr()?,
-        ImageFormat::Png => format.encode_frame(&output, &result.frame, exposure)?,
-    };
-    outputs.stage(&output, &bytes)?;
-    if let Some(png) = &png {
-        outputs.stage(
-            png,
-            &ImageFormat::Png.encode_frame(png, &result.frame, exposure)?,
-        )?;
-    }
-    let wall_ms = t0.elapsed().as_secs_f64() * 1e3;
-    if let Some(stats_path) = &stats {
-        #[derive(serde::Serialize)]
-        struct Stats<'a> {
-            bvh: &'a radsplat::frame::BvhStats,
-            frame: &'a radsplat::FrameStats,
-            reference: &'a radsplat::reference::ReferenceStats,
-            wall_ms: f64,
-        }
-        let json = serde_json::to_string_pretty(&Stats {
-            bvh: &prepared.bvh_stats,
-            frame: &result.frame.stats,
-            reference: &result.stats,
-            wall_ms,
-        })
-        .unwrap_or_default();
-        outputs.stage(stats_path, json.as_bytes())?;
-    }
-    outputs.commit()?;
-    if !quiet {
-        // Compilation of the passes (the frame's, and the reference pass's own).
-        let compile: f64 = result
-            .frame
-            .stats
-            .shader_compile_ms
-            .iter()
-            .map(|(_, ms)| *ms)
-            .chain(renderer.ctx.take_compile_times().iter().map(|(_, ms)| *ms))
-            .sum();
-        eprintln!(
-            "{}x{}, {spp} spp, {} light samples: shader compilation {compile:.0} ms, direct \
-             {:.0} ms, indirect {:.0} ms in {} dispatches ({} bounce rays); wrote {}{}",
-            result.frame.width,
-            result.frame.height,
-            scene.settings.light_samples,
-            result.stats.direct_ms,
-            result.stats.indirect_ms,
-            result.stats.dispatches,
-            result.stats.bounce_rays,
-            output.display(),
-            png.map(|p| format!(" and {}", p.display()))
-                .unwrap_or_default()
-        );
-    }
-    Ok(())
-}
-
-#[allow(clippy::too_many_arguments)]
-fn compare(
-    a: &Path,
-    b: &Path,
-    minus: Option<&Path>,
-    diff: Option<&Path>,
-    scale: f32,
-    downsample: u32,
-    json: Option<&Path>,
-) -> Result<()> {
-    use radsplat::compare::{compare, diff_image, load_image};
-    if !(scale.is_finite() && scale > 0.0) {
-        return Err(Error::Usage(
-            "--diff-scale must be a positive number".into(),
-        ));
-    }
-    let mut outputs = OutputSet::new();
-    outputs.plan_opt(diff)?;
-    outputs.plan_opt(json)?;
-    let mut ia = load_image(a)?;
-    if let Some(c) = minus {
-        ia = ia.minus(&load_image(c)?)?;
-    }
-    let mut ib = load_image(b)?;
-    if downsample != 1 {
-        ia = ia.downsample(downsample)?;
-        ib = ib.downsample(downsample)?;
-    }
-    let c = compare(&ia, &ib)?;
-    println!(
-        "{} vs reference {} ({}x{}{})",
-        a.display(),
-        b.display(),
-        c.width,
-        c.height,
-        if downsample != 1 {
-            format!(", box-filtered {downsample}x{downsample}")
-        } else {
-            String::new()
-        }
-    );
-    let line = |name: &str, s: &radsplat::compare::ErrorStats| {
-        println!(
-            "{name:<9} RMSE {:.6e}  RMS(ref) {:.6e}  relative RMSE {:.4} ({:.2} %)",
-            s.rmse,
-            s.rms_reference,
-            s.relative_rmse,
-            100.0 * s.relative_rmse
-        );
-    };
-    line("beauty", &c.beauty);
-    if let Some(s) = &c.surfaces {
-        line("surfaces", s);
-    }
-    match &c.indirect {
-        Some(s) => line("indirect", s),
-        None => println!("indirect  (not in both files)"),
-    }
-    if let Some(path) = diff {
-        let rgb = diff_image(&ia, &ib, scale);
-        // The diff image has a legend strip below the picture.
-        let rows = (rgb.len() / 3) as u32 / ia.width.max(1);
-        outputs.stage(path, &encode_png(path, ia.width, rows, &rgb)?)?;
-        println!(
-            "wrote {}: |Y(A)-Y(B)| / mean Y(B), viridis from 0 to {scale} (legend strip below)",
-            path.display()
-        );
-    }
-    if let Some(path) = json {
-        #[derive(serde::Serialize)]
-        struct Out<'a> {
-            #[serde(flatten)]
-            comparison: &'a radsplat::compare::Comparison,
-            diff_scale: f32,
-        }
-        let text = serde_json::to_string_pretty(&Out {
-            comparison: &c,
-            diff_scale: scale,
-        })
-        .map_err(|e| Error::Output {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        outputs.stage(path, text.as_bytes())?;
-    }
-    outputs.commit()
-}
-
 fn parse_frames(s: &str) -> std::result::Result<std::ops::RangeInclusive<u32>, String> {
     radsplat::output::parse_frame_range(s).map_err(|e| e.to_string())
-}
-
-fn compare_seq(
-    a_pattern: &Path,
-    ref_pattern: &Path,
-    frames: std::ops::RangeInclusive<u32>,
-    plot: Option<PathBuf>,
-    json: Option<PathBuf>,
-    flicker_map: Option<PathBuf>,
-    downsample: u32,
-) -> Result<()> {
-    let mut outputs = OutputSet::new();
-    outputs.plan_opt(plot.as_deref())?;
-    outputs.plan_opt(json.as_deref())?;
-    outputs.plan_opt(flicker_map.as_deref())?;
-    let c = radsplat::compare_seq::compare_sequence(a_pattern, ref_pattern, frames, downsample)?;
-    if let Some(path) = &flicker_map {
-        outputs.stage_with(path, |tmp| c.write_flicker_map(tmp))?;
-    }
-    print!("{}", c.table());
-    println!("{}", c.summary_line());
-    if let Some(path) = &plot {
-        outputs.stage_with(path, |tmp| c.write_plot(tmp))?;
-    }
-    if let Some(path) = &json {
-        outputs.stage_with(path, |tmp| c.write_json(tmp))?;
-    }
-    outputs.commit()?;
-    for path in [&flicker_map, &plot].into_iter().flatten() {
-        println!("wrote {}", path.display());
-    }
-    Ok(())
-}
-
-fn export_rad(scene_path: &Path, out_dir: &Path, size: Option<(u32, u32)>) -> Result<()> {
-    use radsplat::radiance_export::{notex_scene_toml, scene_rad, view_options};
-    let scene = load_scene_with(scene_path, None, size, None)?;
-    std::fs::create_dir_all(out_dir).map_err(|e| Error::Output {
-        path: out_dir.to_path_buf(),
-        message: e.to_string(),
-    })?;
-    let (rad, vf, notex, json) = (
-        out_dir.join("scene.rad"),
-        out_dir.join("view.vf"),
-        out_dir.join("notex.toml"),
-        out_dir.join("export.json"),
-    );
-    let mut outputs = OutputSet::new();
-    for path in [&rad, &vf, &notex, &json] {
-        outputs.plan(path)?;
-    }
-    let view = view_options(&scene);
-    outputs.stage(&rad, scene_rad(&scene).as_bytes())?;
-    outputs.stage(&vf, format!("rview {view}\n").as_bytes())?;
-    outputs.stage(&notex, notex_scene_toml(scene_path, &scene)?.as_bytes())?;
-    let info = serde_json::json!({
-        "scene": scene_path,
-        "width": scene.camera.width,
-        "height": scene.camera.height,
-        "view": view,
-        "triangles": scene.triangle_count(),
-        "textured_materials": scene.materials.iter().filter(|m| m.albedo_texture.is_some()).count(),
-        "has_environment": scene.environment.max_element() > 0.0,
-        "exposure": scene.settings.exposure,
-    });
-    outputs.stage(
-        &json,
-        serde_json::to_string_pretty(&info)
-            .unwrap_or_default()
-            .as_bytes(),
-    )?;
-    outputs.commit()?;
-    println!(
-        "wrote {}/{{scene.rad, view.vf, notex.toml, export.json}}",
-        out_dir.display()
-    );
-    Ok(())
-}
-
-struct AnimateArgs<'a> {
-    scene_path: &'a Path,
-    frames: Option<std::ops::RangeInclusive<u32>>,
-    output: Option<PathBuf>,
-    size: Option<(u32, u32)>,
-    light_samples: Option<u32>,
-    cache: CacheSettings,
-    /// a_t and dt_max given on the command line (else the scene's, else the defaults).
-    temporal_accuracy: Option<f32>,
-    max_lifespan: Option<u32>,
-    /// `--max-new-records` (checked here, so the error names the flag).
-    max_new_records: Option<u32>,
-    /// None: the per-frame baseline.
-    temporal: Option<TemporalSettings>,
-    lifespan_map: Option<PathBuf>,
-    stats: Option<PathBuf>,
-    quiet: bool,
-}
-
-fn animate(mut args: AnimateArgs) -> Result<()> {
-    use radsplat::output::{frame_path, lifespan_map};
-    use radsplat::temporal::animation::{AnimationOptions, AnimationStep, render_animation};
-    args.cache.validate()?;
-    match (args.max_new_records, args.temporal.as_mut()) {
-        (Some(0), _) => {
-            return Err(Error::Usage(
-                "--max-new-records 0: the cap on new records per frame must be at least 1".into(),
-            ));
-        }
-        (Some(n), None) => {
-            return Err(Error::Usage(format!(
-                "--max-new-records {n} caps the records a frame adds to the temporal cache: \
-                 drop --temporal off (a frame from scratch would stay partly uncovered)"
-            )));
-        }
-        (n, Some(t)) => t.max_new_records = n,
-        (None, None) => {}
-    }
-    let scene = load_scene_with(args.scene_path, None, args.size, args.light_samples)?;
-    if let Some(t) = args.temporal.as_mut() {
-        t.apply_scene(
-            scene.animation.as_ref(),
-            args.temporal_accuracy,
-            args.max_lifespan,
-        );
-        // The stride chosen, so that --stats records it.
-        t.estimate_stride = Some(t.estimate_stride_for(args.cache.plane_resolution));
-        t.validate()?;
-    }
-    let frames = args.frames.clone().unwrap_or_else(|| scene.frames());
-    // Every frame's state before any work (its cost follows the keyframe spans, not the
-    // range): a keyframe pair that interpolates through a degenerate state is refused here.
-    scene.check_frames(frames.clone())?;
-    let output = args.output.unwrap_or_else(|| {
-        let stem = args
-            .scene_path
-            .file_stem()
-            .unwrap_or_default()
-            .to_string_lossy();
-        PathBuf::from(format!("{stem}_####.exr"))
-    });
-    // Check every output name and directory before rendering anything.
-    let format = ImageFormat::from_path(&frame_path(&output, *frames.start())?)?;
-    radsplat::output::output_dir(&frame_path(&output, *frames.start())?)?;
-    // The stats JSON is written at the end; its path is checked and reserved now.
-    let mut stats_output = OutputSet::new();
-    stats_output.plan_opt(args.stats.as_deref())?;
-    if let Some(map) = &args.lifespan_map {
-        if args.temporal.is_none() {
-            return Err(Error::Usage(
-                "--lifespan-map needs temporal caching (drop --temporal off)".into(),
-            ));
-        }
-        if ImageFormat::from_path(&frame_path(map, *frames.start())?)? != ImageFormat::Png {
-            return Err(Error::Usage(
-                "--lifespan-map writes PNG: use a .png pattern".into(),
-            ));
-        }
-        radsplat::output::output_dir(&frame_path(map, *frames.start())?)?;
-    }
-    let renderer = Renderer::new(GpuContext::new()?)?;
-    radsplat::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
-    let count = frames.end() - frames.start() + 1;
-    let options = AnimationOptions {
-        frames: frames.clone(),
-        cache: args.cache.clone(),
-        temporal: args.temporal.clone(),
-    };
-    // Interpolated gradients: pass 1 computes the records, pass 2 renders each frame up to
-    // dt_max frames behind it; the bar counts the steps of both.
-    let two_pass = args
-        .temporal
-        .as_ref()
-        .is_some_and(|t| t.gradients == TemporalGradients::Interpolated);
-    let passes = if two_pass { 2 } else { 1 };
-    let bar = progress(args.quiet, u64::from(count) * passes);
-    bar.set_message("rendering");
-    // The last frame written (pass 2's position), for the messages of pass 1.
-    let written = std::cell::Cell::new(None::<u32>);
-    let pass_2 = || match written.get() {
-        Some(t) => format!("; pass 2 (images) wrote frame {t}"),
-        None => "; pass 2 (images) waits for the records' successors".to_string(),
-    };
-    let max_lifespan = args.temporal.as_ref().map_or(1, |t| t.max_lifespan);
-    let exposure = scene.settings.exposure;
-    // Per-frame statistics only for --stats (their JSON is written at the end; without
-    // --stats nothing grows with the range).
-    let mut per_frame = Vec::new();
-    let summary = render_animation(
-        &renderer,
-        &scene,
-        &options,
-        |f| {
-            // A frame's image and its lifespan map appear together or not at all.
-            let path = frame_path(&output, f.frame_number)?;
-            let mut frame_outputs = OutputSet::new();
-            frame_outputs.plan(&path)?;
-            let map_path = match &args.lifespan_map {
-                Some(map) => Some(frame_path(map, f.frame_number)?),
-                None => None,
-            };
-            frame_outputs.plan_opt(map_path.as_deref())?;
-            frame_outputs.stage(&path, &format.encode_frame(&path, f.frame, exposure)?)?;
-            if let Some(map_path) = &map_path {
-                let camera = radsplat::visibility::GpuCamera::new(&f.scene.camera);
-                let rgb = lifespan_map(
-                    f.frame,
-                    &camera,
-                    &f.records,
-                    &f.lifespans,
-                    max_lifespan,
-                    exposure,
-                );
-                let png = encode_png(map_path, f.frame.width, f.frame.height, &rgb)?;
-                frame_outputs.stage(map_path, &png)?;
-            }
-            frame_outputs.commit()?;
-            if args.stats.is_some() {
-                per_frame.push(f.stats.clone());
-            }
-            written.set(Some(f.frame_number));
-            let s = &f.stats.temporal;
-            bar.inc(1);
-            let pass_1 = match f.first_pass_at {
-                Some(t) => format!("pass 1 (records) at frame {t}; pass 2 (images) wrote "),
-                None => "wrote ".to_string(),
-            };
-            bar.set_message(format!(
-                "{pass_1}frame {}: {} records ({} new, {} replaced, {} deleted)",
-                f.frame_number, s.alive, s.new, s.replaced, s.deleted
-            ));
-            Ok(())
-        },
-        |t, step| match step {
-            AnimationStep::Placing { new_records } if two_pass => bar.set_message(format!(
-                "pass 1 (records) frame {t}: {new_records} new records{}",
-                pass_2()
-            )),
-            AnimationStep::Placing { new_records } => {
-                bar.set_message(format!("frame {t}: {new_records} new records"))
-            }
-            AnimationStep::Computed => bar.inc(1),
-        },
-    )?;
-    bar.finish_and_clear();
-    let wall_s = summary.wall_ms / 1e3;
-    let rays = summary.plane_rays;
-    let created = summary.records_computed;
-    if !args.quiet {
-        println!(
-            "{count} frames in {wall_s:.2} s ({:.2} s/frame); records computed {created}, \
-             plane rays {rays}; temporal caching {}",
-            wall_s / f64::from(count),
-            if args.temporal.is_some() { "on" } else { "off" }
-        );
-    }
-    if let Some(path) = &args.stats {
-        #[derive(serde::Serialize)]
-        struct Summary<'a> {
-            scene: &'a Path,
-            cache: &'a CacheSettings,
-            temporal: &'a Option<TemporalSettings>,
-            wall_s: f64,
-            records_computed: u64,
-            plane_rays: u64,
-            frames: &'a [radsplat::temporal::animation::AnimationFrameStats],
-        }
-        let json = serde_json::to_string_pretty(&Summary {
-            scene: args.scene_path,
-            cache: &args.cache,
-            temporal: &args.temporal,
-            wall_s,
-            records_computed: created,
-            plane_rays: rays,
-            frames: &per_frame,
-        })
-        .map_err(|e| Error::Usage(format!("stats JSON: {e}")))?;
-        stats_output.stage(path, json.as_bytes())?;
-    }
-    stats_output.commit()
-}
-
-fn temporal_error(
-    scene_path: &Path,
-    frame: u32,
-    (records, sites): (usize, &str),
-    size: Option<(u32, u32)>,
-    settings: &CacheSettings,
-    (record_anchor, stride): (&str, u32),
-    json: Option<&Path>,
-) -> Result<()> {
-    use radsplat::temporal::estimate_error::{RecordSites, estimate_error_table};
-    settings.validate()?;
-    let mut outputs = OutputSet::new();
-    outputs.plan_opt(json)?;
-    // Statistics over no records would print a table of 0.00 % errors.
-    if records == 0 {
-        return Err(Error::Usage(
-            "--records 0: must be at least 1 (the table summarises the records' errors)".into(),
-        ));
-    }
-    if stride == 0 {
-        return Err(Error::Usage(
-            "--estimate-stride 0: must be at least 1 (1: the whole plane)".into(),
-        ));
-    }
-    let mut scene = load_scene_with(scene_path, None, size, None)?;
-    let mut next = scene.clone();
-    scene.try_set_frame(frame as f32)?;
-    next.try_set_frame((frame + 1) as f32)?;
-    let renderer = Renderer::new(GpuContext::new()?)?;
-    let anchored = record_anchor == "instance";
-    // The scene's a_t and dt_max, as `animate` would use them.
-    let mut temporal = TemporalSettings::default();
-    temporal.apply_scene(scene.animation.as_ref(), None, None);
-    let sites = if sites == "placed" {
-        RecordSites::Placed
-    } else {
-        RecordSites::Even
-    };
-    let table = estimate_error_table(
-        &renderer, &scene, &next, settings, records, anchored, stride, &temporal, sites,
-    )?;
-    if table.records == 0 {
-        return Err(Error::Usage(format!(
-            "{}: no record could be placed at frame {frame} (no visible surface?), so there \
-             are no errors to report",
-            scene_path.display()
-        )));
-    }
-    println!(
-        "{}: {} records placed at frame {frame}, E(t+1) estimate vs recomputed (RGB RMS relative error)",
-        scene_path.display(),
-        table.records
-    );
-    println!(
-        "{:<18} {:>8} {:>8} {:>8} {:>8}",
-        "", "min", "max", "mean", "median"
-    );
-    for (name, s) in [
-        ("reprojection", &table.reprojection),
-        ("no reprojection", &table.no_reprojection),
-        ("  on movers: repr.", &table.on_movers_reprojection),
-        ("  on movers: none", &table.on_movers_no_reprojection),
-    ] {
-        println!(
-            "{name:<18} {:>7.2}% {:>7.2}% {:>7.2}% {:>7.2}%",
-            100.0 * s.min,
-            100.0 * s.max,
-            100.0 * s.mean,
-            100.0 * s.median
-        );
-    }
-    let l = &table.lifespans;
-    println!(
-        "lifespans (a_t {}, dt_max {}): mean {:.2} frames from the estimated tau, {:.2} from \
-         the true tau; records living 1, 2, ... frames: {:?} estimated, {:?} true",
-        l.accuracy, l.max_lifespan, l.estimated_mean, l.true_mean, l.estimated, l.truth
-    );
-    println!(
-        "harmonic mean lifespans (records recomputed per frame = records / it): {:.2} \
-         estimated, {:.2} true; true on movers ({} records) {:.2}, on the others {:.2}",
-        l.estimated_harmonic,
-        l.true_harmonic,
-        l.movers,
-        l.movers_true_harmonic,
-        l.still_true_harmonic
-    );
-    if let Some(path) = json {
-        let text =
-            serde_json::to_string_pretty(&table).map_err(|e| Error::Usage(format!("JSON: {e}")))?;
-        outputs.stage(path, text.as_bytes())?;
-    }
-    outputs.commit()
 }

@@ -1,0 +1,55 @@
+//! `radsplat info`: the adapter, driver and the limits that matter.
+
+use crate::Result;
+use crate::gpu::GpuContext;
+
+/// `radsplat info`: prints the adapter, its driver, the limits that matter and the
+/// largest image.
+pub fn info() -> Result<()> {
+    let ctx = GpuContext::new()?;
+    if let Some(a) = &ctx.adapter_info {
+        println!("adapter:      {}", a.name);
+        println!("backend:      {:?}", a.backend);
+        println!("device type:  {:?}", a.device_type);
+        println!("driver:       {} ({})", a.driver, a.driver_info);
+    }
+    let l = ctx.device.limits();
+    println!("limits:");
+    println!(
+        "  max_storage_buffer_binding_size   {} MiB",
+        l.max_storage_buffer_binding_size >> 20
+    );
+    println!(
+        "  max_buffer_size                   {} MiB",
+        l.max_buffer_size >> 20
+    );
+    println!(
+        "  max_storage_buffers_per_stage     {}",
+        l.max_storage_buffers_per_shader_stage
+    );
+    println!(
+        "  max_compute_workgroups_per_dim    {}",
+        l.max_compute_workgroups_per_dimension
+    );
+    println!(
+        "  max_compute_invocations_per_wg    {}",
+        l.max_compute_invocations_per_workgroup
+    );
+    println!(
+        "  max_compute_workgroup_storage     {} KiB",
+        l.max_compute_workgroup_storage_size >> 10
+    );
+    let side =
+        ((ctx.max_binding_size() / crate::visibility::VIS_SAMPLE_BYTES) as f64).sqrt() as u64;
+    println!("  largest square image              {side}x{side}");
+    println!("features used:");
+    println!(
+        "  TIMESTAMP_QUERY (per-pass GPU times): {}",
+        ctx.has_timestamps()
+    );
+    println!(
+        "required by radsplat: {:?}",
+        crate::gpu::required_limits().max_storage_buffers_per_shader_stage
+    );
+    Ok(())
+}

@@ -1,0 +1,63 @@
+//! `radsplat plane-error`: thesis Table 4.1, plane irradiance against full-hemisphere
+//! Monte Carlo.
+
+use super::progress;
+use crate::output::OutputSet;
+use crate::records::CacheSettings;
+use crate::scene::load_scene;
+use crate::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// `radsplat plane-error`: the RMS plane-irradiance errors of thesis Table 4.1 at each
+/// field of view in `fovs`, printed and optionally written as JSON.
+#[allow(clippy::too_many_arguments)]
+pub fn plane_error(
+    scene_path: &Path,
+    points: usize,
+    mc_samples: u32,
+    fovs: &[f32],
+    plane_resolution: u32,
+    light_samples: u32,
+    json: Option<PathBuf>,
+    quiet: bool,
+) -> Result<()> {
+    let scene = load_scene(scene_path)?;
+    let settings = CacheSettings {
+        plane_resolution,
+        plane_light_samples: light_samples,
+        ..CacheSettings::default()
+    };
+    for &fov in fovs {
+        CacheSettings {
+            plane_fov_degrees: fov,
+            ..settings.clone()
+        }
+        .validate()?;
+    }
+    if points == 0 || mc_samples == 0 {
+        return Err(Error::Usage(
+            "--points and --mc-samples must be positive".into(),
+        ));
+    }
+    let mut outputs = OutputSet::new();
+    outputs.plan_opt(json.as_deref())?;
+    let bar = progress(quiet, points as u64);
+    let table = crate::records::plane_error::plane_error_table(
+        &scene,
+        &settings,
+        points,
+        mc_samples,
+        fovs,
+        |done| bar.set_position(done as u64),
+    );
+    bar.finish_and_clear();
+    print!("{}", crate::records::plane_error::format_table(&table));
+    if let Some(path) = json {
+        let text = serde_json::to_string_pretty(&table).map_err(|e| Error::Output {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        outputs.stage(&path, text.as_bytes())?;
+    }
+    outputs.commit()
+}

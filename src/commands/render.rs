@@ -1,0 +1,165 @@
+//! `radsplat render`: direct light plus first-bounce indirect light from the irradiance
+//! cache, written as EXR/PNG with a record map and stats.
+
+use super::{encode_png, load_scene_with, progress};
+use crate::gpu::GpuContext;
+use crate::output::{ImageFormat, OutputSet};
+use crate::records::CacheSettings;
+use crate::{Error, Renderer, Result};
+use std::path::{Path, PathBuf};
+
+/// What `radsplat render` was asked for.
+pub struct RenderArgs<'a> {
+    /// The scene file.
+    pub scene_path: &'a Path,
+    /// The image (`.exr` with AOVs or `.png`); default `<scene>.exr` (animate: a `####` pattern).
+    pub output: Option<PathBuf>,
+    /// Also a tone-mapped PNG of the beauty image.
+    pub png: Option<PathBuf>,
+    /// Override of the scene's resolution.
+    pub size: Option<(u32, u32)>,
+    /// Override of the scene's light samples per area light (at least 1).
+    pub light_samples: Option<u32>,
+    /// Statistics as JSON.
+    pub stats: Option<PathBuf>,
+    /// None: direct light only.
+    pub cache: Option<CacheSettings>,
+    /// The record sites drawn over the image (PNG).
+    pub record_map: Option<PathBuf>,
+    /// No progress bar or summary.
+    pub quiet: bool,
+}
+
+/// `radsplat render`: loads the scene, renders direct light and (unless `cache` is
+/// None) first-bounce indirect light, and commits the EXR/PNG, record map and stats.
+pub fn render(args: RenderArgs) -> Result<()> {
+    let RenderArgs {
+        scene_path,
+        output,
+        png,
+        size,
+        light_samples,
+        stats,
+        cache,
+        record_map,
+        quiet,
+    } = args;
+    if let Some(c) = &cache {
+        c.validate()?;
+    }
+    if record_map.is_some() && cache.is_none() {
+        return Err(Error::Usage(
+            "--record-map needs GI (drop --direct-only)".into(),
+        ));
+    }
+    let bar = progress(quiet, 5);
+    bar.set_message("loading scene");
+    let scene = load_scene_with(scene_path, None, size, light_samples)?;
+    let output = output.unwrap_or_else(|| {
+        let stem = scene_path.file_stem().unwrap_or_default().to_string_lossy();
+        PathBuf::from(format!("{stem}.exr"))
+    });
+    let format = ImageFormat::from_path(&output)?;
+    // Every output is checked now and replaced only once all of them are written.
+    let mut outputs = OutputSet::new();
+    outputs.plan(&output)?;
+    outputs.plan_opt(png.as_deref())?;
+    outputs.plan_opt(record_map.as_deref())?;
+    outputs.plan_opt(stats.as_deref())?;
+    bar.inc(1);
+    bar.set_message("starting GPU");
+    let renderer = Renderer::new(GpuContext::new()?)?;
+    crate::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
+    bar.inc(1);
+    bar.set_message("building BVH");
+    let prepared = renderer.prepare(&scene)?;
+    bar.inc(1);
+    bar.set_message("rendering");
+    let mut records = Vec::new();
+    let frame = match &cache {
+        None => renderer.render_frame(&prepared, &scene.camera)?,
+        Some(settings) => {
+            let mut cache = renderer.new_cache(settings)?;
+            let frame =
+                renderer.render_gi_frame(&prepared, &scene.camera, &mut cache, None, |n| {
+                    bar.set_message(format!("rendering: {n} records"));
+                })?;
+            if record_map.is_some() {
+                records = cache.read(&renderer.ctx)?;
+            }
+            frame
+        }
+    };
+    bar.inc(1);
+    bar.set_message("writing");
+    let exposure = scene.settings.exposure;
+    outputs.stage(&output, &format.encode_frame(&output, &frame, exposure)?)?;
+    if let Some(path) = &record_map {
+        let camera = crate::visibility::GpuCamera::new(&scene.camera);
+        let rgb = crate::output::record_map(&frame, &camera, &records, exposure);
+        outputs.stage(path, &encode_png(path, frame.width, frame.height, &rgb)?)?;
+    }
+    if let Some(png) = &png {
+        outputs.stage(png, &ImageFormat::Png.encode_frame(png, &frame, exposure)?)?;
+    }
+    if let Some(stats_path) = &stats {
+        let json = serde_json_string(&prepared.bvh_stats, &frame.stats);
+        outputs.stage(stats_path, json.as_bytes())?;
+    }
+    outputs.commit()?;
+    bar.inc(1);
+    bar.finish_and_clear();
+    if !quiet {
+        let passes: Vec<String> = frame
+            .stats
+            .pass_ms
+            .iter()
+            .map(|(n, ms)| format!("{n} {ms:.1} ms"))
+            .collect();
+        if let Some(c) = &frame.stats.cache {
+            eprintln!(
+                "records: {} ({} new in {} rounds{}), {} plane rays, {} visible pixels uncovered, wall {:.0} ms",
+                c.records,
+                c.placement.new_records,
+                c.placement.rounds,
+                if c.placement.limit_reached {
+                    ", LIMIT REACHED"
+                } else {
+                    ""
+                },
+                c.plane_rays,
+                c.uncovered_pixels,
+                frame.stats.wall_ms
+            );
+        }
+        let compile: f64 = frame.stats.shader_compile_ms.iter().map(|(_, ms)| ms).sum();
+        eprintln!(
+            "{}x{}, {} triangles, BVH {:.1} ms, shader compilation {:.0} ms ({} pipelines), \
+             GPU: {}; wrote {}{}",
+            frame.width,
+            frame.height,
+            prepared.bvh_stats.triangles,
+            prepared.bvh_stats.build_ms,
+            compile,
+            frame.stats.shader_compile_ms.len(),
+            if passes.is_empty() {
+                "no timestamps".to_string()
+            } else {
+                passes.join(", ")
+            },
+            output.display(),
+            png.map(|p| format!(" and {}", p.display()))
+                .unwrap_or_default()
+        );
+    }
+    Ok(())
+}
+
+fn serde_json_string(bvh: &crate::frame::BvhStats, frame: &crate::FrameStats) -> String {
+    #[derive(serde::Serialize)]
+    struct Stats<'a> {
+        bvh: &'a crate::frame::BvhStats,
+        frame: &'a crate::FrameStats,
+    }
+    serde_json::to_string_pretty(&Stats { bvh, frame }).unwrap_or_default()
+}
