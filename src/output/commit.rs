@@ -83,14 +83,7 @@ impl OutputSet {
     /// Writes the bytes of the planned output `path` to its temporary file (fsynced); the
     /// file itself is replaced only by [`OutputSet::commit`].
     pub fn stage(&mut self, path: &Path, bytes: &[u8]) -> Result<()> {
-        let planned = self
-            .planned
-            .iter_mut()
-            .find(|p| same_file(&p.path, path))
-            .ok_or_else(|| Error::Output {
-                path: path.to_path_buf(),
-                message: "internal: staged without being planned".into(),
-            })?;
+        let planned = self.planned_mut(path)?;
         let result = (|| -> std::io::Result<()> {
             let mut f = std::fs::File::create(&planned.tmp)?;
             f.write_all(bytes)?;
@@ -111,17 +104,21 @@ impl OutputSet {
         path: &Path,
         write: impl FnOnce(&Path) -> Result<()>,
     ) -> Result<()> {
-        let planned = self
-            .planned
+        let planned = self.planned_mut(path)?;
+        write(&planned.tmp)?;
+        planned.staged = true;
+        Ok(())
+    }
+
+    /// The planned output `path`.
+    fn planned_mut(&mut self, path: &Path) -> Result<&mut Planned> {
+        self.planned
             .iter_mut()
             .find(|p| same_file(&p.path, path))
             .ok_or_else(|| Error::Output {
                 path: path.to_path_buf(),
                 message: "internal: staged without being planned".into(),
-            })?;
-        write(&planned.tmp)?;
-        planned.staged = true;
-        Ok(())
+            })
     }
 
     /// Renames every staged file into place. Fails, replacing nothing, when a planned
