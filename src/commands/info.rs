@@ -48,8 +48,18 @@ pub fn info() -> Result<()> {
         ctx.has_timestamps()
     );
     println!(
-        "required by radsplat: {:?}",
-        crate::gpu::required_limits().max_storage_buffers_per_shader_stage
+        "  PIPELINE_CACHE (compiled pipelines kept between runs): {}",
+        match ctx.pipeline_cache_path() {
+            Some(p) => format!("true, {}", p.display()),
+            None => "false".to_string(),
+        }
+    );
+    let need = crate::gpu::required_limits();
+    println!(
+        "required by radsplat: {} storage buffers per stage, {} KiB of workgroup storage \
+         (the traversal stacks)",
+        need.max_storage_buffers_per_shader_stage,
+        need.max_compute_workgroup_storage_size >> 10
     );
     Ok(())
 }

@@ -305,6 +305,11 @@ impl GpuContext {
         self.check()
     }
 
+    /// The file the pipeline cache is kept in, where there is one.
+    pub fn pipeline_cache_path(&self) -> Option<&std::path::Path> {
+        self.pipeline_cache.as_ref().map(|c| c.path())
+    }
+
     /// Whether GPU timestamp queries can be used for per-pass timings.
     pub fn has_timestamps(&self) -> bool {
         self.device
