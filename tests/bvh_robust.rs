@@ -124,30 +124,6 @@ fn grid_obj() -> String {
     s
 }
 
-/// Ray/triangle test in f64: (t, smallest barycentric) of triangle `tri` of the instance.
-fn exact_hit(scene: &Scene, instance: u32, tri: u32, o: Vec3, d: Vec3) -> Option<(f64, f64)> {
-    let inst = &scene.instances[instance as usize];
-    let mesh = &scene.meshes[inst.mesh as usize];
-    let idx = mesh.indices[tri as usize];
-    let p = |k: usize| {
-        inst.transform
-            .transform_point3(mesh.positions[idx[k] as usize])
-            .as_dvec3()
-    };
-    let (o, d) = (o.as_dvec3(), d.as_dvec3());
-    let (e1, e2) = (p(1) - p(0), p(2) - p(0));
-    let pv = d.cross(e2);
-    let det = e1.dot(pv);
-    if det == 0.0 {
-        return None;
-    }
-    let s = o - p(0);
-    let u = s.dot(pv) / det;
-    let q = s.cross(e1);
-    let v = d.dot(q) / det;
-    Some((e2.dot(q) / det, u.min(v).min(1.0 - u - v)))
-}
-
 /// What [`render_and_check`] found.
 struct Checked {
     /// Pixels the CPU traversal hits.
@@ -195,10 +171,11 @@ fn render_and_check(scene: &Scene) -> Checked {
             }
             // Another triangle at the same distance, genuinely hit (f64), or an edge.
             let genuine = g.is_hit()
-                && exact_hit(scene, g.instance, g.mesh_triangle, origin, dir)
+                && common::exact_hit(scene, g.instance, g.mesh_triangle, origin, dir)
                     .is_some_and(|(te, m)| m > -1e-5 && (te - f64::from(g.t)).abs() <= 1e-4 * te);
             let on_edge = |inst: u32, tri: u32| {
-                exact_hit(scene, inst, tri, origin, dir).is_some_and(|(_, m)| m.abs() <= 1e-5)
+                common::exact_hit(scene, inst, tri, origin, dir)
+                    .is_some_and(|(_, m)| m.abs() <= 1e-5)
             };
             let edge = (g.is_hit() && on_edge(g.instance, g.mesh_triangle))
                 || c.is_some_and(|c| on_edge(c.instance, c.triangle));

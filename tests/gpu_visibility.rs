@@ -8,31 +8,6 @@ use radsplat::bvh::cpu_trace::CpuTracer;
 use radsplat::scene::Scene;
 use radsplat::visibility::GpuCamera;
 
-/// Ray/triangle test in f64: (t, smallest barycentric) of the triangle `tri` of the
-/// instance, or None if the ray's line misses its plane.
-fn exact_hit(scene: &Scene, instance: u32, tri: u32, o: Vec3, d: Vec3) -> Option<(f64, f64)> {
-    let inst = &scene.instances[instance as usize];
-    let mesh = &scene.meshes[inst.mesh as usize];
-    let idx = mesh.indices[tri as usize];
-    let p = |k: usize| {
-        inst.transform
-            .transform_point3(mesh.positions[idx[k] as usize])
-            .as_dvec3()
-    };
-    let (o, d) = (o.as_dvec3(), d.as_dvec3());
-    let (e1, e2) = (p(1) - p(0), p(2) - p(0));
-    let pv = d.cross(e2);
-    let det = e1.dot(pv);
-    if det == 0.0 {
-        return None;
-    }
-    let s = o - p(0);
-    let u = s.dot(pv) / det;
-    let q = s.cross(e1);
-    let v = d.dot(q) / det;
-    Some((e2.dot(q) / det, u.min(v).min(1.0 - u - v)))
-}
-
 /// Renders the visibility buffer and checks every pixel against obvhs's CPU traversal:
 /// same instance and triangle, t within 1e-4 relative. A disagreement is accepted only
 /// when it is a precision case that both answers can claim, checked in f64: an exact tie
@@ -51,12 +26,13 @@ fn check_against_cpu(scene: &Scene) -> (usize, usize) {
     let (mut hits, mut ambiguous, mut bad) = (0, 0, Vec::new());
     // Either answer is a real hit within rounding: on or within 1e-5 of the triangle.
     let genuine = |inst: u32, tri: u32, t: f32, d: Vec3| {
-        exact_hit(scene, inst, tri, origin, d).is_some_and(|(te, margin)| {
+        common::exact_hit(scene, inst, tri, origin, d).is_some_and(|(te, margin)| {
             margin > -1e-5 && (te - f64::from(t)).abs() <= 1e-4 * te.abs()
         })
     };
     let on_edge = |inst: u32, tri: u32, d: Vec3| {
-        exact_hit(scene, inst, tri, origin, d).is_some_and(|(_, margin)| margin.abs() <= 1e-5)
+        common::exact_hit(scene, inst, tri, origin, d)
+            .is_some_and(|(_, margin)| margin.abs() <= 1e-5)
     };
     for y in 0..cam.height {
         for x in 0..cam.width {

@@ -335,6 +335,10 @@ impl SecondPass {
         let mut all = stats.frame_stats.pass_ms.clone();
         all.extend(frame.stats.pass_ms.iter().cloned());
         stats.frame_stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
+        stats
+            .frame_stats
+            .shader_compile_ms
+            .extend(frame.stats.shader_compile_ms.iter().cloned());
         let (records, lifespans) = cache.records_of_frame(t);
         let retained = (cache.history_len(), cache.frames_retained());
         on_frame(AnimationFrame {

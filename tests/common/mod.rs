@@ -1,6 +1,7 @@
 //! Shared helpers for the integration tests.
 #![allow(dead_code)]
 
+use glam::Vec3;
 use radsplat::gpu::GpuContext;
 use radsplat::scene::{Scene, load_scene};
 use std::path::PathBuf;
@@ -68,4 +69,29 @@ pub fn assert_golden(ctx: &GpuContext, what: &str, hash: &str, golden: &str) {
         panic!("cannot check the golden hash of {what}: {why}");
     }
     assert_eq!(hash, golden, "{what} changed");
+}
+
+/// Ray/triangle test in f64: (t, smallest barycentric) of the triangle `tri` of the
+/// instance, or None if the ray's line misses its plane.
+pub fn exact_hit(scene: &Scene, instance: u32, tri: u32, o: Vec3, d: Vec3) -> Option<(f64, f64)> {
+    let inst = &scene.instances[instance as usize];
+    let mesh = &scene.meshes[inst.mesh as usize];
+    let idx = mesh.indices[tri as usize];
+    let p = |k: usize| {
+        inst.transform
+            .transform_point3(mesh.positions[idx[k] as usize])
+            .as_dvec3()
+    };
+    let (o, d) = (o.as_dvec3(), d.as_dvec3());
+    let (e1, e2) = (p(1) - p(0), p(2) - p(0));
+    let pv = d.cross(e2);
+    let det = e1.dot(pv);
+    if det == 0.0 {
+        return None;
+    }
+    let s = o - p(0);
+    let u = s.dot(pv) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    Some((e2.dot(q) / det, u.min(v).min(1.0 - u - v)))
 }

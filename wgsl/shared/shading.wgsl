@@ -184,6 +184,8 @@ struct ShadowLoop {
     sum: vec3f,        // rect light: sum of cos cos / d^2 over its visible samples
     unoccluded: u32,   // environment: visible samples
     e: vec3f,          // the irradiance of the finished samples
+    light: Light,      // the current slot's light, loaded once per slot (any light for
+    kind: u32,         // the environment's slot, unused there) and its kind
     sample: ShadowSample,
 }
 
@@ -200,16 +202,19 @@ fn shadow_loop_start(s: Surface, seed: u32, count: u32) -> ShadowLoop {
     st.sum = vec3f(0.0);
     st.unoccluded = 0u;
     st.e = vec3f(0.0);
+    shadow_loop_enter(&st);
     return st;
 }
 
-// The light of slot `slot` (any light for the environment's slot: unused there).
-fn slot_light(slot: u32) -> Light {
-    return lights[min(slot, max(scene_info.light_count, 1u) - 1u)];
-}
-
-fn slot_kind(slot: u32, light: Light) -> u32 {
-    return select(bitcast<u32>(light.a.w), LIGHT_ENVIRONMENT, slot == scene_info.light_count);
+// Loads the light and kind of the current slot: once per slot, not per sample (a storage
+// load is a per-lane loop on lavapipe).
+fn shadow_loop_enter(st: ptr<function, ShadowLoop>) {
+    if (*st).slot >= (*st).slots {
+        return;
+    }
+    (*st).light = lights[min((*st).slot, max(scene_info.light_count, 1u) - 1u)];
+    (*st).kind = select(bitcast<u32>((*st).light.a.w), LIGHT_ENVIRONMENT,
+                        (*st).slot == scene_info.light_count);
 }
 
 // Sample k of slot `slot` at surface `s` (the tests are written as the negated refusals
@@ -267,8 +272,8 @@ fn shadow_loop_next(st: ptr<function, ShadowLoop>, s: Surface) -> bool {
         if (*st).slot >= (*st).slots {
             return false;
         }
-        let light = slot_light((*st).slot);
-        let kind = slot_kind((*st).slot, light);
+        let light = (*st).light;
+        let kind = (*st).kind;
         let samples = select(1u, (*st).count, kind == LIGHT_RECT || kind == LIGHT_ENVIRONMENT);
         if (*st).k >= samples {
             if kind == LIGHT_RECT {
@@ -284,6 +289,7 @@ fn shadow_loop_next(st: ptr<function, ShadowLoop>, s: Surface) -> bool {
             (*st).k = 0u;
             (*st).sum = vec3f(0.0);
             (*st).unoccluded = 0u;
+            shadow_loop_enter(st);
             continue;
         }
         let candidate = shadow_sample(*st, s, light, kind);
@@ -298,8 +304,8 @@ fn shadow_loop_next(st: ptr<function, ShadowLoop>, s: Surface) -> bool {
 
 // Counts the current sample (`st.sample`, of slot `st.slot`) as visible.
 fn shadow_loop_add(st: ptr<function, ShadowLoop>) {
-    let light = slot_light((*st).slot);
-    let kind = slot_kind((*st).slot, light);
+    let light = (*st).light;
+    let kind = (*st).kind;
     let smp = (*st).sample;
     if kind == LIGHT_RECT {
         (*st).sum += vec3f(smp.cos_s * smp.cos_l / smp.d2);
