@@ -7,10 +7,12 @@ use crate::direct::{DirectLightPass, DirectOutput};
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, GpuScene};
 use crate::placement::{PlacementPass, PlacementStats};
-use crate::records::{CacheSettings, Record, RecordCache, RecordPass};
+use crate::gpu::scene_buffers::GpuLight;
+use crate::light_maps::LightMapPass;
+use crate::records::{CacheSettings, PlaneShadows, Record, RecordCache, RecordPass};
 use crate::resolve::ResolvePass;
 use crate::scene::{Camera, Scene};
-use crate::splat::{SplatBuffer, SplatPass};
+use crate::splat::{CoverageMask, SplatBuffer, SplatPass};
 use crate::visibility::{VisSample, VisibilityBuffer, VisibilityPass};
 use crate::{Error, Result};
 use std::time::Instant;
@@ -19,6 +21,10 @@ use std::time::Instant;
 pub struct PreparedScene {
     pub gpu: GpuScene,
     pub bvh_stats: BvhStats,
+    /// The lights as uploaded and the scene's world bounds: what light maps are laid out
+    /// from.
+    pub lights: Vec<GpuLight>,
+    pub bounds: (glam::Vec3, glam::Vec3),
 }
 
 /// Size and build time of a scene's BVH.
@@ -134,6 +140,7 @@ pub struct Renderer {
     splat: OnFirstUse<SplatPass>,
     placement: OnFirstUse<PlacementPass>,
     resolve: OnFirstUse<ResolvePass>,
+    light_maps: OnFirstUse<LightMapPass>,
 }
 
 /// A pass built when it is first asked for.
@@ -185,6 +192,7 @@ impl Renderer {
             splat: OnFirstUse::new(),
             placement: OnFirstUse::new(),
             resolve: OnFirstUse::new(),
+            light_maps: OnFirstUse::new(),
         })
     }
 
@@ -202,6 +210,10 @@ impl Renderer {
 
     fn placement_pass(&self) -> Result<&PlacementPass> {
         self.placement.get(|| PlacementPass::new(&self.ctx))
+    }
+
+    fn light_map_pass(&self) -> Result<&LightMapPass> {
+        self.light_maps.get(|| LightMapPass::new(&self.ctx))
     }
 
     fn resolve_pass(&self) -> Result<&ResolvePass> {
@@ -240,10 +252,13 @@ impl Renderer {
         let vis = self.visibility(scene, camera, &mut Vec::new())?;
         let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
         let mut times = Vec::new();
-        self.splat_pass()?.splat(
+        let splat_pass = self.splat_pass()?;
+        let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
+        splat_pass.splat(
             ctx,
             &scene.gpu,
             &vis,
+            &bounds,
             &cache.records,
             0,
             cache.settings().accuracy,
@@ -255,6 +270,44 @@ impl Renderer {
         let visibility = vis.read(ctx)?;
         ctx.check()?;
         Ok((visibility, sums))
+    }
+
+    /// As [`Renderer::splat_cache`], with the records added in rounds as placement adds
+    /// them: ranges split at `splits` (increasing record counts), each splatted onto the
+    /// previous sums (accumulating) and marked in a coverage mask (the cover placement
+    /// runs). Returns the visibility, the sums and the mask: for tests that the rounds give
+    /// the bytes of one full splat and the mask its support.
+    pub fn splat_cache_in_rounds(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        cache: &IrradianceCache,
+        splits: &[u32],
+    ) -> Result<(Vec<VisSample>, Vec<[f32; 4]>, Vec<u32>)> {
+        let ctx = &self.ctx;
+        let vis = self.visibility(scene, camera, &mut Vec::new())?;
+        let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
+        let mask = CoverageMask::new(ctx, camera.width, camera.height)?;
+        let mut times = Vec::new();
+        let splat_pass = self.splat_pass()?;
+        let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
+        let accuracy = cache.settings().accuracy;
+        let mut first = 0;
+        for &end in splits.iter().chain([&cache.records.count]) {
+            let partial = cache.records.prefix(end);
+            splat_pass.splat(
+                ctx, &scene.gpu, &vis, &bounds, &partial, first, accuracy, &splat, true, &mut times,
+            )?;
+            splat_pass.cover(
+                ctx, &scene.gpu, &vis, &bounds, &partial, first, accuracy, &mask, &mut times,
+            )?;
+            first = partial.count;
+        }
+        let sums = ctx.read_buffer(&splat.sums)?;
+        let covered = mask.read(ctx)?;
+        let visibility = vis.read(ctx)?;
+        ctx.check()?;
+        Ok((visibility, sums, covered))
     }
 
     /// Renders one global-illumination frame from `camera` over `cache`: visibility and
@@ -309,7 +362,10 @@ impl Renderer {
             scene
                 .gpu
                 .info
-                .max_shadow_rays(pass.settings.plane_light_samples),
+                .max_shadow_rays(match pass.settings.plane_shadows {
+                    PlaneShadows::Maps => pass.settings.light_maps.rect_points,
+                    PlaneShadows::Rays => pass.settings.plane_light_samples,
+                }),
             "--plane-light-samples",
         )?;
         let t0 = Instant::now();
@@ -319,31 +375,54 @@ impl Renderer {
         let (vis, direct) =
             self.visibility_and_direct(scene, camera, visibility, !placement_only, &mut times)?;
 
-        // Splat the records the cache already holds, then place new ones.
+        // Mark the pixels the records the cache already holds cover, place new records
+        // where none does, then splat every record once (the weighted gather).
         let reused_records = records.count;
         let accuracy = pass.settings.accuracy;
-        let coverage_records = if count_coverage {
-            pass.settings.record_budget.max(records.count)
-        } else {
-            0
-        };
-        let splat = SplatBuffer::with_coverage(ctx, camera.width, camera.height, coverage_records)?;
-        self.splat_pass()?.splat(
-            ctx, &scene.gpu, &vis, records, 0, accuracy, &splat, false, &mut times,
+        let splat_pass = self.splat_pass()?;
+        let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
+        let mask = CoverageMask::new(ctx, camera.width, camera.height)?;
+        splat_pass.cover(
+            ctx, &scene.gpu, &vis, &bounds, records, 0, accuracy, &mask, &mut times,
         )?;
+        // Light-space visibility for the plane hits of new records, traced once per frame.
+        let light_maps = match pass.settings.plane_shadows {
+            PlaneShadows::Maps => Some(self.light_map_pass()?.build(
+                ctx,
+                &scene.gpu,
+                &scene.lights,
+                scene.bounds,
+                &pass.settings.light_maps,
+                &mut times,
+            )?),
+            PlaneShadows::Rays => None,
+        };
         let placement = self.placement_pass()?.place(
             ctx,
             &scene.gpu,
             &vis,
             records,
             pass,
-            self.splat_pass()?,
-            &splat,
+            splat_pass,
+            &bounds,
+            &mask,
+            light_maps.as_ref(),
             max_new_records,
             lookahead,
             &mut times,
             progress,
         )?;
+        let coverage_records = if count_coverage {
+            pass.settings.record_budget.max(records.count)
+        } else {
+            0
+        };
+        let splat = SplatBuffer::with_coverage(ctx, camera.width, camera.height, coverage_records)?;
+        if !placement_only || count_coverage {
+            splat_pass.splat(
+                ctx, &scene.gpu, &vis, &bounds, records, 0, accuracy, &splat, false, &mut times,
+            )?;
+        }
 
         let res = u64::from(pass.settings.plane_resolution);
         let (width, height) = (camera.width, camera.height);
@@ -453,8 +532,10 @@ impl Renderer {
             Some(flags) => SplatBuffer::with_needed_coverage(ctx, vis.width, vis.height, flags)?,
             None => SplatBuffer::with_coverage(ctx, vis.width, vis.height, records.count)?,
         };
-        self.splat_pass()?.splat(
-            ctx, &scene.gpu, vis, records, 0, accuracy, &out, false, times,
+        let splat_pass = self.splat_pass()?;
+        let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, vis, times)?;
+        splat_pass.splat(
+            ctx, &scene.gpu, vis, &bounds, records, 0, accuracy, &out, false, times,
         )?;
         out.read_coverage(ctx)
     }
@@ -500,6 +581,8 @@ impl Renderer {
         )?;
         self.ctx.check()?;
         Ok(PreparedScene {
+            lights: scene.lights.iter().map(GpuLight::new).collect(),
+            bounds: crate::bvh::scene_bounds(scene),
             bvh_stats: BvhStats {
                 triangles: bvh.triangles.len(),
                 blas_nodes: bvh.blas_nodes.len(),

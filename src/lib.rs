@@ -3,7 +3,8 @@
 //!
 //! The data flow of a frame is readable from the module names and from
 //! [`frame::Renderer::render_frame`]:
-//! [`scene`] → [`bvh`] → [`visibility`] → [`direct`] → [`placement`] + [`records`] →
+//! [`scene`] → [`bvh`] → [`visibility`] → [`direct`] → [`light_maps`] → [`placement`] +
+//! [`records`] →
 //! [`splat`] → [`resolve`] → [`output`] ([`frame::Renderer::render_gi_frame`]).
 //! [`reference`] renders the brute-force direct + first-bounce reference and [`compare`]
 //! measures images against it.
@@ -20,6 +21,7 @@ pub mod direct;
 pub mod error;
 pub mod frame;
 pub mod gpu;
+pub mod light_maps;
 pub mod output;
 pub mod placement;
 pub mod radiance_export;

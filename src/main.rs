@@ -337,6 +337,19 @@ struct CacheArgs {
     /// Do not compute or use irradiance gradients.
     #[arg(long)]
     no_gradients: bool,
+    /// How hemisphere-plane hits are shadowed: `maps` traces light-space visibility maps
+    /// once per frame (an orthographic map for a sun, octahedral maps for point and spot
+    /// lights and for fixed points on rect lights) and looks shadows up; `rays` traces a
+    /// shadow ray per light sample at every plane hit (exact). `animate` always uses rays.
+    #[arg(long, value_enum, default_value_t = CacheSettings::default().plane_shadows)]
+    plane_shadows: radsplat::records::PlaneShadows,
+    /// Texels per side of a sun's light map (point and rect-light maps get half).
+    #[arg(long, default_value_t = CacheSettings::default().light_maps.resolution)]
+    light_map_resolution: u32,
+    /// With light maps: fixed sample points (one map each) per rect light; plane hits use
+    /// these instead of --plane-light-samples random points.
+    #[arg(long, default_value_t = CacheSettings::default().light_maps.rect_points, value_parser = parse_at_least_one)]
+    light_map_points: u32,
 }
 
 // Value parsers of `CacheArgs`: clap reports their errors as "invalid value 'V' for
@@ -428,6 +441,11 @@ impl CacheArgs {
             r_max_factor: self.r_max_factor,
             record_budget: self.record_budget,
             gradients: !self.no_gradients,
+            plane_shadows: self.plane_shadows,
+            light_maps: radsplat::light_maps::LightMapSettings {
+                resolution: self.light_map_resolution,
+                rect_points: self.light_map_points,
+            },
             ..CacheSettings::default()
         }
     }

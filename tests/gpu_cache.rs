@@ -241,3 +241,40 @@ fn static_walkthrough_reuses_records() {
     assert_eq!(stats.placement.new_records, 25);
     assert!(stats.placement.limit_reached && stats.uncovered_pixels > 0);
 }
+
+/// Placement's rounds: records splatted range by range onto the previous sums give the
+/// bytes of one full splat (the gather sums each tile's records in id order either way),
+/// and the coverage mask the rounds build (`splat_cover.wgsl`, which placement reads
+/// instead of the sums) marks exactly the pixels with a non-zero weight, as the CPU cover
+/// does.
+#[test]
+fn rounds_of_splats_and_covers_match_one_full_splat() {
+    let (renderer, scene, cache, records) = cornell_cache();
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let n = cache.records.count;
+    assert!(n > 8, "{n} records");
+    let (vis, full) = renderer
+        .splat_cache(&prepared, &scene.camera, &cache)
+        .expect("full splat");
+    let splits = [n / 5, n / 2, n / 2 + 1, 3 * n / 4];
+    let (vis_rounds, rounds, mask) = renderer
+        .splat_cache_in_rounds(&prepared, &scene.camera, &cache, &splits)
+        .expect("splat in rounds");
+    assert_eq!(vis, vis_rounds);
+    let bits = |s: &[[f32; 4]]| s.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert!(bits(&full) == bits(&rounds), "rounds differ from the full splat");
+    let support: Vec<u32> = full.iter().map(|s| u32::from(s[3] > 0.0)).collect();
+    assert_eq!(mask, support, "mask differs from the splat's support");
+    let cpu = radsplat::splat::cover::reference_cover(&records, &vis, cache.settings().accuracy);
+    assert_eq!(mask, cpu, "mask differs from the CPU cover");
+    // Not vacuous: some visible pixels are covered, and the mask is not all ones (the sky
+    // of no pixel here, but the records of the first round alone do not cover everything).
+    let covered = mask.iter().filter(|&&c| c != 0).count();
+    assert!(covered > vis.iter().filter(|v| v.is_hit()).count() / 2);
+    let first_round = radsplat::splat::cover::reference_cover(
+        &records[..(n / 5) as usize],
+        &vis,
+        cache.settings().accuracy,
+    );
+    assert!(first_round.iter().filter(|&&c| c != 0).count() < covered);
+}

@@ -17,6 +17,9 @@ struct PlaneParams {
 @group(1) @binding(2) var<storage, read> plane: array<PlanePixel>;
 @group(1) @binding(3) var<storage, read_write> samples: array<PlaneSample>;
 @group(1) @binding(4) var<storage, read_write> hits: array<PlaneHit>;
+@group(1) @binding(5) var<storage, read> light_maps: array<LightMap>;
+@group(1) @binding(6) var<storage, read> light_map_depths: array<f32>;
+@group(1) @binding(7) var<storage, read> light_map_first: array<u32>;
 
 @compute @workgroup_size(8, 8)
 fn main(

@@ -20,7 +20,7 @@ struct SelectParams {
 
 @group(1) @binding(0) var<uniform> params: SelectParams;
 @group(1) @binding(1) var<storage, read> vis: array<VisSample>;
-@group(1) @binding(2) var<storage, read> splat: array<vec4f>;
+@group(1) @binding(2) var<storage, read> covered: array<u32>;   // splat_cover.wgsl
 @group(1) @binding(3) var<storage, read_write> candidates: array<u32>;
 
 @compute @workgroup_size(64)
@@ -42,7 +42,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     for (var y = y0; y < y1; y++) {
         for (var x = x0; x < x1; x++) {
             let pixel = y * params.width + x;
-            if vis[pixel].instance == NO_HIT || splat[pixel].w > 0.0 {
+            if vis[pixel].instance == NO_HIT || covered[pixel] != 0u {
                 continue;
             }
             let d = vec2f(f32(x) + 0.5, f32(y) + 0.5) - center;

@@ -18,6 +18,9 @@ struct PlaneParams {
 @group(1) @binding(3) var<storage, read_write> samples: array<PlaneSample>;
 @group(1) @binding(4) var<storage, read_write> hits: array<PlaneHit>;
 @group(1) @binding(5) var<storage, read> work: WorkItems;   // samples to trace again
+@group(1) @binding(6) var<storage, read> light_maps: array<LightMap>;
+@group(1) @binding(7) var<storage, read> light_map_depths: array<f32>;
+@group(1) @binding(8) var<storage, read> light_map_first: array<u32>;
 
 @compute @workgroup_size(64)
 fn main(

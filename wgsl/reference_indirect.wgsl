@@ -9,7 +9,7 @@
 // Rays that miss add nothing: the environment is already a light of `direct_irradiance`
 // (it would otherwise be counted twice, like sampled emitters: Ward's rule).
 // CPU mirror: src/reference/cpu.rs.
-//!include shared/shading.wgsl
+//!include shared/trace_and_shade.wgsl
 //!include shared/camera.wgsl
 
 struct ReferenceParams {
@@ -29,6 +29,11 @@ fn indirect_seed(pixel: u32) -> u32 {
     return hash_combine(hash_u32(pixel), 0x1d1u);
 }
 
+// The reference traces every shadow ray (no light maps).
+fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32 {
+    return -1.0;
+}
+
 // Outgoing radiance towards the pixel of the closest hit along direction sample `k`.
 fn bounce_radiance(s: Surface, seed: u32, k: u32) -> vec3f {
     let dir = orthonormal_basis(s.shading_normal) * cosine_hemisphere(sobol_2d(k, seed));
@@ -37,8 +42,8 @@ fn bounce_radiance(s: Surface, seed: u32, k: u32) -> vec3f {
     }
     let origin = offset_ray_origin(s.position, s.geometric_normal);
     // The bounce ray and its hit's shadow rays through one traversal (cheaper to compile).
-    let shaded = trace_and_shade(
-        Ray(origin, 0.0, dir, INF), hash_combine(seed, k), scene_info.light_samples);
+    let hit_seed = hash_combine(seed, k);
+    let shaded = trace_and_shade(Ray(origin, 0.0, dir, INF), hit_seed, hit_seed, scene_info.light_samples);
     if shaded.hit.instance == NO_HIT {
         return vec3f(0.0);
     }

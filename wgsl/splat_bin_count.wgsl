@@ -1,5 +1,6 @@
-// Splat binning, step 1: each record counts itself into every tile its footprint bounds
-// (u32 atomics: exact, so the counts do not depend on thread timing).
+// Splat binning, step 1: each record counts itself into every tile its footprint bounds on
+// screen whose visible pixels it can reach (`tile_may_receive`; u32 atomics: exact, so the
+// counts do not depend on thread timing).
 //!include shared/records.wgsl
 //!include shared/splat.wgsl
 
@@ -8,6 +9,7 @@
 @group(1) @binding(2) var<storage, read> records: array<Record>;
 @group(1) @binding(3) var<storage, read_write> record_tiles: array<vec4u>;
 @group(1) @binding(4) var<storage, read_write> tile_counts: array<atomic<u32>>;
+@group(1) @binding(5) var<storage, read> bounds: array<TileBound>;
 
 @compute @workgroup_size(256)
 fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
@@ -17,11 +19,15 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
         return;
     }
     let r = records[k];
-    let tiles = sphere_tiles(camera, params, r.position, params.accuracy * r.radius);
+    let reach = params.accuracy * r.radius;
+    let tiles = sphere_tiles(camera, params, r.position, reach);
     record_tiles[i] = tiles;
     for (var ty = tiles.y; ty <= tiles.w; ty++) {
         for (var tx = tiles.x; tx <= tiles.z; tx++) {
-            atomicAdd(&tile_counts[ty * params.tiles_x + tx], 1u);
+            let tile = ty * params.tiles_x + tx;
+            if tile_may_receive(bounds[tile], r.position, reach, r.normal, params.accuracy) {
+                atomicAdd(&tile_counts[tile], 1u);
+            }
         }
     }
 }

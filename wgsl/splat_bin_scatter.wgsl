@@ -1,5 +1,6 @@
 // Splat binning, step 3: each record writes (record, tile) into its tiles' lists. The slot
 // order inside a list depends on thread timing; step 4 makes it deterministic.
+//!include shared/records.wgsl
 //!include shared/splat.wgsl
 
 @group(1) @binding(0) var<uniform> params: SplatParams;
@@ -7,6 +8,8 @@
 @group(1) @binding(2) var<storage, read> tile_offsets: array<u32>;
 @group(1) @binding(3) var<storage, read_write> tile_cursors: array<atomic<u32>>;
 @group(1) @binding(4) var<storage, read_write> entries: array<vec2u>;
+@group(1) @binding(5) var<storage, read> records: array<Record>;
+@group(1) @binding(6) var<storage, read> bounds: array<TileBound>;
 
 @compute @workgroup_size(256)
 fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
@@ -15,9 +18,17 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
         return;
     }
     let tiles = record_tiles[i];
+    let k = params.first_record + i;
+    let center = records[k].position;
+    let reach = params.accuracy * records[k].radius;
+    let normal = records[k].normal;
     for (var ty = tiles.y; ty <= tiles.w; ty++) {
         for (var tx = tiles.x; tx <= tiles.z; tx++) {
             let tile = ty * params.tiles_x + tx;
+            // The count's test, on the same values: the same tiles.
+            if !tile_may_receive(bounds[tile], center, reach, normal, params.accuracy) {
+                continue;
+            }
             let slot = atomicAdd(&tile_cursors[tile], 1u);
             entries[tile_offsets[tile] + slot] = vec2u(params.first_record + i, tile);
         }

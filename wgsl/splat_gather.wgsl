@@ -1,5 +1,5 @@
-// Splat gather (thesis Algorithm 3 as a gather): each pixel sums its tile's records in
-// record order: Ward's weight with w >= 1/a (eq. 4.2-4.3), the "behind" test, gradient
+// Splat gather (thesis Algorithm 3 as a gather), run once per frame after placement:
+// each pixel sums its tile's records in record order: Ward's weight with w >= 1/a (eq. 4.2-4.3), the "behind" test, gradient
 // extrapolation clamped at 0. Output per pixel: (sum w E'_k, sum w); with `accumulate`
 // the sums continue the previous ones, so adding records round by round gives the same
 // bits as splatting them all at once. With `count_coverage`, every (record, pixel) pair that
@@ -9,8 +9,7 @@
 // `count_coverage` 2 only pixels that no record outliving this frame (`expiring[k] == 0`)
 // contributes to are counted, and only for the expiring records that do: an expired record
 // none of whose pixels needs it is deleted rather than replaced.
-//!include shared/records.wgsl
-//!include shared/splat.wgsl
+//!include shared/splat_weight.wgsl
 
 @group(1) @binding(0) var<uniform> params: SplatParams;
 @group(1) @binding(1) var<storage, read> vis: array<VisSample>;
@@ -23,21 +22,6 @@
 
 const COUNT_ALL: u32 = 1u;
 const COUNT_NEEDED: u32 = 2u;
-
-// Ward's error of record k at (p, n) (eq. 4.2), or infinity where the record is behind p:
-// it contributes where this is at most the accuracy a. The test needs 32 of the record's
-// 144 bytes: load only those (every storage load is a per-lane loop on lavapipe).
-fn contribution_error(k: u32, p: vec3f, n: vec3f) -> f32 {
-    var r: Record;
-    r.position = records[k].position;
-    r.radius = records[k].radius;
-    r.normal = records[k].normal;
-    let err = record_error(r, p, n);
-    if err <= params.accuracy && record_in_front(r, p, n, params.accuracy) {
-        return err;
-    }
-    return 1.0e30;
-}
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3u) {

@@ -93,6 +93,22 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/plane_fill.wgsl"),
     ),
     (
+        "shared/trace_and_shade.wgsl",
+        include_str!("../../wgsl/shared/trace_and_shade.wgsl"),
+    ),
+    (
+        "shared/light_map.wgsl",
+        include_str!("../../wgsl/shared/light_map.wgsl"),
+    ),
+    (
+        "shared/light_map_lookup.wgsl",
+        include_str!("../../wgsl/shared/light_map_lookup.wgsl"),
+    ),
+    (
+        "light_map_trace.wgsl",
+        include_str!("../../wgsl/light_map_trace.wgsl"),
+    ),
+    (
         "record_reduce.wgsl",
         include_str!("../../wgsl/record_reduce.wgsl"),
     ),
@@ -115,6 +131,18 @@ const SOURCES: &[(&str, &str)] = &[
     (
         "splat_bin_sort.wgsl",
         include_str!("../../wgsl/splat_bin_sort.wgsl"),
+    ),
+    (
+        "shared/splat_weight.wgsl",
+        include_str!("../../wgsl/shared/splat_weight.wgsl"),
+    ),
+    (
+        "splat_tile_bounds.wgsl",
+        include_str!("../../wgsl/splat_tile_bounds.wgsl"),
+    ),
+    (
+        "splat_cover.wgsl",
+        include_str!("../../wgsl/splat_cover.wgsl"),
     ),
     (
         "splat_gather.wgsl",

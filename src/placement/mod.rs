@@ -15,8 +15,9 @@ use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
+use crate::light_maps::LightMaps;
 use crate::records::{Lookahead, RecordCache, RecordPass};
-use crate::splat::{SplatBuffer, SplatPass};
+use crate::splat::{CoverageMask, SplatPass, TileBounds};
 use crate::visibility::VisibilityBuffer;
 use bytemuck::{Pod, Zeroable};
 
@@ -76,7 +77,7 @@ impl PlacementPass {
         ctx: &GpuContext,
         scene: &GpuScene,
         vis: &VisibilityBuffer,
-        splat: &SplatBuffer,
+        mask: &CoverageMask,
         cell_size: u32,
         parity: u32,
     ) -> Result<Vec<u32>> {
@@ -104,7 +105,7 @@ impl PlacementPass {
         let out = ctx.storage_buffer_sized("candidates", u64::from(active) * 4)?;
         let bind = self
             .select
-            .bind(ctx, &[&params, &vis.samples, &splat.sums, &out]);
+            .bind(ctx, &[&params, &vis.samples, &mask.covered, &out]);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.select.record(
             &mut enc,
@@ -120,8 +121,9 @@ impl PlacementPass {
     }
 
     /// Adds records until every visible pixel is covered, `limit` records were added, or
-    /// the cache reaches `budget`. The splat buffer must hold the sums of every record
-    /// already in the cache; it is kept up to date. `progress` gets the records added.
+    /// the cache reaches `budget`. `mask` must mark the pixels the records already in the
+    /// cache cover; it is kept up to date (the weighted splat is the caller's, once
+    /// placement is done). `progress` gets the records added.
     #[allow(clippy::too_many_arguments)]
     pub fn place(
         &self,
@@ -131,7 +133,9 @@ impl PlacementPass {
         cache: &mut RecordCache,
         records: &RecordPass,
         splat_pass: &SplatPass,
-        splat: &SplatBuffer,
+        bounds: &TileBounds,
+        mask: &CoverageMask,
+        light_maps: Option<&LightMaps>,
         limit: Option<u32>,
         mut lookahead: Option<&mut Lookahead<'_>>,
         times: &mut Vec<(&'static str, f64)>,
@@ -144,7 +148,7 @@ impl PlacementPass {
         loop {
             let mut placed = 0;
             for parity in 0..4 {
-                let mut pixels = self.candidates(ctx, scene, vis, splat, cell, parity)?;
+                let mut pixels = self.candidates(ctx, scene, vis, mask, cell, parity)?;
                 if pixels.is_empty() {
                     continue;
                 }
@@ -165,19 +169,20 @@ impl PlacementPass {
                         &sites,
                         n,
                         cache,
+                        light_maps,
                         lookahead.as_deref_mut(),
                         None,
                         |_| {},
                     )?);
-                    splat_pass.splat(
+                    splat_pass.cover(
                         ctx,
                         scene,
                         vis,
+                        bounds,
                         cache,
                         first,
                         settings.accuracy,
-                        splat,
-                        true,
+                        mask,
                         times,
                     )?;
                     stats.new_records += n;

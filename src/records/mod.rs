@@ -11,6 +11,7 @@ pub mod reference;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
+use crate::light_maps::{LightMapSettings, LightMaps};
 use crate::visibility::VisibilityBuffer;
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
@@ -135,6 +136,22 @@ pub struct CacheSettings {
     pub record_budget: u32,
     /// Store and use rotational and translational gradients.
     pub gradients: bool,
+    /// How plane hits find their shadows: light-space maps traced once per frame, or one
+    /// shadow ray per sample (exact).
+    pub plane_shadows: PlaneShadows,
+    /// The maps' size (with [`PlaneShadows::Maps`]). With maps, plane hits sample each rect
+    /// light at its `rect_points` map points, and the environment with as many rays
+    /// (instead of `plane_light_samples`).
+    pub light_maps: LightMapSettings,
+}
+
+/// How hemisphere-plane hits are shadowed (thesis section 4.4 uses shadow maps).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
+pub enum PlaneShadows {
+    /// Light-space visibility maps ([`crate::light_maps`]), traced once per frame.
+    Maps,
+    /// One shadow ray per light sample at every plane hit.
+    Rays,
 }
 
 impl Default for CacheSettings {
@@ -149,6 +166,11 @@ impl Default for CacheSettings {
             r_max_factor: 64.0,
             record_budget: 200_000,
             gradients: true,
+            plane_shadows: PlaneShadows::Rays,
+            light_maps: LightMapSettings {
+                resolution: 512,
+                rect_points: 4,
+            },
         }
     }
 }
@@ -184,6 +206,22 @@ impl CacheSettings {
                 "--plane-fov",
                 self.plane_fov_degrees.to_string(),
                 "must be in (1, 179) degrees",
+            );
+        }
+        if !(16..=4096).contains(&self.light_maps.resolution) {
+            return bad(
+                "light_maps.resolution",
+                "--light-map-resolution",
+                self.light_maps.resolution.to_string(),
+                "must be in 16..=4096",
+            );
+        }
+        if !(1..=64).contains(&self.light_maps.rect_points) {
+            return bad(
+                "light_maps.rect_points",
+                "--light-map-points",
+                self.light_maps.rect_points.to_string(),
+                "must be in 1..=64",
             );
         }
         if self.plane_light_samples == 0 {
@@ -236,6 +274,16 @@ pub struct RecordCache {
 pub const RECORD_BYTES: u64 = std::mem::size_of::<Record>() as u64;
 
 impl RecordCache {
+    /// A view of the first `count` records (the same GPU buffer): what the cache held
+    /// before later records were added.
+    pub fn prefix(&self, count: u32) -> RecordCache {
+        RecordCache {
+            buffer: self.buffer.clone(),
+            count: count.min(self.count),
+            capacity: self.capacity,
+        }
+    }
+
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         let capacity = 1024;
         Ok(Self {
@@ -392,6 +440,8 @@ pub struct RecordPass {
     pub settings: CacheSettings,
     /// Records per plane dispatch.
     pub batch: u32,
+    /// What plane passes bind when a frame has no light maps.
+    no_light_maps: LightMaps,
 }
 
 impl RecordPass {
@@ -417,6 +467,9 @@ impl RecordPass {
                     StorageRead,
                     StorageReadWrite,
                     StorageReadWrite,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
                 ],
             )?,
             reduce: ComputePass::new(
@@ -433,6 +486,7 @@ impl RecordPass {
             table: PlaneTable::new(ctx, settings.plane_resolution, settings)?,
             settings: settings.clone(),
             batch,
+            no_light_maps: LightMaps::none(ctx)?,
         })
     }
 
@@ -495,10 +549,18 @@ impl RecordPass {
         sites: &wgpu::Buffer,
         count: u32,
         cache: &mut RecordCache,
+        light_maps: Option<&LightMaps>,
         mut lookahead: Option<&mut Lookahead<'_>>,
         refresh: Option<&crate::temporal::plane_refresh::PlaneRefresh<'_>>,
         mut on_batch: impl FnMut(u32),
     ) -> Result<Vec<(&'static str, f64)>> {
+        let light_maps = light_maps.unwrap_or(&self.no_light_maps);
+        // With maps, a rect light's samples are its map points (see `CacheSettings`).
+        let light_samples = if light_maps.layout.is_empty() {
+            self.settings.plane_light_samples
+        } else {
+            self.settings.light_maps.rect_points
+        };
         cache.reserve(ctx, count)?;
         let res = self.settings.plane_resolution;
         // Sized to this call's largest batch: small placement rounds stay small.
@@ -553,7 +615,7 @@ impl RecordPass {
                 &PlaneParams {
                     resolution: res,
                     count: n,
-                    light_samples: self.settings.plane_light_samples,
+                    light_samples,
                     record_hits: u32::from(lookahead.is_some() || refresh.is_some()),
                 },
             );
@@ -565,6 +627,9 @@ impl RecordPass {
                     &self.table.pixels,
                     &samples,
                     &hits,
+                    &light_maps.maps_buffer,
+                    &light_maps.depths,
+                    &light_maps.first_buffer,
                 ],
             );
             let mut timer = crate::gpu::timer::PassTimer::new(ctx, 12);

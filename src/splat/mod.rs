@@ -2,8 +2,17 @@
 //! are binned into 16 x 16-pixel tiles by the screen bound of their footprint (atomic
 //! counts, a prefix sum, a scatter, a rank sort by record id), then each pixel gathers its
 //! tile's records in id order. [`reference`] is the same sum on the CPU.
+//!
+//! A frame splats once: placement rounds only ask which pixels are covered ([`cover`],
+//! the same contribution test without the sums), and the weighted gather runs over every
+//! record after placement.
 
+pub mod cover;
 pub mod reference;
+pub mod tile_bounds;
+
+pub use cover::CoverageMask;
+pub use tile_bounds::TileBounds;
 
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
@@ -15,7 +24,7 @@ use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 
 /// Tile edge in pixels (`TILE_SIZE` in `wgsl/shared/splat.wgsl`).
-pub const TILE_SIZE: u32 = 16;
+pub const TILE_SIZE: u32 = 8;
 
 /// What a splat counts per record (`count_coverage`; `COUNT_ALL` and `COUNT_NEEDED` in
 /// `wgsl/splat_gather.wgsl`): nothing, every pixel it contributes to, or only those no
@@ -27,7 +36,7 @@ const COUNT_NEEDED: u32 = 2;
 /// Mirror of WGSL `SplatParams`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct SplatParams {
+pub(crate) struct SplatParams {
     width: u32,
     height: u32,
     tiles_x: u32,
@@ -116,6 +125,32 @@ impl SplatBuffer {
     }
 }
 
+/// Records binned into tiles ([`SplatPass::bin`]): what a gather or a cover reads.
+pub(crate) struct TileBins {
+    /// The `SplatParams` uniform of the splat.
+    pub params: wgpu::Buffer,
+    /// Per tile, the first entry of its list (tiles + 1 entries).
+    pub tile_offsets: wgpu::Buffer,
+    /// `(record, tile)` pairs, grouped by tile in an order that depends on thread timing.
+    pub entries: wgpu::Buffer,
+    /// Per tile, its records in id order (when binned `sorted`).
+    pub sorted: wgpu::Buffer,
+    /// Tiles across and down.
+    pub tiles: [u32; 2],
+    pub records: u32,
+    /// (record, tile) pairs.
+    pub total: u32,
+}
+
+impl TileBins {
+    fn stats(&self) -> SplatStats {
+        SplatStats {
+            records: self.records,
+            tile_entries: self.total,
+        }
+    }
+}
+
 /// Statistics of one splat.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct SplatStats {
@@ -125,13 +160,15 @@ pub struct SplatStats {
 }
 
 /// The splat passes (`splat_bin_count`, `splat_bin_scan`, `splat_bin_scatter`,
-/// `splat_bin_sort`, `splat_gather`).
+/// `splat_bin_sort`, `splat_gather`, and placement's `splat_cover`).
 pub struct SplatPass {
     count: ComputePass,
     scan: ComputePass,
     scatter: ComputePass,
     sort: ComputePass,
     gather: ComputePass,
+    cover: ComputePass,
+    bounds: ComputePass,
 }
 
 /// Workgroups for `n` invocations of 256, split over y past the per-dimension limit
@@ -159,6 +196,7 @@ impl SplatPass {
                     StorageRead,
                     StorageReadWrite,
                     StorageReadWrite,
+                    StorageRead,
                 ],
             )?,
             scan: ComputePass::new(
@@ -175,6 +213,8 @@ impl SplatPass {
                     StorageRead,
                     StorageReadWrite,
                     StorageReadWrite,
+                    StorageRead,
+                    StorageRead,
                 ],
             )?,
             sort: ComputePass::new(
@@ -196,6 +236,23 @@ impl SplatPass {
                     StorageRead,
                 ],
             )?,
+            cover: ComputePass::new(
+                ctx,
+                "splat_cover.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                ],
+            )?,
+            bounds: ComputePass::new(
+                ctx,
+                "splat_tile_bounds.wgsl",
+                &[Uniform, StorageRead, StorageReadWrite],
+            )?,
         })
     }
 
@@ -207,6 +264,7 @@ impl SplatPass {
         ctx: &GpuContext,
         scene: &GpuScene,
         vis: &VisibilityBuffer,
+        bounds: &TileBounds,
         cache: &RecordCache,
         first: u32,
         accuracy: f32,
@@ -214,17 +272,83 @@ impl SplatPass {
         accumulate: bool,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<SplatStats> {
-        let (width, height) = (vis.width, vis.height);
-        let tiles_x = width.div_ceil(TILE_SIZE);
-        let tiles_y = height.div_ceil(TILE_SIZE);
-        let tiles = tiles_x * tiles_y;
-        let records = cache.count.saturating_sub(first);
         if out.coverage_records > 0 && cache.count > out.coverage_records {
             return Err(Error::Usage(format!(
                 "splat: {} records exceed the coverage counters' {}",
                 cache.count, out.coverage_records
             )));
         }
+        let bins = self.bin(
+            ctx,
+            scene,
+            vis,
+            bounds,
+            cache,
+            first,
+            accuracy,
+            (accumulate, out.coverage_mode),
+            true,
+            times,
+        )?;
+        let mut timer = PassTimer::new(ctx, 1);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        if bins.total > 0 || !accumulate {
+            let bind = self.gather.bind(
+                ctx,
+                &[
+                    &bins.params,
+                    &vis.samples,
+                    &cache.buffer,
+                    &bins.tile_offsets,
+                    &bins.sorted,
+                    &out.sums,
+                    &out.coverage,
+                    &out.expiring,
+                ],
+            );
+            self.gather.record(
+                &mut enc,
+                &scene.bind_group,
+                &bind,
+                image_groups(vis.width, vis.height),
+                timer.next("splat: gather"),
+            );
+        }
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        Ok(bins.stats())
+    }
+
+    /// Bins records `first..cache.count` into the 16 x 16-pixel tiles their footprints
+    /// bound: counts, prefix sum, scatter and, when `sorted`, the rank sort by record id
+    /// that makes a gather's sums deterministic. `(accumulate, count_coverage)` go into
+    /// the bins' parameters for the gather.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn bin(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
+        bounds: &TileBounds,
+        cache: &RecordCache,
+        first: u32,
+        accuracy: f32,
+        (accumulate, count_coverage): (bool, u32),
+        sorted: bool,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<TileBins> {
+        let (width, height) = (vis.width, vis.height);
+        let tiles_x = width.div_ceil(TILE_SIZE);
+        let tiles_y = height.div_ceil(TILE_SIZE);
+        let tiles = tiles_x * tiles_y;
+        if [bounds.tiles_x, bounds.tiles_y] != [tiles_x, tiles_y] {
+            return Err(Error::Usage(format!(
+                "splat: tile bounds of {}x{} tiles for an image of {tiles_x}x{tiles_y}",
+                bounds.tiles_x, bounds.tiles_y
+            )));
+        }
+        let records = cache.count.saturating_sub(first);
         let params = ctx.uniform_buffer(
             "splat params",
             &SplatParams {
@@ -236,7 +360,7 @@ impl SplatPass {
                 record_end: cache.count,
                 accuracy,
                 accumulate: u32::from(accumulate),
-                count_coverage: out.coverage_mode,
+                count_coverage,
                 _pad: [0; 3],
             },
         );
@@ -256,6 +380,7 @@ impl SplatPass {
                     &cache.buffer,
                     &record_tiles,
                     &tile_counts,
+                    &bounds.buffer,
                 ],
             );
             self.count.record(
@@ -290,16 +415,27 @@ impl SplatPass {
             .copied()
             .unwrap_or(0);
 
-        // Scatter, sort, gather.
+        // Scatter, then (for a gather) sort.
         let entries = ctx.storage_buffer_sized("tile entries", u64::from(total) * 8)?;
-        let sorted = ctx.storage_buffer_sized("sorted tile entries", u64::from(total) * 4)?;
+        let sorted_buf = ctx.storage_buffer_sized(
+            "sorted tile entries",
+            if sorted { u64::from(total) * 4 } else { 4 },
+        )?;
         let cursors = ctx.storage_buffer_sized("tile cursors", u64::from(tiles) * 4)?;
-        let mut timer = PassTimer::new(ctx, 3);
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
         if total > 0 {
+            let mut timer = PassTimer::new(ctx, 2);
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
             let bind = self.scatter.bind(
                 ctx,
-                &[&params, &record_tiles, &tile_offsets, &cursors, &entries],
+                &[
+                    &params,
+                    &record_tiles,
+                    &tile_offsets,
+                    &cursors,
+                    &entries,
+                    &cache.buffer,
+                    &bounds.buffer,
+                ],
             );
             self.scatter.record(
                 &mut enc,
@@ -308,45 +444,30 @@ impl SplatPass {
                 linear_groups(ctx, records),
                 timer.next("splat: bin scatter"),
             );
-            let bind = self
-                .sort
-                .bind(ctx, &[&params, &tile_offsets, &entries, &sorted]);
-            self.sort.record(
-                &mut enc,
-                &scene.bind_group,
-                &bind,
-                linear_groups(ctx, total),
-                timer.next("splat: bin sort"),
-            );
+            if sorted {
+                let bind = self
+                    .sort
+                    .bind(ctx, &[&params, &tile_offsets, &entries, &sorted_buf]);
+                self.sort.record(
+                    &mut enc,
+                    &scene.bind_group,
+                    &bind,
+                    linear_groups(ctx, total),
+                    timer.next("splat: bin sort"),
+                );
+            }
+            timer.resolve(&mut enc);
+            ctx.queue.submit([enc.finish()]);
+            times.extend(timer.read(ctx)?);
         }
-        if total > 0 || !accumulate {
-            let bind = self.gather.bind(
-                ctx,
-                &[
-                    &params,
-                    &vis.samples,
-                    &cache.buffer,
-                    &tile_offsets,
-                    &sorted,
-                    &out.sums,
-                    &out.coverage,
-                    &out.expiring,
-                ],
-            );
-            self.gather.record(
-                &mut enc,
-                &scene.bind_group,
-                &bind,
-                image_groups(width, height),
-                timer.next("splat: gather"),
-            );
-        }
-        timer.resolve(&mut enc);
-        ctx.queue.submit([enc.finish()]);
-        times.extend(timer.read(ctx)?);
-        Ok(SplatStats {
+        Ok(TileBins {
+            params,
+            tile_offsets,
+            entries,
+            sorted: sorted_buf,
+            tiles: [tiles_x, tiles_y],
             records,
-            tile_entries: total,
+            total,
         })
     }
 }

@@ -458,7 +458,15 @@ impl TemporalCache {
         settings.validate()?;
         Ok(Self {
             settings: settings.clone(),
-            pass: RecordPass::new(ctx, cache)?,
+            // Plane hits trace their shadow rays in animations: light maps would need
+            // tracing again every frame, and the re-shading at t+1 traces rays.
+            pass: RecordPass::new(
+                ctx,
+                &CacheSettings {
+                    plane_shadows: crate::records::PlaneShadows::Rays,
+                    ..cache.clone()
+                },
+            )?,
             reprojection: ReprojectionPass::new(
                 ctx,
                 cache,
@@ -739,6 +747,7 @@ impl TemporalCache {
                 &buf,
                 sites.len() as u32,
                 &mut self.frame_records,
+                None,
                 lookahead.as_mut(),
                 refresh.as_ref(),
                 |_| {},

@@ -116,6 +116,9 @@ pub struct PlaneRefresh<'a> {
 pub struct RefreshPass {
     select: ComputePass,
     retrace: ComputePass,
+    /// The re-trace shades with shadow rays: animations have no light maps (they would
+    /// need tracing again every frame), so it binds none.
+    no_light_maps: crate::light_maps::LightMaps,
 }
 
 impl RefreshPass {
@@ -146,8 +149,12 @@ impl RefreshPass {
                     StorageReadWrite,
                     StorageReadWrite,
                     StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
                 ],
             )?,
+            no_light_maps: crate::light_maps::LightMaps::none(ctx)?,
         })
     }
 }
@@ -227,7 +234,17 @@ impl PlaneRefresh<'_> {
         );
         let bind = self.pass.retrace.bind(
             ctx,
-            &[&params, batch_sites, plane_table, samples, hits, &work],
+            &[
+                &params,
+                batch_sites,
+                plane_table,
+                samples,
+                hits,
+                &work,
+                &self.pass.no_light_maps.maps_buffer,
+                &self.pass.no_light_maps.depths,
+                &self.pass.no_light_maps.first_buffer,
+            ],
         );
         self.pass.retrace.record_indirect(
             enc,

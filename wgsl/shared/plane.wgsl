@@ -1,9 +1,10 @@
 // One hemisphere-plane sample (thesis section 4.4, algorithms.md 3.2), shared by the
 // plane pass (hemisphere_plane.wgsl) and the plane refresh's re-trace
 // (plane_retrace.wgsl), which must give the same bytes. The including pass declares
-// `plane: array<PlanePixel>` (the plane table) and a `params` uniform with a
-// `light_samples` field.
-//!include shared/shading.wgsl
+// `plane: array<PlanePixel>` (the plane table), a `params` uniform with a
+// `light_samples` field and the light-map bindings of shared/light_map_lookup.wgsl.
+//!include shared/trace_and_shade.wgsl
+//!include shared/light_map_lookup.wgsl
 //!include shared/records.wgsl
 
 struct TracedSample {
@@ -17,8 +18,14 @@ fn plane_direction(site: RecordSite, pixel: u32) -> vec3f {
     return normalize(frame * vec3f(plane[pixel].rot_center.zw, 1.0));
 }
 
+// Plane hits look shadows up in the frame's light maps where it has them
+// (`light_map_visibility`); the sample index is the one `shadow_loop_next` just took.
+fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32 {
+    return light_map_visibility(st.slot, st.k - 1u, s);
+}
+
 // One ray through plane pixel `pixel` of the record at `site`, its hit shaded with direct
-// light (shadow rays) plus emission not already sampled as a light. Misses add nothing:
+// light (shadow rays or light-map lookups) plus emission not already sampled as a light. Misses add nothing:
 // the constant environment is sampled as a light by direct lighting (at the pixel and at
 // every plane hit), so counting it again here would double it (Ward's "count as zero any
 // samples that intersect a light source"; decision 7's "misses see the environment" holds
@@ -31,8 +38,10 @@ fn trace_plane_sample(site: RecordSite, pixel: u32) -> TracedSample {
     if dot(dir, site.geometric_normal) > 0.0 {
         let origin = offset_ray_origin(site.position, site.geometric_normal);
         // The ray and its hit's shadow rays through one traversal (cheaper to compile).
-        let shaded = trace_and_shade(
-            Ray(origin, 0.0, dir, INF), hash_combine(site.seed, pixel), params.light_samples);
+        let seed = hash_combine(site.seed, pixel);
+        // With maps, rect lights are sampled at the maps' fixed points.
+        let light_seed = select(seed, LIGHT_MAP_SEED, light_map_first[0] != 0u);
+        let shaded = trace_and_shade(Ray(origin, 0.0, dir, INF), seed, light_seed, params.light_samples);
         let hit = shaded.hit;
         if hit.instance != NO_HIT {
             let s = shaded.surface;

@@ -318,6 +318,21 @@ fn shadow_loop_add(st: ptr<function, ShadowLoop>) {
     }
 }
 
+// Counts the current sample with visibility `v` in [0, 1] (a light map's filtered
+// lookup): its contribution times v. Never the environment's slot (no map covers it).
+fn shadow_loop_add_visible(st: ptr<function, ShadowLoop>, v: f32) {
+    let light = (*st).light;
+    let kind = (*st).kind;
+    let smp = (*st).sample;
+    if kind == LIGHT_RECT {
+        (*st).sum += vec3f(v * smp.cos_s * smp.cos_l / smp.d2);
+    } else if kind == LIGHT_SUN {
+        (*st).e += light.d.xyz * (v * smp.cos_s);
+    } else if kind != LIGHT_ENVIRONMENT {
+        (*st).e += smp.intensity * (v * smp.cos_s / smp.d2);
+    }
+}
+
 // Same with `count` samples per area light and for the environment (secondary hits use
 // fewer than camera pixels: the hemisphere sum averages their noise).
 fn direct_irradiance_samples(s: Surface, seed: u32, count: u32) -> vec3f {
@@ -328,43 +343,4 @@ fn direct_irradiance_samples(s: Surface, seed: u32, count: u32) -> vec3f {
         }
     }
     return st.e;
-}
-
-// What `trace_and_shade` found: the closest hit (instance NO_HIT on a miss), its surface
-// and the direct irradiance there.
-struct ShadedHit {
-    hit: Hit,
-    surface: Surface,
-    irradiance: vec3f,
-}
-
-// The closest hit of `primary` and `direct_irradiance_samples(surface, seed, count)` at it,
-// with the primary ray and every shadow ray traced by one call of `trace` (see
-// `ShadowLoop`): the same hit and the same bytes as tracing and shading apart.
-fn trace_and_shade(primary: Ray, seed: u32, count: u32) -> ShadedHit {
-    var out: ShadedHit;
-    out.irradiance = vec3f(0.0);
-    var st: ShadowLoop;
-    var ray = primary;
-    var shadow = false;
-    loop {
-        let h = trace(ray, shadow);
-        if !shadow {
-            out.hit = h;
-            if h.instance == NO_HIT {
-                break;
-            }
-            out.surface = surface_at(h, primary.dir);
-            st = shadow_loop_start(out.surface, seed, count);
-        } else if h.instance == NO_HIT {
-            shadow_loop_add(&st);
-        }
-        if !shadow_loop_next(&st, out.surface) {
-            out.irradiance = st.e;
-            break;
-        }
-        ray = shadow_ray(out.surface, st.sample.target_point, st.sample.to_infinity);
-        shadow = true;
-    }
-    return out;
 }

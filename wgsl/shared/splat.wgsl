@@ -4,7 +4,7 @@
 //!include shared/ray.wgsl
 //!include shared/camera.wgsl
 
-const TILE_SIZE: u32 = 16u;
+const TILE_SIZE: u32 = 8u;
 const NO_TILES: vec4u = vec4u(1u, 1u, 0u, 0u);   // empty: min > max
 
 struct SplatParams {
@@ -58,4 +58,30 @@ fn sphere_tiles(cam: Camera, params: SplatParams, center: vec3f, radius: f32) ->
     let lo_px = vec2u(max(lo, vec2f(0.0)));
     let hi_px = vec2u(min(hi, vec2f(f32(cam.width) - 1.0, f32(cam.height) - 1.0)));
     return vec4u(lo_px / TILE_SIZE, hi_px / TILE_SIZE);
+}
+
+// What a tile's visible pixels span (splat_tile_bounds.wgsl): the world-space box of their
+// positions and the box of their shading normals; lo > hi where the tile sees nothing.
+struct TileBound {
+    lo: vec4f,
+    hi: vec4f,
+    normal_lo: vec4f,
+    normal_hi: vec4f,
+}
+
+// Whether a record at `center` with validity radius `radius` (a R_k) and normal `normal`
+// can contribute to any pixel of a tile with bound `b`, a test on the tile's content like
+// tiled light culling's depth bounds. Conservative for Ward's error (eq. 4.2,
+// shared/splat_weight.wgsl): err <= a needs |p - p_k| <= a R_k (the normal term is >= 0),
+// so the sphere must reach the tile's box, and sqrt(1 - n.n_k) <= a, so n.n_k >= 1 - a^2
+// for some normal in the tile's box (a linear function's maximum over a box is at a
+// corner, per component). The slack keeps the test conservative under rounding.
+fn tile_may_receive(b: TileBound, center: vec3f, radius: f32, normal: vec3f, accuracy: f32) -> bool {
+    let gap = max(max(b.lo.xyz - center, center - b.hi.xyz), vec3f(0.0));
+    let reach = radius * 1.001;
+    if dot(gap, gap) > reach * reach {
+        return false;
+    }
+    let best = dot(max(normal * b.normal_lo.xyz, normal * b.normal_hi.xyz), vec3f(1.0));
+    return best >= 1.0 - accuracy * accuracy - 1.0e-3;
 }

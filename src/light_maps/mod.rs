@@ -1,0 +1,244 @@
+//! Light-space visibility maps: the compute equivalent of the shadow maps the thesis shades
+//! hemisphere planes with (section 4.4). Once per frame, each light traces a grid of rays
+//! from its side (`wgsl/light_map_trace.wgsl`) and stores the distance to the first
+//! surface; plane hits then look their shadows up (`wgsl/shared/light_map_lookup.wgsl`)
+//! instead of tracing a shadow ray each. A sun gets an orthographic map over the scene's
+//! bounds; a point or spot light an octahedral map around it; a rect light one
+//! octahedral map per fixed sample point on it (the points every plane hit then uses).
+//! The environment keeps its shadow rays (no map covers a constant sky). The camera
+//! pixels' direct light keeps exact shadow rays too: maps only feed the indirect light,
+//! which averages their error over a record's plane.
+
+use crate::Result;
+use crate::gpu::GpuContext;
+use crate::gpu::pipeline::{Binding, ComputePass};
+use crate::gpu::scene_buffers::{GpuLight, GpuScene, LIGHT_POINT, LIGHT_RECT, LIGHT_SPOT, LIGHT_SUN};
+use crate::gpu::timer::PassTimer;
+use crate::sampling::{hash_combine, sobol_2d};
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// `MAP_ORTHOGRAPHIC` and `MAP_OCTAHEDRAL` in `wgsl/shared/light_map.wgsl`.
+pub const MAP_ORTHOGRAPHIC: u32 = 0;
+pub const MAP_OCTAHEDRAL: u32 = 1;
+/// `NO_MAP` in `wgsl/shared/light_map_lookup.wgsl`: a light without maps.
+pub const NO_MAP: u32 = u32::MAX;
+/// `LIGHT_MAP_SEED` in `wgsl/shared/light_map_lookup.wgsl`: the scramble of the rect
+/// light points the maps are traced from.
+pub const LIGHT_MAP_SEED: u32 = 0x5eed;
+
+/// How big the maps are.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct LightMapSettings {
+    /// Texels per side of a sun's orthographic map; octahedral maps (points) get half.
+    pub resolution: u32,
+    /// Fixed sample points (one map each) per rect light.
+    pub rect_points: u32,
+}
+
+/// One map (mirror of WGSL `LightMap`, 80 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuLightMap {
+    pub kind: u32,
+    pub light: u32,
+    pub resolution: u32,
+    pub offset: u32,
+    /// Orthographic: the corner of texel (0, 0) on the ray plane; octahedral: the point
+    /// the rays start from. w: the texel size (world units; radians for octahedral).
+    pub origin: [f32; 4],
+    /// Orthographic: unit axes across the map (xyz) and the map's extent along them (w).
+    pub axis_u: [f32; 4],
+    pub axis_v: [f32; 4],
+    /// Orthographic: the rays' unit direction (away from the sun).
+    pub dir: [f32; 4],
+}
+
+/// The maps of one frame: their layout (the CPU side) and, once traced, the GPU buffers
+/// plane passes bind.
+pub struct LightMaps {
+    /// The maps, in light order (a rect light's points in order).
+    pub layout: Vec<GpuLightMap>,
+    /// Element 0: the number of maps; element 1 + slot: light `slot`'s first map or
+    /// [`NO_MAP`].
+    pub first: Vec<u32>,
+    pub maps_buffer: wgpu::Buffer,
+    pub depths: wgpu::Buffer,
+    pub first_buffer: wgpu::Buffer,
+}
+
+impl LightMaps {
+    /// No maps: plane hits trace every shadow ray (placeholder buffers to bind).
+    pub fn none(ctx: &GpuContext) -> Result<Self> {
+        Ok(Self {
+            layout: Vec::new(),
+            first: vec![0],
+            maps_buffer: ctx.storage_buffer("light maps", &[GpuLightMap::default()])?,
+            depths: ctx.storage_buffer_sized("light map depths", 16)?,
+            first_buffer: ctx.storage_buffer("light map table", &[0u32; 4])?,
+        })
+    }
+
+    /// Texels over all maps (rays traced to build them).
+    pub fn texels(&self) -> u64 {
+        self.layout
+            .iter()
+            .map(|m| u64::from(m.resolution).pow(2))
+            .sum()
+    }
+}
+
+/// Fixed point `k` of a rect light in light slot `slot` (`rect_light_point` in
+/// `wgsl/shared/shading.wgsl` with the seed `LIGHT_MAP_SEED`).
+pub fn rect_point(light: &GpuLight, slot: u32, k: u32) -> Vec3 {
+    let xi = sobol_2d(k, hash_combine(LIGHT_MAP_SEED, slot));
+    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+    v(light.a) + xi.x * v(light.b) + xi.y * v(light.c)
+}
+
+/// The maps of `lights` in a scene with world bounds `bounds` (CPU only: what
+/// [`LightMapPass::build`] traces). Deterministic.
+pub fn layout(
+    lights: &[GpuLight],
+    bounds: (Vec3, Vec3),
+    settings: &LightMapSettings,
+) -> (Vec<GpuLightMap>, Vec<u32>) {
+    let mut maps = Vec::new();
+    let mut first = vec![0u32; lights.len() + 1];
+    let (lo, hi) = bounds;
+    let diagonal = (hi - lo).length().max(1e-6);
+    let point_res = (settings.resolution / 2).max(8);
+    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+    let v4 = |p: Vec3, w: f32| [p.x, p.y, p.z, w];
+    let octahedral = |slot: u32, origin: Vec3, maps: &mut Vec<GpuLightMap>| {
+        maps.push(GpuLightMap {
+            kind: MAP_OCTAHEDRAL,
+            light: slot,
+            resolution: point_res,
+            offset: 0,
+            // An octahedral texel spans about 4 / resolution radians on the sphere's
+            // widest parts (the square's side is 2 pi over the equator's four faces).
+            origin: v4(origin, 4.0 / point_res as f32),
+            ..Default::default()
+        });
+    };
+    for (slot, light) in lights.iter().enumerate() {
+        let slot_u = slot as u32;
+        let kind = light.a[3].to_bits();
+        first[1 + slot] = maps.len() as u32;
+        match kind {
+            LIGHT_SUN => {
+                let to_sun = v(light.a).normalize_or_zero();
+                if to_sun == Vec3::ZERO {
+                    first[1 + slot] = NO_MAP;
+                    continue;
+                }
+                let frame = crate::sampling::orthonormal_basis(to_sun);
+                let (u, w) = (frame.x_axis, frame.y_axis);
+                // The scene's box in the sun's frame.
+                let mut min = Vec3::splat(f32::INFINITY);
+                let mut max = Vec3::splat(f32::NEG_INFINITY);
+                for c in 0..8 {
+                    let p = Vec3::new(
+                        if c & 1 != 0 { hi.x } else { lo.x },
+                        if c & 2 != 0 { hi.y } else { lo.y },
+                        if c & 4 != 0 { hi.z } else { lo.z },
+                    );
+                    let q = Vec3::new(p.dot(u), p.dot(w), p.dot(to_sun));
+                    min = min.min(q);
+                    max = max.max(q);
+                }
+                // Square texels over the larger side, a margin of one percent.
+                let margin = 0.01 * diagonal;
+                let extent = (max.x - min.x).max(max.y - min.y) + 2.0 * margin;
+                let res = settings.resolution;
+                let corner = (min.x - margin) * u + (min.y - margin) * w + (max.z + margin) * to_sun;
+                maps.push(GpuLightMap {
+                    kind: MAP_ORTHOGRAPHIC,
+                    light: slot_u,
+                    resolution: res,
+                    offset: 0,
+                    origin: v4(corner, extent / res as f32),
+                    axis_u: v4(u, extent),
+                    axis_v: v4(w, extent),
+                    dir: v4(-to_sun, 0.0),
+                });
+            }
+            LIGHT_POINT | LIGHT_SPOT => octahedral(slot_u, v(light.a), &mut maps),
+            LIGHT_RECT => {
+                // Points just off the emitting side, so rays leave the light's own quad.
+                let normal = v(light.b).cross(v(light.c)).normalize_or_zero();
+                for k in 0..settings.rect_points {
+                    let q = rect_point(light, slot_u, k) + normal * (1e-4 * diagonal);
+                    octahedral(slot_u, q, &mut maps);
+                }
+            }
+            _ => first[1 + slot] = NO_MAP,
+        }
+    }
+    let mut offset = 0u32;
+    for m in &mut maps {
+        m.offset = offset;
+        offset += m.resolution * m.resolution;
+    }
+    first[0] = maps.len() as u32;
+    (maps, first)
+}
+
+/// The trace pass (`wgsl/light_map_trace.wgsl`).
+pub struct LightMapPass {
+    trace: ComputePass,
+}
+
+impl LightMapPass {
+    pub fn new(ctx: &GpuContext) -> Result<Self> {
+        Ok(Self {
+            trace: ComputePass::new(
+                ctx,
+                "light_map_trace.wgsl",
+                &[Binding::StorageRead, Binding::StorageReadWrite],
+            )?,
+        })
+    }
+
+    /// Lays out and traces the maps of `lights` over `scene` (timed as "light maps").
+    pub fn build(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        lights: &[GpuLight],
+        bounds: (Vec3, Vec3),
+        settings: &LightMapSettings,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<LightMaps> {
+        let (layout, first) = layout(lights, bounds, settings);
+        if layout.is_empty() {
+            return LightMaps::none(ctx);
+        }
+        let texels: u64 = layout.iter().map(|m| u64::from(m.resolution).pow(2)).sum();
+        let maps_buffer = ctx.storage_buffer("light maps", &layout)?;
+        let depths = ctx.storage_buffer_sized("light map depths", texels * 4)?;
+        let first_buffer = ctx.storage_buffer("light map table", &first)?;
+        let max_res = layout.iter().map(|m| m.resolution).max().unwrap_or(8);
+        let bind = self.trace.bind(ctx, &[&maps_buffer, &depths]);
+        let mut timer = PassTimer::new(ctx, 1);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        self.trace.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            [max_res.div_ceil(8), max_res.div_ceil(8), layout.len() as u32],
+            timer.next("light maps"),
+        );
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        Ok(LightMaps {
+            layout,
+            first,
+            maps_buffer,
+            depths,
+            first_buffer,
+        })
+    }
+}

@@ -1,0 +1,118 @@
+//! Placement's view of the splat: which pixels some record covers (contributes to with
+//! Ward's weight w >= 1/a), without the weighted sums. A placement round bins its new
+//! records and marks the pixels they cover (`wgsl/splat_cover.wgsl`); the weighted gather
+//! runs once per frame, after placement, instead of once per round.
+
+use super::{SplatPass, TILE_SIZE, TileBounds};
+use crate::Result;
+use crate::gpu::GpuContext;
+use crate::gpu::scene_buffers::GpuScene;
+use crate::gpu::timer::PassTimer;
+use crate::records::{Record, RecordCache};
+use crate::visibility::{VisSample, VisibilityBuffer};
+use glam::Vec3;
+
+/// One flag per pixel (u32, row-major): 1 where a record covers the pixel.
+pub struct CoverageMask {
+    pub width: u32,
+    pub height: u32,
+    pub covered: wgpu::Buffer,
+}
+
+impl CoverageMask {
+    /// A mask of `width x height` pixels, none covered.
+    pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self> {
+        Ok(Self {
+            width,
+            height,
+            covered: ctx.storage_buffer_sized(
+                "coverage mask",
+                u64::from(width) * u64::from(height) * 4,
+            )?,
+        })
+    }
+
+    /// Reads the flags back.
+    pub fn read(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
+        let mut flags: Vec<u32> = ctx.read_buffer(&self.covered)?;
+        flags.truncate(self.width as usize * self.height as usize);
+        Ok(flags)
+    }
+}
+
+impl SplatPass {
+    /// Marks in `mask` the visible pixels of `vis` that records `first..cache.count`
+    /// contribute to (pixels already marked stay marked). Appends per-pass GPU times.
+    #[allow(clippy::too_many_arguments)]
+    pub fn cover(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
+        bounds: &TileBounds,
+        cache: &RecordCache,
+        first: u32,
+        accuracy: f32,
+        mask: &CoverageMask,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<()> {
+        // The cover's workgroups are the splat's tiles (`@workgroup_size(TILE_SIZE,
+        // TILE_SIZE)`), within the device's 256 invocations.
+        const _: () = assert!(TILE_SIZE * TILE_SIZE <= 256);
+        if cache.count <= first {
+            return Ok(());
+        }
+        let bins = self.bin(
+            ctx,
+            scene,
+            vis,
+            bounds,
+            cache,
+            first,
+            accuracy,
+            (false, 0),
+            false,
+            times,
+        )?;
+        if bins.total == 0 {
+            return Ok(());
+        }
+        let mut timer = PassTimer::new(ctx, 1);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let bind = self.cover.bind(
+            ctx,
+            &[
+                &bins.params,
+                &vis.samples,
+                &cache.buffer,
+                &bins.tile_offsets,
+                &bins.entries,
+                &mask.covered,
+            ],
+        );
+        self.cover.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            [bins.tiles[0], bins.tiles[1], 1],
+            timer.next("splat: cover"),
+        );
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        Ok(())
+    }
+}
+
+/// Plain-Rust cover: 1 where any of `records` contributes to the visible pixel (the test
+/// of [`super::reference::splat_records`], so exactly where its `sum w` is non-zero).
+pub fn reference_cover(records: &[Record], vis: &[VisSample], accuracy: f32) -> Vec<u32> {
+    vis.iter()
+        .map(|v| {
+            let p = Vec3::from(v.position);
+            let n = Vec3::from(v.shading_normal);
+            let covers = |r: &Record| r.error_at(p, n) <= accuracy && r.in_front_of(p, n, accuracy);
+            u32::from(v.is_hit() && records.iter().any(covers))
+        })
+        .collect()
+}

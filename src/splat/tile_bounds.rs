@@ -1,0 +1,69 @@
+//! Per-tile bounds of what the visibility buffer sees (`wgsl/splat_tile_bounds.wgsl`): the
+//! box of the visible world positions and of the shading normals of each splat tile.
+//! Binning tests each record against them (`tile_may_receive` in
+//! `wgsl/shared/splat.wgsl`), so a record's tile list holds only the tiles whose pixels it
+//! can reach, not every tile its screen bound overlaps: the same sums with far fewer
+//! (record, pixel) tests.
+
+use super::{SplatParams, SplatPass, TILE_SIZE};
+use crate::Result;
+use crate::gpu::GpuContext;
+use crate::gpu::scene_buffers::GpuScene;
+use crate::gpu::timer::PassTimer;
+use crate::visibility::VisibilityBuffer;
+
+/// Bytes per tile (WGSL `TileBound`: four vec4f).
+const TILE_BOUND_BYTES: u64 = 64;
+
+/// The tile bounds of one visibility buffer, resident on the GPU.
+pub struct TileBounds {
+    pub tiles_x: u32,
+    pub tiles_y: u32,
+    pub buffer: wgpu::Buffer,
+}
+
+impl SplatPass {
+    /// Computes the tile bounds of `vis` (one dispatch, timed as "splat: tile bounds").
+    pub fn tile_bounds(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<TileBounds> {
+        let tiles_x = vis.width.div_ceil(TILE_SIZE);
+        let tiles_y = vis.height.div_ceil(TILE_SIZE);
+        let buffer = ctx.storage_buffer_sized(
+            "splat tile bounds",
+            u64::from(tiles_x) * u64::from(tiles_y) * TILE_BOUND_BYTES,
+        )?;
+        let params = ctx.uniform_buffer(
+            "tile bounds params",
+            &SplatParams {
+                width: vis.width,
+                height: vis.height,
+                tiles_x,
+                tiles_y,
+                ..bytemuck::Zeroable::zeroed()
+            },
+        );
+        let mut timer = PassTimer::new(ctx, 1);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let bind = self.bounds.bind(ctx, &[&params, &vis.samples, &buffer]);
+        self.bounds.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            [(tiles_x * tiles_y).div_ceil(64), 1, 1],
+            timer.next("splat: tile bounds"),
+        );
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        Ok(TileBounds {
+            tiles_x,
+            tiles_y,
+            buffer,
+        })
+    }
+}

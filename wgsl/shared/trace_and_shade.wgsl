@@ -1,0 +1,58 @@
+// One traced ray and its hit's direct light through a single call of `trace`
+// (shared/shading.wgsl `ShadowLoop`), for the passes that shade secondary hits: hemisphere
+// planes (shared/plane.wgsl) and the reference's bounce (reference_indirect.wgsl).
+//!include shared/shading.wgsl
+
+// What `trace_and_shade` found: the closest hit (instance NO_HIT on a miss), its surface
+// and the direct irradiance there.
+struct ShadedHit {
+    hit: Hit,
+    surface: Surface,
+    irradiance: vec3f,
+}
+
+// The closest hit of `primary` and `direct_irradiance_samples(surface, seed, count)` at it,
+// with the primary ray and every shadow ray traced by one call of `trace` (see
+// `ShadowLoop`): the same hit and the same bytes as tracing and shading apart. Rect light
+// points are scrambled by `light_seed` (the environment's directions by `seed`). The
+// including pass defines `fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32`: the
+// visibility in [0, 1] of the current sample from light-space maps, or a negative value
+// to trace its shadow ray (shared/light_map_lookup.wgsl; `return -1.0;` traces them all).
+fn trace_and_shade(primary: Ray, seed: u32, light_seed: u32, count: u32) -> ShadedHit {
+    var out: ShadedHit;
+    out.irradiance = vec3f(0.0);
+    var st: ShadowLoop;
+    var ray = primary;
+    var shadow = false;
+    loop {
+        let h = trace(ray, shadow);
+        if !shadow {
+            out.hit = h;
+            if h.instance == NO_HIT {
+                break;
+            }
+            out.surface = surface_at(h, primary.dir);
+            st = shadow_loop_start(out.surface, seed, count);
+            st.seed = light_seed;
+        } else if h.instance == NO_HIT {
+            shadow_loop_add(&st);
+        }
+        // The next sample that needs a ray; those the maps answer are counted here.
+        var traced = false;
+        while shadow_loop_next(&st, out.surface) {
+            let v = shadow_from_maps(st, out.surface);
+            if v < 0.0 {
+                traced = true;
+                break;
+            }
+            shadow_loop_add_visible(&st, v);
+        }
+        if !traced {
+            out.irradiance = st.e;
+            break;
+        }
+        ray = shadow_ray(out.surface, st.sample.target_point, st.sample.to_infinity);
+        shadow = true;
+    }
+    return out;
+}

@@ -1,0 +1,40 @@
+// Splat cover (placement's cache-miss test): marks each visible pixel that at least one
+// of records [first_record, record_end) contributes to (shared/splat_weight.wgsl, the
+// gather's own test). Placement only needs to know which pixels are covered, not the
+// weighted sums, so a round runs this instead of the gather: a covered pixel is skipped,
+// an uncovered one stops at its first contributing record, and the list order does not
+// matter (an "or" of its records), so the unsorted tile lists serve. The weighted gather
+// runs once, after placement (splat_gather.wgsl). One workgroup per tile: tiles
+// that binned none of the new records return at once.
+//!include shared/splat_weight.wgsl
+
+@group(1) @binding(0) var<uniform> params: SplatParams;
+@group(1) @binding(1) var<storage, read> vis: array<VisSample>;
+@group(1) @binding(2) var<storage, read> records: array<Record>;
+@group(1) @binding(3) var<storage, read> tile_offsets: array<u32>;
+@group(1) @binding(4) var<storage, read> entries: array<vec2u>;   // (record, tile)
+@group(1) @binding(5) var<storage, read_write> covered: array<u32>;   // 1: covered
+
+@compute @workgroup_size(TILE_SIZE, TILE_SIZE)
+fn main(@builtin(global_invocation_id) id: vec3u, @builtin(workgroup_id) group: vec3u) {
+    let tile = group.y * params.tiles_x + group.x;
+    let begin = tile_offsets[tile];
+    let end = tile_offsets[tile + 1u];
+    if begin == end || id.x >= params.width || id.y >= params.height {
+        return;
+    }
+    let pixel = id.y * params.width + id.x;
+    if covered[pixel] != 0u {
+        return;
+    }
+    let v = vis[pixel];
+    if v.instance == NO_HIT {
+        return;
+    }
+    for (var j = begin; j < end; j++) {
+        if contribution_error(entries[j].x, v.position, v.shading_normal) <= params.accuracy {
+            covered[pixel] = 1u;
+            return;
+        }
+    }
+}

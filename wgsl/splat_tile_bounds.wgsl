@@ -1,0 +1,37 @@
+// Splat tile bounds: per tile, the box of its visible pixels' world positions and of
+// their shading normals (shared/splat.wgsl `TileBound`), so binning can drop a record from
+// the tiles its screen bound overlaps but whose pixels it cannot reach
+// (`tile_may_receive`): at grazing angles and across depth gaps most of them. One
+// invocation per tile, its pixels in scan order (min and max do not depend on order).
+//!include shared/splat.wgsl
+
+@group(1) @binding(0) var<uniform> params: SplatParams;
+@group(1) @binding(1) var<storage, read> vis: array<VisSample>;
+@group(1) @binding(2) var<storage, read_write> bounds: array<TileBound>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    if id.x >= params.tiles_x * params.tiles_y {
+        return;
+    }
+    let x0 = (id.x % params.tiles_x) * TILE_SIZE;
+    let y0 = (id.x / params.tiles_x) * TILE_SIZE;
+    let x1 = min(x0 + TILE_SIZE, params.width);
+    let y1 = min(y0 + TILE_SIZE, params.height);
+    var b = TileBound(vec4f(1.0e30), vec4f(-1.0e30), vec4f(1.0e30), vec4f(-1.0e30));
+    for (var y = y0; y < y1; y++) {
+        for (var x = x0; x < x1; x++) {
+            let pixel = y * params.width + x;
+            if vis[pixel].instance == NO_HIT {
+                continue;
+            }
+            let p = vis[pixel].position;
+            let n = vis[pixel].shading_normal;
+            b.lo = vec4f(min(b.lo.xyz, p), 0.0);
+            b.hi = vec4f(max(b.hi.xyz, p), 0.0);
+            b.normal_lo = vec4f(min(b.normal_lo.xyz, n), 0.0);
+            b.normal_hi = vec4f(max(b.normal_hi.xyz, n), 0.0);
+        }
+    }
+    bounds[id.x] = b;
+}
