@@ -487,8 +487,9 @@ def main():
     say(f"plot: {plot_path}")
     summary = {
         "scene": str(args.scene), "width": w, "height": h, "downsample": args.downsample,
-        "reference": {"a": refs[0], "b": refs[1], "spp": spp, "light_samples": ref_ls, "pair_relative_rmse": ref_pair,
-                      "noise": noise, "noisy": noisy, "smallest_error": smallest},
+        "reference": {"a": refs[0], "b": refs[1], "spp": spp, "light_samples": ref_ls,
+                      "pair_relative_rmse": ref_pair, "noise": noise, "noisy": noisy,
+                      "smallest_error": smallest},
         "rpict": {"pyradiance": rad_version, "dj": dj, "ds": args.ds, "ab0": ab0},
         "light_samples": light_samples, "radsplat_sha256": radsplat_hash,
         "radsplat_points": rad_pts, "rpict_points": rp_pts,
