@@ -219,6 +219,10 @@ enum Command {
         /// Bounce directions per pixel (powers of two suit the Sobol points).
         #[arg(long)]
         spp: u32,
+        /// Sample sequence seed: 0 (default) is the historical sequence; another value
+        /// gives independent noise (two seeds measure a reference's own noise).
+        #[arg(long, default_value_t = 0)]
+        seed: u32,
         /// Render this frame of an animated scene (default: its first frame).
         #[arg(long)]
         frame: Option<u32>,
@@ -602,6 +606,7 @@ fn main() -> ExitCode {
         Command::Reference {
             scene,
             spp,
+            seed,
             frame,
             output,
             png,
@@ -612,6 +617,7 @@ fn main() -> ExitCode {
         } => commands::reference::reference(
             &scene,
             spp,
+            seed,
             frame,
             output,
             png,

@@ -1,6 +1,7 @@
 // Reference first-bounce indirect light: brute-force Monte Carlo per pixel, deterministic.
 // For every visible pixel, samples [sample_begin, sample_end) of N cosine-distributed
-// directions around the shading normal (Owen-scrambled Sobol, scramble seeded per pixel)
+// directions around the shading normal (Owen-scrambled Sobol, scramble seeded per pixel
+// and by `params.seed`: 0 is the historical sequence, any other value an independent one)
 // are traced to their closest hit, whose outgoing radiance is
 //   L = albedo(hit) / pi * E_direct(hit) + indirect_emission(hit)         (Lambertian)
 // and added, in sample order, to the pixel's running sum. With the cosine pdf
@@ -17,6 +18,11 @@ struct ReferenceParams {
     sample_end: u32,
     row_begin: u32,
     row_end: u32,
+    // `radsplat reference --seed`: 0 keeps the seed-less bytes; others rescramble.
+    seed: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(1) @binding(0) var<uniform> camera: Camera;
@@ -25,8 +31,14 @@ struct ReferenceParams {
 @group(1) @binding(3) var<storage, read_write> radiance_sum: array<vec4f>;
 
 // Scramble seed of a pixel's hemisphere directions (the direct pass uses hash_u32(pixel)).
-fn indirect_seed(pixel: u32) -> u32 {
-    return hash_combine(hash_u32(pixel), 0x1d1u);
+// A non-zero `seed` is hashed in too: a different Owen scramble of the Sobol points and
+// different light samples at the bounce hits (seed 0 gives the historical, seed-less bytes).
+fn indirect_seed(pixel: u32, seed: u32) -> u32 {
+    let s = hash_combine(hash_u32(pixel), 0x1d1u);
+    if seed == 0u {
+        return s;
+    }
+    return hash_combine(s, seed);
 }
 
 // The reference traces every shadow ray (no light maps).
@@ -68,7 +80,7 @@ fn main(
     }
     let s = surface_at(Hit(v.t, v.instance, v.triangle, v.bary.x, v.bary.y),
                        camera_ray_dir(camera, vec2u(id.x, y)));
-    let seed = indirect_seed(pixel);
+    let seed = indirect_seed(pixel, params.seed);
     var sum = radiance_sum[pixel].xyz;
     for (var k = params.sample_begin; k < params.sample_end; k++) {
         sum += bounce_radiance(s, seed, k);

@@ -7,11 +7,12 @@ use crate::{Error, Renderer, Result};
 use std::path::{Path, PathBuf};
 
 /// `radsplat reference`: the deterministic brute-force reference (`spp` cosine directions
-/// per pixel), optionally at animation frame `frame`.
+/// per pixel, sequence `seed`: 0 the historical one), optionally at animation frame `frame`.
 #[allow(clippy::too_many_arguments)]
 pub fn reference(
     scene_path: &Path,
     spp: u32,
+    seed: u32,
     frame: Option<u32>,
     output: Option<PathBuf>,
     png: Option<PathBuf>,
@@ -39,7 +40,7 @@ pub fn reference(
     crate::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
     let pass = ReferencePass::new(&renderer.ctx)?;
     let prepared = renderer.prepare(&scene)?;
-    let options = ReferenceOptions::new(spp);
+    let options = ReferenceOptions::new(spp).with_seed(seed);
     let bar = progress(quiet, 1);
     bar.set_message(format!("reference, {spp} spp"));
     let result = pass.render(

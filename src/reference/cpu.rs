@@ -25,11 +25,24 @@ pub struct IndirectPixel {
 pub struct IndirectReference<'a> {
     pub direct: DirectReference<'a>,
     pub spp: u32,
+    /// Sequence seed, as [`crate::reference::ReferenceOptions::seed`] (0 by default).
+    pub seed: u32,
 }
 
-/// Scramble seed of a pixel's hemisphere directions, as WGSL `indirect_seed`.
+/// Scramble seed of a pixel's hemisphere directions with sequence seed 0, as WGSL
+/// `indirect_seed(pixel, 0u)`.
 pub fn indirect_seed(pixel: u32) -> u32 {
     hash_combine(hash_u32(pixel), 0x1d1)
+}
+
+/// Scramble seed of a pixel's hemisphere directions for sequence seed `seed`, as WGSL
+/// `indirect_seed(pixel, seed)`: seed 0 is [`indirect_seed`], others hash it in.
+pub fn indirect_seed_with(pixel: u32, seed: u32) -> u32 {
+    if seed == 0 {
+        indirect_seed(pixel)
+    } else {
+        hash_combine(indirect_seed(pixel), seed)
+    }
 }
 
 impl<'a> IndirectReference<'a> {
@@ -38,6 +51,7 @@ impl<'a> IndirectReference<'a> {
         Self {
             direct: DirectReference::new(scene, light_samples),
             spp: spp.max(1),
+            seed: 0,
         }
     }
 
@@ -95,7 +109,7 @@ impl<'a> IndirectReference<'a> {
         };
         let s = self.direct.surface_at(&hit, dir);
         let pixel = y * camera.width + x;
-        let seed = indirect_seed(pixel);
+        let seed = indirect_seed_with(pixel, self.seed);
         // Same sum order as the GPU: sample 0 first.
         let mut sum = Vec3::ZERO;
         for k in 0..self.spp {

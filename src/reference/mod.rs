@@ -2,8 +2,8 @@
 //! per pixel, deterministic, for judging the irradiance cache against.
 //!
 //! For each visible pixel with albedo ρ, shading normal n and `spp` = N, directions ω_k are
-//! cosine-distributed around n (Owen-scrambled Sobol points, scramble seeded per pixel) and
-//! traced to their closest hit, whose outgoing radiance is
+//! cosine-distributed around n (Owen-scrambled Sobol points, scramble seeded per pixel and
+//! by [`ReferenceOptions::seed`]) and traced to their closest hit, whose outgoing radiance is
 //!
 //! ```text
 //! L_k = ρ(hit) / π · E_direct(hit) + L_e,indirect(hit)            (Lambertian hit)
@@ -27,6 +27,13 @@
 //! chunk adds its samples, in sample order, to a per-pixel running sum, so the result does
 //! not depend on the chunking and is the same bytes run to run. [`cpu`] is the plain-Rust
 //! mirror that tests compare against.
+//!
+//! Seeds (`radsplat reference --seed N`): seed 0 is the historical sequence (the bytes of
+//! builds without the option); any other seed hashes N into every pixel's scramble seed,
+//! which gives an independent Owen scramble of the same Sobol points and independent light
+//! samples at the bounce hits. Two seeds estimate the same integral with independent noise,
+//! so their difference measures a reference's own noise (RMSE(A − B) / √2 per image). The
+//! direct light at the pixel (the frame's pass) does not depend on the seed.
 
 pub mod cpu;
 
@@ -69,6 +76,8 @@ struct ReferenceParams {
     sample_end: u32,
     row_begin: u32,
     row_end: u32,
+    seed: u32,
+    _pad: [u32; 3],
 }
 
 /// One dispatch of the reference pass: samples `[samples.0, samples.1)` of rows
@@ -125,6 +134,8 @@ pub struct ReferenceOptions {
     pub spp: u32,
     /// Sample-pixels per dispatch ([`DEFAULT_CHUNK_WORK`]).
     pub chunk_work: u64,
+    /// Sequence seed (module docs): 0, the default, gives the seed-less bytes.
+    pub seed: u32,
 }
 
 impl ReferenceOptions {
@@ -133,7 +144,13 @@ impl ReferenceOptions {
         Self {
             spp,
             chunk_work: DEFAULT_CHUNK_WORK,
+            seed: 0,
         }
+    }
+
+    /// The same options with sequence seed `seed`.
+    pub fn with_seed(self, seed: u32) -> Self {
+        Self { seed, ..self }
     }
 }
 
@@ -141,6 +158,8 @@ impl ReferenceOptions {
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct ReferenceStats {
     pub spp: u32,
+    /// Sequence seed ([`ReferenceOptions::seed`]).
+    pub seed: u32,
     pub dispatches: usize,
     /// Visibility + direct frame (as `render`), ms.
     pub direct_ms: f64,
@@ -256,6 +275,8 @@ impl ReferencePass {
                     sample_end: chunk.samples.1,
                     row_begin: chunk.rows.0,
                     row_end: chunk.rows.1,
+                    seed: options.seed,
+                    _pad: [0; 3],
                 },
             );
             let bind = self.pass.bind(ctx, &[&camera_buffer, &vis, &params, &sums]);
@@ -288,6 +309,7 @@ impl ReferencePass {
             indirect,
             stats: ReferenceStats {
                 spp: options.spp,
+                seed: options.seed,
                 dispatches: chunks.len(),
                 direct_ms,
                 indirect_ms: t1.elapsed().as_secs_f64() * 1e3,
