@@ -4,11 +4,11 @@
 
 use crate::bvh::SceneBvh;
 use crate::direct::{DirectLightPass, DirectOutput};
+use crate::gpu::scene_buffers::GpuLight;
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, GpuScene};
-use crate::placement::{PlacementPass, PlacementStats};
-use crate::gpu::scene_buffers::GpuLight;
 use crate::light_maps::LightMapPass;
+use crate::placement::{PlacementPass, PlacementStats};
 use crate::records::{CacheSettings, PlaneShadows, Record, RecordCache, RecordPass};
 use crate::resolve::ResolvePass;
 use crate::scene::{Camera, Scene};
@@ -310,6 +310,27 @@ impl Renderer {
         Ok((visibility, sums, covered))
     }
 
+    /// The light maps of `scene` with `settings` ([`crate::light_maps`]): their layout
+    /// and depths read back, for tests and tools.
+    pub fn light_maps(
+        &self,
+        scene: &PreparedScene,
+        settings: &crate::light_maps::LightMapSettings,
+    ) -> Result<(Vec<crate::light_maps::GpuLightMap>, Vec<f32>)> {
+        let maps = self.light_map_pass()?.build(
+            &self.ctx,
+            &scene.gpu,
+            &scene.lights,
+            scene.bounds,
+            settings,
+            &mut Vec::new(),
+        )?;
+        let mut depths: Vec<f32> = self.ctx.read_buffer(&maps.depths)?;
+        depths.truncate(maps.texels() as usize);
+        self.ctx.check()?;
+        Ok((maps.layout, depths))
+    }
+
     /// Renders one global-illumination frame from `camera` over `cache`: visibility and
     /// direct light, the cache's records splatted, new records placed where no record
     /// covers a visible pixel (at most `max_new_records` when given), then the resolve.
@@ -362,10 +383,7 @@ impl Renderer {
             scene
                 .gpu
                 .info
-                .max_shadow_rays(match pass.settings.plane_shadows {
-                    PlaneShadows::Maps => pass.settings.light_maps.rect_points,
-                    PlaneShadows::Rays => pass.settings.plane_light_samples,
-                }),
+                .max_shadow_rays(pass.settings.plane_light_samples),
             "--plane-light-samples",
         )?;
         let t0 = Instant::now();

@@ -350,10 +350,10 @@ struct CacheArgs {
     /// Texels per side of a sun's light map (point and rect-light maps get half).
     #[arg(long, default_value_t = CacheSettings::default().light_maps.resolution)]
     light_map_resolution: u32,
-    /// With light maps: fixed sample points (one map each) per rect light; plane hits use
-    /// these instead of --plane-light-samples random points.
-    #[arg(long, default_value_t = CacheSettings::default().light_maps.rect_points, value_parser = parse_at_least_one)]
-    light_map_points: u32,
+    /// With light maps: a rect light gets an N x N grid of maps (one per cell, traced from
+    /// its centre); a plane hit's random point on the light takes its cell's visibility.
+    #[arg(long, default_value_t = CacheSettings::default().light_maps.rect_grid, value_parser = parse_at_least_one)]
+    light_map_grid: u32,
 }
 
 // Value parsers of `CacheArgs`: clap reports their errors as "invalid value 'V' for
@@ -448,7 +448,7 @@ impl CacheArgs {
             plane_shadows: self.plane_shadows,
             light_maps: radsplat::light_maps::LightMapSettings {
                 resolution: self.light_map_resolution,
-                rect_points: self.light_map_points,
+                rect_grid: self.light_map_grid,
             },
             ..CacheSettings::default()
         }

@@ -262,7 +262,10 @@ fn rounds_of_splats_and_covers_match_one_full_splat() {
         .expect("splat in rounds");
     assert_eq!(vis, vis_rounds);
     let bits = |s: &[[f32; 4]]| s.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
-    assert!(bits(&full) == bits(&rounds), "rounds differ from the full splat");
+    assert!(
+        bits(&full) == bits(&rounds),
+        "rounds differ from the full splat"
+    );
     let support: Vec<u32> = full.iter().map(|s| u32::from(s[3] > 0.0)).collect();
     assert_eq!(mask, support, "mask differs from the splat's support");
     let cpu = radsplat::splat::cover::reference_cover(&records, &vis, cache.settings().accuracy);

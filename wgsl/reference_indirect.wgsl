@@ -54,8 +54,8 @@ fn bounce_radiance(s: Surface, seed: u32, k: u32) -> vec3f {
     }
     let origin = offset_ray_origin(s.position, s.geometric_normal);
     // The bounce ray and its hit's shadow rays through one traversal (cheaper to compile).
-    let hit_seed = hash_combine(seed, k);
-    let shaded = trace_and_shade(Ray(origin, 0.0, dir, INF), hit_seed, hit_seed, scene_info.light_samples);
+    let shaded = trace_and_shade(
+        Ray(origin, 0.0, dir, INF), hash_combine(seed, k), scene_info.light_samples);
     if shaded.hit.instance == NO_HIT {
         return vec3f(0.0);
     }

@@ -3,8 +3,10 @@
 //! from its side (`wgsl/light_map_trace.wgsl`) and stores the distance to the first
 //! surface; plane hits then look their shadows up (`wgsl/shared/light_map_lookup.wgsl`)
 //! instead of tracing a shadow ray each. A sun gets an orthographic map over the scene's
-//! bounds; a point or spot light an octahedral map around it; a rect light one
-//! octahedral map per fixed sample point on it (the points every plane hit then uses).
+//! bounds; a point or spot light an octahedral map around it; a rect light an n x n grid
+//! of octahedral maps traced from its cells' centres: a plane hit keeps its own random
+//! point on the light (the geometric term stays exact) and takes the visibility of the
+//! cell the point falls in.
 //! The environment keeps its shadow rays (no map covers a constant sky). The camera
 //! pixels' direct light keeps exact shadow rays too: maps only feed the indirect light,
 //! which averages their error over a record's plane.
@@ -12,9 +14,10 @@
 use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
-use crate::gpu::scene_buffers::{GpuLight, GpuScene, LIGHT_POINT, LIGHT_RECT, LIGHT_SPOT, LIGHT_SUN};
+use crate::gpu::scene_buffers::{
+    GpuLight, GpuScene, LIGHT_POINT, LIGHT_RECT, LIGHT_SPOT, LIGHT_SUN,
+};
 use crate::gpu::timer::PassTimer;
-use crate::sampling::{hash_combine, sobol_2d};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
@@ -23,17 +26,14 @@ pub const MAP_ORTHOGRAPHIC: u32 = 0;
 pub const MAP_OCTAHEDRAL: u32 = 1;
 /// `NO_MAP` in `wgsl/shared/light_map_lookup.wgsl`: a light without maps.
 pub const NO_MAP: u32 = u32::MAX;
-/// `LIGHT_MAP_SEED` in `wgsl/shared/light_map_lookup.wgsl`: the scramble of the rect
-/// light points the maps are traced from.
-pub const LIGHT_MAP_SEED: u32 = 0x5eed;
 
 /// How big the maps are.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LightMapSettings {
     /// Texels per side of a sun's orthographic map; octahedral maps (points) get half.
     pub resolution: u32,
-    /// Fixed sample points (one map each) per rect light.
-    pub rect_points: u32,
+    /// A rect light gets an n x n grid of maps (one per cell, traced from its centre).
+    pub rect_grid: u32,
 }
 
 /// One map (mirror of WGSL `LightMap`, 80 bytes).
@@ -59,8 +59,8 @@ pub struct GpuLightMap {
 pub struct LightMaps {
     /// The maps, in light order (a rect light's points in order).
     pub layout: Vec<GpuLightMap>,
-    /// Element 0: the number of maps; element 1 + slot: light `slot`'s first map or
-    /// [`NO_MAP`].
+    /// Element 0: the number of maps; elements 1 + 2 slot and 2 + 2 slot: light `slot`'s
+    /// first map (or [`NO_MAP`]) and, for a rect light, its grid's n.
     pub first: Vec<u32>,
     pub maps_buffer: wgpu::Buffer,
     pub depths: wgpu::Buffer,
@@ -72,7 +72,7 @@ impl LightMaps {
     pub fn none(ctx: &GpuContext) -> Result<Self> {
         Ok(Self {
             layout: Vec::new(),
-            first: vec![0],
+            first: vec![0, NO_MAP, 0, 0],
             maps_buffer: ctx.storage_buffer("light maps", &[GpuLightMap::default()])?,
             depths: ctx.storage_buffer_sized("light map depths", 16)?,
             first_buffer: ctx.storage_buffer("light map table", &[0u32; 4])?,
@@ -88,12 +88,11 @@ impl LightMaps {
     }
 }
 
-/// Fixed point `k` of a rect light in light slot `slot` (`rect_light_point` in
-/// `wgsl/shared/shading.wgsl` with the seed `LIGHT_MAP_SEED`).
-pub fn rect_point(light: &GpuLight, slot: u32, k: u32) -> Vec3 {
-    let xi = sobol_2d(k, hash_combine(LIGHT_MAP_SEED, slot));
+/// The centre of cell `(i, j)` of a rect light's `n x n` grid.
+pub fn rect_cell_centre(light: &GpuLight, n: u32, i: u32, j: u32) -> Vec3 {
     let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
-    v(light.a) + xi.x * v(light.b) + xi.y * v(light.c)
+    let (s, t) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+    v(light.a) + s * v(light.b) + t * v(light.c)
 }
 
 /// The maps of `lights` in a scene with world bounds `bounds` (CPU only: what
@@ -104,7 +103,7 @@ pub fn layout(
     settings: &LightMapSettings,
 ) -> (Vec<GpuLightMap>, Vec<u32>) {
     let mut maps = Vec::new();
-    let mut first = vec![0u32; lights.len() + 1];
+    let mut first = vec![0u32; 2 * lights.len() + 1];
     let (lo, hi) = bounds;
     let diagonal = (hi - lo).length().max(1e-6);
     let point_res = (settings.resolution / 2).max(8);
@@ -125,12 +124,12 @@ pub fn layout(
     for (slot, light) in lights.iter().enumerate() {
         let slot_u = slot as u32;
         let kind = light.a[3].to_bits();
-        first[1 + slot] = maps.len() as u32;
+        first[1 + 2 * slot] = maps.len() as u32;
         match kind {
             LIGHT_SUN => {
                 let to_sun = v(light.a).normalize_or_zero();
                 if to_sun == Vec3::ZERO {
-                    first[1 + slot] = NO_MAP;
+                    first[1 + 2 * slot] = NO_MAP;
                     continue;
                 }
                 let frame = crate::sampling::orthonormal_basis(to_sun);
@@ -152,7 +151,8 @@ pub fn layout(
                 let margin = 0.01 * diagonal;
                 let extent = (max.x - min.x).max(max.y - min.y) + 2.0 * margin;
                 let res = settings.resolution;
-                let corner = (min.x - margin) * u + (min.y - margin) * w + (max.z + margin) * to_sun;
+                let corner =
+                    (min.x - margin) * u + (min.y - margin) * w + (max.z + margin) * to_sun;
                 maps.push(GpuLightMap {
                     kind: MAP_ORTHOGRAPHIC,
                     light: slot_u,
@@ -166,14 +166,19 @@ pub fn layout(
             }
             LIGHT_POINT | LIGHT_SPOT => octahedral(slot_u, v(light.a), &mut maps),
             LIGHT_RECT => {
-                // Points just off the emitting side, so rays leave the light's own quad.
+                // Cell centres just off the emitting side, so rays leave the light's quad;
+                // cell (i, j) is map i + n j.
                 let normal = v(light.b).cross(v(light.c)).normalize_or_zero();
-                for k in 0..settings.rect_points {
-                    let q = rect_point(light, slot_u, k) + normal * (1e-4 * diagonal);
-                    octahedral(slot_u, q, &mut maps);
+                let n = settings.rect_grid;
+                first[2 + 2 * slot] = n;
+                for j in 0..n {
+                    for i in 0..n {
+                        let q = rect_cell_centre(light, n, i, j) + normal * (1e-4 * diagonal);
+                        octahedral(slot_u, q, &mut maps);
+                    }
                 }
             }
-            _ => first[1 + slot] = NO_MAP,
+            _ => first[1 + 2 * slot] = NO_MAP,
         }
     }
     let mut offset = 0u32;
@@ -227,7 +232,11 @@ impl LightMapPass {
             &mut enc,
             &scene.bind_group,
             &bind,
-            [max_res.div_ceil(8), max_res.div_ceil(8), layout.len() as u32],
+            [
+                max_res.div_ceil(8),
+                max_res.div_ceil(8),
+                layout.len() as u32,
+            ],
             timer.next("light maps"),
         );
         timer.resolve(&mut enc);
@@ -241,4 +250,53 @@ impl LightMapPass {
             first_buffer,
         })
     }
+}
+
+/// Plain-Rust mirror of `light_map_ray` in `wgsl/shared/light_map.wgsl`: origin and unit
+/// direction of texel `(i, j)` of `m`.
+pub fn texel_ray(m: &GpuLightMap, i: u32, j: u32) -> (Vec3, Vec3) {
+    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+    let res = m.resolution as f32;
+    let (u, w) = ((i as f32 + 0.5) / res, (j as f32 + 0.5) / res);
+    if m.kind == MAP_ORTHOGRAPHIC {
+        let o = v(m.origin) + u * m.axis_u[3] * v(m.axis_u) + w * m.axis_v[3] * v(m.axis_v);
+        (o, v(m.dir))
+    } else {
+        (v(m.origin), octahedral_decode(u, w))
+    }
+}
+
+/// `octahedral_decode` of `wgsl/shared/light_map.wgsl`.
+pub fn octahedral_decode(u: f32, v: f32) -> Vec3 {
+    let (ex, ey) = (u * 2.0 - 1.0, v * 2.0 - 1.0);
+    let mut d = Vec3::new(ex, ey, 1.0 - ex.abs() - ey.abs());
+    if d.z < 0.0 {
+        let sx = if d.x >= 0.0 { 1.0 } else { -1.0 };
+        let sy = if d.y >= 0.0 { 1.0 } else { -1.0 };
+        d = Vec3::new((1.0 - d.y.abs()) * sx, (1.0 - d.x.abs()) * sy, d.z);
+    }
+    d.normalize()
+}
+
+/// The maps' depths traced on the CPU ([`crate::bvh::cpu_trace::CpuTracer`]): the
+/// reference the GPU trace is tested against. `f32::INFINITY`-like `1e30` on a miss, as
+/// `MAP_NO_HIT` in WGSL.
+pub fn reference_depths(
+    maps: &[GpuLightMap],
+    tracer: &crate::bvh::cpu_trace::CpuTracer,
+) -> Vec<f32> {
+    let mut out = Vec::new();
+    for m in maps {
+        for j in 0..m.resolution {
+            for i in 0..m.resolution {
+                let (o, d) = texel_ray(m, i, j);
+                out.push(
+                    tracer
+                        .closest_hit(o, d, 0.0, f32::INFINITY)
+                        .map_or(1.0e30, |h| h.t),
+                );
+            }
+        }
+    }
+    out
 }

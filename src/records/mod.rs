@@ -139,9 +139,7 @@ pub struct CacheSettings {
     /// How plane hits find their shadows: light-space maps traced once per frame, or one
     /// shadow ray per sample (exact).
     pub plane_shadows: PlaneShadows,
-    /// The maps' size (with [`PlaneShadows::Maps`]). With maps, plane hits sample each rect
-    /// light at its `rect_points` map points, and the environment with as many rays
-    /// (instead of `plane_light_samples`).
+    /// The maps' size (with [`PlaneShadows::Maps`]).
     pub light_maps: LightMapSettings,
 }
 
@@ -169,7 +167,7 @@ impl Default for CacheSettings {
             plane_shadows: PlaneShadows::Rays,
             light_maps: LightMapSettings {
                 resolution: 512,
-                rect_points: 4,
+                rect_grid: 2,
             },
         }
     }
@@ -216,12 +214,12 @@ impl CacheSettings {
                 "must be in 16..=4096",
             );
         }
-        if !(1..=64).contains(&self.light_maps.rect_points) {
+        if !(1..=8).contains(&self.light_maps.rect_grid) {
             return bad(
-                "light_maps.rect_points",
-                "--light-map-points",
-                self.light_maps.rect_points.to_string(),
-                "must be in 1..=64",
+                "light_maps.rect_grid",
+                "--light-map-grid",
+                self.light_maps.rect_grid.to_string(),
+                "must be in 1..=8",
             );
         }
         if self.plane_light_samples == 0 {
@@ -555,12 +553,6 @@ impl RecordPass {
         mut on_batch: impl FnMut(u32),
     ) -> Result<Vec<(&'static str, f64)>> {
         let light_maps = light_maps.unwrap_or(&self.no_light_maps);
-        // With maps, a rect light's samples are its map points (see `CacheSettings`).
-        let light_samples = if light_maps.layout.is_empty() {
-            self.settings.plane_light_samples
-        } else {
-            self.settings.light_maps.rect_points
-        };
         cache.reserve(ctx, count)?;
         let res = self.settings.plane_resolution;
         // Sized to this call's largest batch: small placement rounds stay small.
@@ -615,7 +607,7 @@ impl RecordPass {
                 &PlaneParams {
                     resolution: res,
                     count: n,
-                    light_samples,
+                    light_samples: self.settings.plane_light_samples,
                     record_hits: u32::from(lookahead.is_some() || refresh.is_some()),
                 },
             );

@@ -25,10 +25,8 @@ impl CoverageMask {
         Ok(Self {
             width,
             height,
-            covered: ctx.storage_buffer_sized(
-                "coverage mask",
-                u64::from(width) * u64::from(height) * 4,
-            )?,
+            covered: ctx
+                .storage_buffer_sized("coverage mask", u64::from(width) * u64::from(height) * 4)?,
         })
     }
 

@@ -1,17 +1,13 @@
 // Shadow lookups in light-space visibility maps (shared/light_map.wgsl, src/light_maps):
 // what a plane hit uses instead of a shadow ray when the frame has maps. The including
 // pass declares `light_maps: array<LightMap>`, `light_map_depths: array<f32>` and
-// `light_map_first: array<u32>` (element 0: the number of maps, 0 for none; element
-// 1 + slot: the first map of light `slot`, NO_MAP for none; a rect light's maps are its
-// fixed sample points in order).
+// `light_map_first: array<u32>` (element 0: the number of maps, 0 for none; elements
+// 1 + 2 slot and 2 + 2 slot: the first map of light `slot`, NO_MAP for none, and for a
+// rect light the n of its n x n grid of maps, traced from the cells' centres).
 //!include shared/shading.wgsl
 //!include shared/light_map.wgsl
 
 const NO_MAP: u32 = 0xffffffffu;
-
-// Scramble of the rect light points the maps are traced from (`LIGHT_MAP_SEED` in
-// src/light_maps): with maps, every plane hit uses these points, not its own.
-const LIGHT_MAP_SEED: u32 = 0x5eedu;
 
 // Texel size of map `m` at distance `dist` from its origin, in world units.
 fn light_map_texel(m: LightMap, dist: f32) -> f32 {
@@ -25,25 +21,48 @@ fn light_map_lit(m: LightMap, i: i32, j: i32, depth: f32, bias: f32) -> f32 {
     return select(0.0, 1.0, depth <= t + bias);
 }
 
-// Visibility in [0, 1] of sample `k` of light `slot` from surface `s`, by percentage-closer
-// filtering (the four nearest texels' tests, weighted bilinearly). The receiver moves
+// Visibility in [0, 1] of the shadow loop's current sample from surface `s`, by
+// percentage-closer filtering (the four nearest texels' tests, weighted bilinearly). The receiver moves
 // along its geometric normal by a texel and a half (normal-offset shadow mapping) and
 // the test allows a texel and a half of depth, against self-shadowing; contact shadows
 // thinner than that are lost (plane hits feed the indirect light only, which averages
-// them). Negative where no map covers the sample: trace its ray.
-fn light_map_visibility(slot: u32, k: u32, s: Surface) -> f32 {
+// them). A rect light's sample keeps its own random point (the geometric term stays
+// exact) and takes its visibility from the map of the grid cell it falls in. Negative
+// where no map covers the sample: trace its ray.
+fn light_map_visibility(st: ShadowLoop, s: Surface) -> f32 {
+    let slot = st.slot;
     if light_map_first[0] == 0u || slot >= scene_info.light_count {
         return -1.0;
     }
-    let first = light_map_first[1u + slot];
+    let first = light_map_first[1u + 2u * slot];
     if first == NO_MAP {
         return -1.0;
     }
-    let m = light_maps[first + k];
+    var k = 0u;
+    if st.kind == LIGHT_RECT {
+        let n = light_map_first[2u + 2u * slot];
+        let q = st.sample.target_point - st.light.a.xyz;
+        let b = st.light.b.xyz;
+        let c = st.light.c.xyz;
+        let cell = vec2u(clamp(vec2f(dot(q, b) / dot(b, b), dot(q, c) / dot(c, c)) * f32(n),
+                               vec2f(0.0), vec2f(f32(n) - 1.0)));
+        k = cell.x + n * cell.y;
+    }
+    // Only the fields the map's kind needs (a storage load is a per-lane loop on
+    // lavapipe; point maps need 24 of the 80 bytes).
+    let index = first + k;
+    var m: LightMap;
+    m.kind = light_maps[index].kind;
+    m.resolution = light_maps[index].resolution;
+    m.offset = light_maps[index].offset;
+    m.origin = light_maps[index].origin;
     var depth: f32;
     var uv: vec2f;
     var texel: f32;
     if m.kind == MAP_ORTHOGRAPHIC {
+        m.axis_u = light_maps[index].axis_u;
+        m.axis_v = light_maps[index].axis_v;
+        m.dir = light_maps[index].dir;
         texel = m.origin.w;
         let q = s.position + (1.5 * texel) * s.geometric_normal - m.origin.xyz;
         uv = vec2f(dot(q, m.axis_u.xyz) / m.axis_u.w, dot(q, m.axis_v.xyz) / m.axis_v.w);

@@ -19,9 +19,9 @@ fn plane_direction(site: RecordSite, pixel: u32) -> vec3f {
 }
 
 // Plane hits look shadows up in the frame's light maps where it has them
-// (`light_map_visibility`); the sample index is the one `shadow_loop_next` just took.
+// (`light_map_visibility`).
 fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32 {
-    return light_map_visibility(st.slot, st.k - 1u, s);
+    return light_map_visibility(st, s);
 }
 
 // One ray through plane pixel `pixel` of the record at `site`, its hit shaded with direct
@@ -38,10 +38,8 @@ fn trace_plane_sample(site: RecordSite, pixel: u32) -> TracedSample {
     if dot(dir, site.geometric_normal) > 0.0 {
         let origin = offset_ray_origin(site.position, site.geometric_normal);
         // The ray and its hit's shadow rays through one traversal (cheaper to compile).
-        let seed = hash_combine(site.seed, pixel);
-        // With maps, rect lights are sampled at the maps' fixed points.
-        let light_seed = select(seed, LIGHT_MAP_SEED, light_map_first[0] != 0u);
-        let shaded = trace_and_shade(Ray(origin, 0.0, dir, INF), seed, light_seed, params.light_samples);
+        let shaded = trace_and_shade(
+            Ray(origin, 0.0, dir, INF), hash_combine(site.seed, pixel), params.light_samples);
         let hit = shaded.hit;
         if hit.instance != NO_HIT {
             let s = shaded.surface;

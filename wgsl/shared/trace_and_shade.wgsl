@@ -13,12 +13,11 @@ struct ShadedHit {
 
 // The closest hit of `primary` and `direct_irradiance_samples(surface, seed, count)` at it,
 // with the primary ray and every shadow ray traced by one call of `trace` (see
-// `ShadowLoop`): the same hit and the same bytes as tracing and shading apart. Rect light
-// points are scrambled by `light_seed` (the environment's directions by `seed`). The
+// `ShadowLoop`): the same hit and the same bytes as tracing and shading apart. The
 // including pass defines `fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32`: the
 // visibility in [0, 1] of the current sample from light-space maps, or a negative value
 // to trace its shadow ray (shared/light_map_lookup.wgsl; `return -1.0;` traces them all).
-fn trace_and_shade(primary: Ray, seed: u32, light_seed: u32, count: u32) -> ShadedHit {
+fn trace_and_shade(primary: Ray, seed: u32, count: u32) -> ShadedHit {
     var out: ShadedHit;
     out.irradiance = vec3f(0.0);
     var st: ShadowLoop;
@@ -33,7 +32,6 @@ fn trace_and_shade(primary: Ray, seed: u32, light_seed: u32, count: u32) -> Shad
             }
             out.surface = surface_at(h, primary.dir);
             st = shadow_loop_start(out.surface, seed, count);
-            st.seed = light_seed;
         } else if h.instance == NO_HIT {
             shadow_loop_add(&st);
         }
