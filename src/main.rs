@@ -76,6 +76,18 @@ enum Command {
         /// Light samples per area light at each hit (planes and Monte Carlo alike).
         #[arg(long, default_value_t = 1)]
         light_samples: u32,
+        /// Also compare adaptive refinement of this fraction of the pixels (as `render
+        /// --plane-refine`) with a plain plane of equal rays; adds the share of points
+        /// whose plane irradiance is zero where Monte Carlo's is not.
+        #[arg(long, default_value_t = 0.0, value_parser = parse_fraction)]
+        plane_refine: f32,
+        /// Sub-samples per axis of a refined pixel.
+        #[arg(long, default_value_t = 2, value_parser = parse_refine_split)]
+        plane_refine_split: u32,
+        /// Resolution of the plain plane compared at equal rays (default: the one whose
+        /// Q^2 rays are closest to the refined plane's P^2 + K split^2).
+        #[arg(long)]
+        equal_rays_resolution: Option<u32>,
         /// Write the table as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -591,6 +603,9 @@ fn main() -> ExitCode {
             fovs,
             plane_resolution,
             light_samples,
+            plane_refine,
+            plane_refine_split,
+            equal_rays_resolution,
             json,
             quiet,
         } => commands::plane_error::plane_error(
@@ -600,6 +615,7 @@ fn main() -> ExitCode {
             &fovs,
             plane_resolution,
             light_samples,
+            (plane_refine, plane_refine_split, equal_rays_resolution),
             json,
             quiet,
         ),
