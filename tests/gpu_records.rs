@@ -336,7 +336,11 @@ fn gpu_refined_planes_and_records_match_the_cpu_reference() {
             &selected[..],
             "site {i}: selected pixels"
         );
-        for (p, (g, c)) in gpu.refined[i * per..(i + 1) * per].iter().zip(&cpu).enumerate() {
+        for (p, (g, c)) in gpu.refined[i * per..(i + 1) * per]
+            .iter()
+            .zip(&cpu)
+            .enumerate()
+        {
             compared += 1;
             changed += usize::from(g != &coarse[p]);
             let (gl, cl) = (Vec3::from(g.radiance), Vec3::from(c.radiance));
@@ -348,8 +352,14 @@ fn gpu_refined_planes_and_records_match_the_cpu_reference() {
         }
     }
     eprintln!("refined planes: {compared} samples compared, {changed} refined, {differ} differ");
-    assert!(changed > sites.len() * k / 2, "refinement changed only {changed} samples");
-    assert!(differ * 200 <= compared, "{differ} of {compared} refined samples differ");
+    assert!(
+        changed > sites.len() * k / 2,
+        "refinement changed only {changed} samples"
+    );
+    assert!(
+        differ * 200 <= compared,
+        "{differ} of {compared} refined samples differ"
+    );
 
     let mut runs = Vec::new();
     for _ in 0..2 {
@@ -382,6 +392,9 @@ fn gpu_refined_planes_and_records_match_the_cpu_reference() {
             (rec.irradiance() - cpu.irradiance()).abs().max_element() <= 1e-4 * scale,
             "E {i}: {rec:?} vs {cpu:?}"
         );
-        assert!((rec.radius - cpu.radius).abs() <= 1e-4 * cpu.radius, "R {i}");
+        assert!(
+            (rec.radius - cpu.radius).abs() <= 1e-4 * cpu.radius,
+            "R {i}"
+        );
     }
 }

@@ -232,10 +232,8 @@ impl HemispherePlane {
         let axes: Vec<_> = (0..p).map(axis).collect();
         let share = (m * m) as f64 / (1.0 + (m * m) as f64);
         let mut out = Vec::with_capacity(p * p * m * m);
-        for j in 0..p {
-            let (ye, yc) = &axes[j];
-            for i in 0..p {
-                let (xe, xc) = &axes[i];
+        for (ye, yc) in &axes {
+            for (xe, xc) in &axes {
                 let cell = rect(cos_integral, xe[0], xe[m], ye[0], ye[m]);
                 for qy in 0..m {
                     for qx in 0..m {
