@@ -82,8 +82,8 @@ pub struct CacheFrameStats {
     pub reused_records: u32,
     #[serde(flatten)]
     pub placement: PlacementStats,
-    /// Hemisphere-plane rays traced this frame (one per plane pixel; shadow rays of the
-    /// plane hits not counted).
+    /// Hemisphere-plane rays traced this frame (one per plane pixel, plus the sub-samples
+    /// of refined pixels; shadow rays of the plane hits not counted).
     pub plane_rays: u64,
     /// Visible pixels no record covers after placement.
     pub uncovered_pixels: u64,
@@ -442,7 +442,7 @@ impl Renderer {
             )?;
         }
 
-        let res = u64::from(pass.settings.plane_resolution);
+        let rays_per_record = pass.settings.plane_rays_per_record();
         let (width, height) = (camera.width, camera.height);
         let stats = |times: &[(&'static str, f64)], uncovered_pixels| FrameStats {
             width,
@@ -454,7 +454,7 @@ impl Renderer {
             cache: Some(CacheFrameStats {
                 records: records.count,
                 reused_records,
-                plane_rays: u64::from(placement.new_records) * res * res,
+                plane_rays: u64::from(placement.new_records) * rays_per_record,
                 placement,
                 uncovered_pixels,
             }),

@@ -259,3 +259,142 @@ fn gradients_match_finite_differences() {
         assert!(err <= 0.05, "rotation {axis:?}: {grad:?} vs {fd:?}");
     }
 }
+
+/// Records of 12 Cornell-box sites (24 x 24 planes) as the GPU computes them with plane
+/// refinement off, hashed: refinement off must leave today's records byte for byte (the
+/// hash was recorded before adaptive refinement existed).
+#[test]
+fn refinement_off_gives_todays_records() {
+    let scene = common::load("cornell-box.toml", Some((32, 32)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = CacheSettings {
+        plane_resolution: 24,
+        plane_refine: 0.0,
+        ..CacheSettings::default()
+    };
+    let sites = sites(&scene, &renderer, &settings, 12);
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    let mut cache = RecordCache::new(&renderer.ctx).expect("cache");
+    let site_buf = renderer.ctx.storage_buffer("sites", &sites).expect("sites");
+    pass.compute(
+        &renderer.ctx,
+        &prepared.gpu,
+        &site_buf,
+        sites.len() as u32,
+        &mut cache,
+        None,
+        None,
+        |_| {},
+    )
+    .expect("records");
+    let records = cache.read(&renderer.ctx).expect("read");
+    let hash = radsplat::output::sha256_hex(bytemuck::cast_slice(&records));
+    common::assert_golden(
+        &renderer.ctx,
+        "12 records, refinement off",
+        &hash,
+        GOLDEN_RECORDS,
+    );
+}
+
+/// SHA-256 of [`refinement_off_gives_todays_records`]' records on lavapipe, Mesa 22.3.6,
+/// recorded on main before plane refinement (commit 1947416).
+const GOLDEN_RECORDS: &str = "60b363ba49babb76c5f3764b3a918cb59a6231dcf05ba4450952c4b2279f05fd";
+
+/// Adaptive refinement on the GPU against its CPU mirror: the same pixels selected from the
+/// GPU's own coarse planes (exactly: the contrast is computed bit for bit alike), refined
+/// samples within the tolerance of traced samples, and the records computed by
+/// `RecordPass::compute` (trace, refine, reduce) against the CPU reduction of the GPU's
+/// refined planes. Also run to run byte-identical.
+#[test]
+fn gpu_refined_planes_and_records_match_the_cpu_reference() {
+    let scene = common::load("cornell-box.toml", Some((32, 32)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = CacheSettings {
+        plane_resolution: 24,
+        plane_refine: 0.15,
+        ..CacheSettings::default()
+    };
+    let k = settings.refined_pixels() as usize;
+    assert_eq!(k, 86);
+    let sites = sites(&scene, &renderer, &settings, 12);
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    let reference = RecordReference::new(&scene, &settings);
+    let gpu = pass
+        .trace_planes_refined(&renderer.ctx, &prepared.gpu, &sites)
+        .expect("refined planes");
+    let per = (settings.plane_resolution * settings.plane_resolution) as usize;
+    assert_eq!(gpu.selected.len(), sites.len() * k);
+    let (mut compared, mut differ, mut changed) = (0, 0, 0);
+    for (i, site) in sites.iter().enumerate() {
+        let coarse = &gpu.coarse[i * per..(i + 1) * per];
+        let (cpu, selected) = reference.refine(site, coarse);
+        assert_eq!(
+            &gpu.selected[i * k..(i + 1) * k],
+            &selected[..],
+            "site {i}: selected pixels"
+        );
+        for (p, (g, c)) in gpu.refined[i * per..(i + 1) * per]
+            .iter()
+            .zip(&cpu)
+            .enumerate()
+        {
+            compared += 1;
+            changed += usize::from(g != &coarse[p]);
+            let (gl, cl) = (Vec3::from(g.radiance), Vec3::from(c.radiance));
+            let err = (gl - cl).abs().max_element() / cl.max_element().max(1e-2);
+            let depth_err = (g.depth - c.depth).abs() / c.depth.abs().max(1e-3);
+            if err > 1e-4 || depth_err > 1e-4 {
+                differ += 1; // a grazing shadow ray or an edge tie among the sub-samples
+            }
+        }
+    }
+    eprintln!("refined planes: {compared} samples compared, {changed} refined, {differ} differ");
+    assert!(
+        changed > sites.len() * k / 2,
+        "refinement changed only {changed} samples"
+    );
+    assert!(
+        differ * 200 <= compared,
+        "{differ} of {compared} refined samples differ"
+    );
+
+    let mut runs = Vec::new();
+    for _ in 0..2 {
+        let mut cache = RecordCache::new(&renderer.ctx).expect("cache");
+        let site_buf = renderer.ctx.storage_buffer("sites", &sites).expect("sites");
+        pass.compute(
+            &renderer.ctx,
+            &prepared.gpu,
+            &site_buf,
+            sites.len() as u32,
+            &mut cache,
+            None,
+            None,
+            |_| {},
+        )
+        .expect("records");
+        runs.push(cache.read(&renderer.ctx).expect("read"));
+    }
+    renderer.ctx.check().expect("no wgpu errors");
+    assert!(runs[0] == runs[1], "refined records differ between runs");
+    for (i, (site, rec)) in sites.iter().zip(&runs[0]).enumerate() {
+        let cpu = reduce_plane(
+            &reference.plane,
+            &settings,
+            site,
+            &gpu.refined[i * per..(i + 1) * per],
+        );
+        let scale = cpu.irradiance().max_element().max(1e-3);
+        assert!(
+            (rec.irradiance() - cpu.irradiance()).abs().max_element() <= 1e-4 * scale,
+            "E {i}: {rec:?} vs {cpu:?}"
+        );
+        assert!(
+            (rec.radius - cpu.radius).abs() <= 1e-4 * cpu.radius,
+            "R {i}"
+        );
+    }
+}

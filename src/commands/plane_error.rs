@@ -9,7 +9,9 @@ use crate::{Error, Result};
 use std::path::{Path, PathBuf};
 
 /// `radsplat plane-error`: the RMS plane-irradiance errors of thesis Table 4.1 at each
-/// field of view in `fovs`, printed and optionally written as JSON.
+/// field of view in `fovs`, printed and optionally written as JSON. `refine` = (fraction,
+/// split, equal-rays resolution): with a fraction above 0, also adaptive refinement
+/// against a plain plane of equal rays.
 #[allow(clippy::too_many_arguments)]
 pub fn plane_error(
     scene_path: &Path,
@@ -18,18 +20,29 @@ pub fn plane_error(
     fovs: &[f32],
     plane_resolution: u32,
     light_samples: u32,
+    refine: (f32, u32, Option<u32>),
     json: Option<PathBuf>,
     quiet: bool,
 ) -> Result<()> {
     let scene = load_scene(scene_path)?;
+    let (plane_refine, plane_refine_split, equal_resolution) = refine;
     let settings = CacheSettings {
         plane_resolution,
         plane_light_samples: light_samples,
+        plane_refine,
+        plane_refine_split,
         ..CacheSettings::default()
     };
     for &fov in fovs {
         CacheSettings {
             plane_fov_degrees: fov,
+            ..settings.clone()
+        }
+        .validate()?;
+    }
+    if let Some(q) = equal_resolution {
+        CacheSettings {
+            plane_resolution: q,
             ..settings.clone()
         }
         .validate()?;
@@ -48,6 +61,7 @@ pub fn plane_error(
         points,
         mc_samples,
         fovs,
+        equal_resolution,
         |done| bar.set_position(done as u64),
     );
     bar.finish_and_clear();

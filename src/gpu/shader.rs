@@ -109,6 +109,14 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/light_map_trace.wgsl"),
     ),
     (
+        "plane_refine_select.wgsl",
+        include_str!("../../wgsl/plane_refine_select.wgsl"),
+    ),
+    (
+        "plane_refine.wgsl",
+        include_str!("../../wgsl/plane_refine.wgsl"),
+    ),
+    (
         "record_reduce.wgsl",
         include_str!("../../wgsl/record_reduce.wgsl"),
     ),

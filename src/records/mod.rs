@@ -7,6 +7,7 @@
 pub mod plane;
 pub mod plane_error;
 pub mod reference;
+pub mod refine;
 
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
@@ -16,7 +17,7 @@ use crate::visibility::VisibilityBuffer;
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-pub use plane::{HemispherePlane, PlaneMode, PlanePixel};
+pub use plane::{HemispherePlane, PlaneMode, PlanePixel, RefineSample};
 
 /// One irradiance record (Rust mirror of WGSL `Record`, 144 bytes): p, n, R, E and the
 /// rotational and translational gradients per colour channel (algorithms.md decision 3).
@@ -141,6 +142,13 @@ pub struct CacheSettings {
     pub plane_shadows: PlaneShadows,
     /// The maps' size (with [`PlaneShadows::Maps`]).
     pub light_maps: LightMapSettings,
+    /// Adaptive plane refinement (Radiance's `-as`, Ward's "adaptive super-sampling" of
+    /// high-variance strata, algorithms.md 1.7): the fraction of each record's plane
+    /// pixels, those of highest contrast, that get `plane_refine_split^2` more rays
+    /// ([`refine`]). 0 (the default) is off: the records are today's, byte for byte.
+    pub plane_refine: f32,
+    /// Sub-samples per axis of a refined pixel (`split x split` strata).
+    pub plane_refine_split: u32,
 }
 
 /// How hemisphere-plane hits are shadowed (thesis section 4.4 uses shadow maps).
@@ -169,11 +177,25 @@ impl Default for CacheSettings {
                 resolution: 512,
                 rect_grid: 2,
             },
+            plane_refine: 0.0,
+            plane_refine_split: 2,
         }
     }
 }
 
 impl CacheSettings {
+    /// Pixels refined per record: `round(plane_refine * P^2)` (0: refinement off).
+    pub fn refined_pixels(&self) -> u32 {
+        let all = self.plane_resolution * self.plane_resolution;
+        ((f64::from(self.plane_refine) * f64::from(all)).round() as u32).min(all)
+    }
+
+    /// Plane rays per record: `P^2 + K split^2` with K [`Self::refined_pixels`].
+    pub fn plane_rays_per_record(&self) -> u64 {
+        u64::from(self.plane_resolution).pow(2)
+            + u64::from(self.refined_pixels()) * u64::from(self.plane_refine_split).pow(2)
+    }
+
     /// Checks the ranges. Errors name the setting, the value given and the command-line
     /// flag that sets it.
     pub fn validate(&self) -> Result<()> {
@@ -244,6 +266,22 @@ impl CacheSettings {
                 "--r-max-factor",
                 self.r_max_factor.to_string(),
                 "must be a number >= 1",
+            );
+        }
+        if !(0.0..=1.0).contains(&self.plane_refine) {
+            return bad(
+                "plane_refine",
+                "--plane-refine",
+                self.plane_refine.to_string(),
+                "must be a fraction in [0, 1]",
+            );
+        }
+        if !(1..=8).contains(&self.plane_refine_split) {
+            return bad(
+                "plane_refine_split",
+                "--plane-refine-split",
+                self.plane_refine_split.to_string(),
+                "must be in 1..=8",
             );
         }
         if self.record_budget == 0 {
@@ -392,6 +430,17 @@ pub struct PlanesAhead {
     pub subset: Vec<PlaneSample>,
 }
 
+/// Planes traced and refined by [`RecordPass::trace_planes_refined`].
+#[derive(Clone, Debug, Default)]
+pub struct RefinedPlanes {
+    /// The traced planes, P^2 samples per site.
+    pub coarse: Vec<PlaneSample>,
+    /// The same after refinement.
+    pub refined: Vec<PlaneSample>,
+    /// The K refined pixels of each site, in pixel order.
+    pub selected: Vec<u32>,
+}
+
 /// The records a reduction writes: `count` records from `first_record`, at `sites`.
 struct ReductionBatch<'a> {
     sites: &'a wgpu::Buffer,
@@ -435,6 +484,8 @@ pub struct RecordPass {
     reduce: ComputePass,
     /// The plane table for `settings`.
     table: PlaneTable,
+    /// Adaptive plane refinement, when `settings.plane_refine` selects any pixel.
+    refine: Option<refine::RefinePass>,
     pub settings: CacheSettings,
     /// Records per plane dispatch.
     pub batch: u32,
@@ -482,6 +533,7 @@ impl RecordPass {
                 ],
             )?,
             table: PlaneTable::new(ctx, settings.plane_resolution, settings)?,
+            refine: refine::RefinePass::new(ctx, settings)?,
             settings: settings.clone(),
             batch,
             no_light_maps: LightMaps::none(ctx)?,
@@ -553,6 +605,14 @@ impl RecordPass {
         mut on_batch: impl FnMut(u32),
     ) -> Result<Vec<(&'static str, f64)>> {
         let light_maps = light_maps.unwrap_or(&self.no_light_maps);
+        if self.refine.is_some() && (lookahead.is_some() || refresh.is_some()) {
+            return Err(Error::Usage(
+                "plane refinement (--plane-refine) does not work with temporal caching yet \
+                 (its refreshed and reprojected planes are unrefined): use --plane-refine 0 \
+                 or --temporal off"
+                    .into(),
+            ));
+        }
         cache.reserve(ctx, count)?;
         let res = self.settings.plane_resolution;
         // Sized to this call's largest batch: small placement rounds stay small.
@@ -587,6 +647,13 @@ impl RecordPass {
                 ctx.storage_buffer_sized("estimate subsets", cells * 16)?,
             ));
         }
+        let selected = match &self.refine {
+            Some(r) => ctx.storage_buffer_sized(
+                "refined pixels",
+                r.selected_bytes(self.batch.min(count.max(1))),
+            )?,
+            None => ctx.storage_buffer_sized("refined pixels", 16)?,
+        };
         let mut times = Vec::new();
         let site_bytes = std::mem::size_of::<RecordSite>() as u64;
         let mut done = 0;
@@ -639,13 +706,29 @@ impl RecordPass {
                     n,
                     &mut timer,
                 )?,
-                None => self.plane.record(
-                    &mut enc,
-                    &scene.bind_group,
-                    &plane_bind,
-                    [res.div_ceil(8), res.div_ceil(8), n],
-                    timer.next("hemisphere planes"),
-                ),
+                None => {
+                    self.plane.record(
+                        &mut enc,
+                        &scene.bind_group,
+                        &plane_bind,
+                        [res.div_ceil(8), res.div_ceil(8), n],
+                        timer.next("hemisphere planes"),
+                    );
+                    if let Some(r) = &self.refine {
+                        r.record(
+                            ctx,
+                            &mut enc,
+                            scene,
+                            &self.table,
+                            &batch_sites,
+                            &samples,
+                            &selected,
+                            n,
+                            light_maps,
+                            &mut timer,
+                        )?;
+                    }
+                }
             }
             if let Some(capture) = lookahead
                 .as_deref_mut()
@@ -773,7 +856,55 @@ impl RecordPass {
         );
     }
 
-    /// Traces the planes of `count` sites and returns their samples (tests, Table 4.1).
+    /// Traces the planes of `sites` and refines them as the settings say: the traced
+    /// (coarse) planes, the refined ones and the K pixels refined per site (tests).
+    /// Without refinement the refined planes are the coarse ones and no pixel is listed.
+    pub fn trace_planes_refined(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        sites: &[RecordSite],
+    ) -> Result<RefinedPlanes> {
+        let coarse = self.trace_planes(ctx, scene, sites)?;
+        let Some(r) = &self.refine else {
+            return Ok(RefinedPlanes {
+                refined: coarse.clone(),
+                coarse,
+                selected: Vec::new(),
+            });
+        };
+        let n = sites.len() as u32;
+        let sites_buf = ctx.storage_buffer("record sites", sites)?;
+        let samples = ctx.storage_buffer("plane samples", &coarse)?;
+        let selected = ctx.storage_buffer_sized("refined pixels", r.selected_bytes(n).max(4))?;
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let mut timer = crate::gpu::timer::PassTimer::new(ctx, 2);
+        r.record(
+            ctx,
+            &mut enc,
+            scene,
+            &self.table,
+            &sites_buf,
+            &samples,
+            &selected,
+            n,
+            &self.no_light_maps,
+            &mut timer,
+        )?;
+        ctx.queue.submit([enc.finish()]);
+        let mut refined: Vec<PlaneSample> = ctx.read_buffer(&samples)?;
+        refined.truncate(coarse.len());
+        let mut selected: Vec<u32> = ctx.read_buffer(&selected)?;
+        selected.truncate((n * r.refined()) as usize);
+        Ok(RefinedPlanes {
+            coarse,
+            refined,
+            selected,
+        })
+    }
+
+    /// Traces the planes of `count` sites and returns their samples, unrefined (tests,
+    /// Table 4.1; [`RecordPass::trace_planes_refined`] refines them).
     pub fn trace_planes(
         &self,
         ctx: &GpuContext,
@@ -820,7 +951,16 @@ impl RecordPass {
             ctx.storage_buffer_sized("plane hits", if ahead.is_some() { plane_bytes } else { 16 })?;
         let bind = self.plane.bind(
             ctx,
-            &[&params, &sites_buf, &self.table.pixels, &samples, &hits],
+            &[
+                &params,
+                &sites_buf,
+                &self.table.pixels,
+                &samples,
+                &hits,
+                &self.no_light_maps.maps_buffer,
+                &self.no_light_maps.depths,
+                &self.no_light_maps.first_buffer,
+            ],
         );
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.plane.record(

@@ -44,6 +44,19 @@ pub struct PlanePixel {
     pub center: [f32; 2],
 }
 
+/// One sub-sample of adaptive plane refinement (mirror of WGSL `RefineSample`, 16 bytes):
+/// see [`HemispherePlane::refine_samples`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct RefineSample {
+    /// Plane coordinates the sub-sample's ray goes through, (x, y, 1).
+    pub center: [f32; 2],
+    /// Its weight in the refined pixel's radiance (the centre ray weighs
+    /// `1 / (1 + split^2)`; the weights of a pixel's sub-samples sum to the rest).
+    pub weight: f32,
+    pub _pad: f32,
+}
+
 /// The sampling plane's pixel table.
 #[derive(Clone, Debug)]
 pub struct HemispherePlane {
@@ -170,6 +183,73 @@ impl HemispherePlane {
         }
     }
 
+    /// The sub-samples of adaptive refinement ([`RefineSample`]): `split x split` strata
+    /// per pixel, `split^2` entries per pixel in pixel order, strata row-major. A finite
+    /// pixel edge-interval is split evenly on the plane; an interval stretched to infinity
+    /// (border pixels, [`PlaneMode::Stretched`]) is split evenly in angle, from the finite
+    /// edge's angle to the horizon, so the sub-samples reach the grazing band the
+    /// stretched pixel stands for. Each stratum's weight is its share of the pixel's
+    /// cosine-weighted solid angle times `split^2 / (1 + split^2)`: the refined pixel is
+    /// `L_centre / (1 + split^2) + sum weight_i L_i`, the mean of the centre ray and the
+    /// stratified estimate, weighted by their ray counts. Computed in f64, stored in f32:
+    /// the GPU and the CPU reference read the same numbers.
+    pub fn refine_samples(&self, split: u32) -> Vec<RefineSample> {
+        let p = self.resolution as usize;
+        let m = split.max(1) as usize;
+        let s = (f64::from(self.fov_degrees).to_radians() * 0.5).tan();
+        let delta = 2.0 * s / p as f64;
+        let stretched = self.mode == PlaneMode::Stretched;
+        // Sub-interval edges and centres of pixel interval i along one axis.
+        let axis = |i: usize| -> (Vec<f64>, Vec<f64>) {
+            let (lo, hi) = (-s + i as f64 * delta, -s + (i + 1) as f64 * delta);
+            let to_lo = stretched && i == 0;
+            let to_hi = stretched && i + 1 == p;
+            let at = |t: f64| -> f64 {
+                match (to_lo, to_hi) {
+                    // Both edges infinite (a 1 x 1 plane): the whole angle range.
+                    (true, true) => (-FRAC_PI_2 + t * std::f64::consts::PI).tan(),
+                    (false, true) => {
+                        let a = lo.atan();
+                        (a + t * (FRAC_PI_2 - a)).tan()
+                    }
+                    (true, false) => {
+                        let a = hi.atan();
+                        (a - (1.0 - t) * (a + FRAC_PI_2)).tan()
+                    }
+                    (false, false) => lo + t * (hi - lo),
+                }
+            };
+            let mut edges: Vec<f64> = (0..=m).map(|q| at(q as f64 / m as f64)).collect();
+            if to_lo {
+                edges[0] = f64::NEG_INFINITY;
+            }
+            if to_hi {
+                edges[m] = f64::INFINITY;
+            }
+            let centres = (0..m).map(|q| at((q as f64 + 0.5) / m as f64)).collect();
+            (edges, centres)
+        };
+        let axes: Vec<_> = (0..p).map(axis).collect();
+        let share = (m * m) as f64 / (1.0 + (m * m) as f64);
+        let mut out = Vec::with_capacity(p * p * m * m);
+        for (ye, yc) in &axes {
+            for (xe, xc) in &axes {
+                let cell = rect(cos_integral, xe[0], xe[m], ye[0], ye[m]);
+                for qy in 0..m {
+                    for qx in 0..m {
+                        let w = rect(cos_integral, xe[qx], xe[qx + 1], ye[qy], ye[qy + 1]);
+                        out.push(RefineSample {
+                            center: [xc[qx] as f32, yc[qy] as f32],
+                            weight: (share * w / cell) as f32,
+                            _pad: 0.0,
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+
     /// Fraction of the cosine-weighted hemisphere the unstretched plane covers
     /// (algorithms.md 3.2 table: 0.787 at 120 degrees).
     pub fn plain_coverage(fov_degrees: f32) -> f64 {
@@ -252,6 +332,41 @@ mod tests {
             })
             .sum();
         assert!((edge_integral(c2, y1) - edge_integral(c2, y0) - e).abs() < 1e-8);
+    }
+
+    #[test]
+    fn refine_samples_lie_in_their_pixels_and_their_weights_sum_to_the_rest() {
+        for mode in [PlaneMode::Stretched, PlaneMode::Plain] {
+            let plane = HemispherePlane::new(8, 130.0, mode);
+            let s = (65.0f64).to_radians().tan() as f32;
+            let delta = 2.0 * s / 8.0;
+            let subs = plane.refine_samples(2);
+            assert_eq!(subs.len(), 8 * 8 * 4);
+            for (k, px) in plane.pixels.iter().enumerate() {
+                let mine = &subs[4 * k..4 * k + 4];
+                let w: f64 = mine.iter().map(|q| f64::from(q.weight)).sum();
+                assert!((w - 0.8).abs() < 1e-5, "{mode:?} pixel {k}: weights {w}");
+                for q in mine {
+                    for a in 0..2 {
+                        let (c, i) = (q.center[a], [k % 8, k / 8][a]);
+                        let lo = -s + i as f32 * delta;
+                        let inside = c >= lo - 1e-5 && c <= lo + delta + 1e-5;
+                        let beyond = mode == PlaneMode::Stretched
+                            && ((i == 0 && c < lo + delta) || (i == 7 && c > lo));
+                        assert!(inside || beyond, "{mode:?} pixel {k}: {c} vs {px:?}");
+                    }
+                }
+            }
+            // Inner pixels: 2 x 2 at the quarter points, equal-ish weights.
+            let k = 3 * 8 + 4;
+            let c = plane.pixels[k].center;
+            assert!((subs[4 * k].center[0] - (c[0] - delta / 4.0)).abs() < 1e-5);
+            assert!((subs[4 * k + 3].center[1] - (c[1] + delta / 4.0)).abs() < 1e-5);
+        }
+        // A stretched corner's sub-samples go past the plane's edge toward the horizon.
+        let plane = HemispherePlane::new(8, 130.0, PlaneMode::Stretched);
+        let corner = plane.refine_samples(2)[4 * 63 + 3];
+        assert!(corner.center[0] > plane.pixels[63].center[0] * 2.0);
     }
 
     #[test]

@@ -56,51 +56,73 @@ impl<'a> RecordReference<'a> {
     /// Same with another plane table (its pixel centres give the rays), reusing this
     /// reference's CPU BVH.
     pub fn trace_plane_with(&self, plane: &HemispherePlane, site: &RecordSite) -> Vec<PlaneSample> {
+        plane
+            .pixels
+            .iter()
+            .enumerate()
+            .map(|(k, px)| self.trace_ray(site, px.center, k as u32))
+            .collect()
+    }
+
+    /// One plane ray of `site` through plane coordinates `(x, y, 1)`, its hit's light
+    /// samples scrambled by `hash_combine(site.seed, seed_index)` (WGSL
+    /// `trace_plane_ray`).
+    pub fn trace_ray(&self, site: &RecordSite, xy: [f32; 2], seed_index: u32) -> PlaneSample {
         let scene = self.shading.scene;
         let n = Vec3::from(site.normal);
         let ng = Vec3::from(site.geometric_normal);
         let frame = orthonormal_basis(n);
         let origin = offset_ray_origin(site.position.into(), ng);
-        plane
-            .pixels
-            .iter()
-            .enumerate()
-            .map(|(k, px)| {
-                let dir = (frame * Vec3::new(px.center[0], px.center[1], 1.0)).normalize();
-                if dir.dot(ng) <= 0.0 {
-                    return PlaneSample {
-                        radiance: [0.0; 3],
-                        depth: -1.0,
-                    };
-                }
-                let Some(hit) = self
-                    .shading
-                    .tracer
-                    .closest_hit(origin, dir, 0.0, f32::INFINITY)
-                else {
-                    // The environment is sampled as a light: misses add nothing.
-                    return PlaneSample {
-                        radiance: [0.0; 3],
-                        depth: -1.0,
-                    };
-                };
-                let s = self.shading.surface_at(&hit, dir);
-                let e = self
-                    .shading
-                    .direct_irradiance(&s, hash_combine(site.seed, k as u32));
-                let m = &scene.materials[s.material as usize];
-                let emission = if s.front_face && !m.sampled_light {
-                    m.emission
-                } else {
-                    Vec3::ZERO
-                };
-                let radiance = self.shading.albedo(&s) / PI * e + emission;
-                PlaneSample {
-                    radiance: radiance.into(),
-                    depth: hit.t * dir.dot(n),
-                }
-            })
-            .collect()
+        let dir = (frame * Vec3::new(xy[0], xy[1], 1.0)).normalize();
+        let miss = PlaneSample {
+            radiance: [0.0; 3],
+            depth: -1.0,
+        };
+        if dir.dot(ng) <= 0.0 {
+            return miss;
+        }
+        let Some(hit) = self
+            .shading
+            .tracer
+            .closest_hit(origin, dir, 0.0, f32::INFINITY)
+        else {
+            // The environment is sampled as a light: misses add nothing.
+            return miss;
+        };
+        let s = self.shading.surface_at(&hit, dir);
+        let e = self
+            .shading
+            .direct_irradiance(&s, hash_combine(site.seed, seed_index));
+        let m = &scene.materials[s.material as usize];
+        let emission = if s.front_face && !m.sampled_light {
+            m.emission
+        } else {
+            Vec3::ZERO
+        };
+        let radiance = self.shading.albedo(&s) / PI * e + emission;
+        PlaneSample {
+            radiance: radiance.into(),
+            depth: hit.t * dir.dot(n),
+        }
+    }
+
+    /// The plane of `site` traced and, with `settings.plane_refine > 0`, adaptively refined
+    /// (as `plane_refine_select.wgsl` and `plane_refine.wgsl`): the refined plane and the
+    /// pixels refined.
+    pub fn refined_plane(&self, site: &RecordSite) -> (Vec<PlaneSample>, Vec<u32>) {
+        let coarse = self.trace_plane(site);
+        self.refine(site, &coarse)
+    }
+
+    /// Refines a traced plane of `site` (see [`super::refine`]).
+    pub fn refine(
+        &self,
+        site: &RecordSite,
+        coarse: &[PlaneSample],
+    ) -> (Vec<PlaneSample>, Vec<u32>) {
+        super::refine::refine_plane(&self.plane, &self.settings, site, coarse, |s, xy, seed| {
+            self.trace_ray(s, xy, seed)
+        })
     }
 
     /// Reduces a traced plane to a record (as `record_reduce.wgsl`, summed in f64).
@@ -108,9 +130,9 @@ impl<'a> RecordReference<'a> {
         reduce_plane(&self.plane, &self.settings, site, samples)
     }
 
-    /// Computes the record of `site` entirely on the CPU.
+    /// Computes the record of `site` entirely on the CPU (refined as the settings say).
     pub fn record(&self, site: &RecordSite) -> Record {
-        self.reduce(site, &self.trace_plane(site))
+        self.reduce(site, &self.refined_plane(site).0)
     }
 }
 

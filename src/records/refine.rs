@@ -1,0 +1,367 @@
+//! Adaptive hemisphere-plane refinement: Radiance's `-as` ("adaptive super-sampling" of
+//! the hemisphere: "super-sample high variance regions ... detect variance based on
+//! neighborhood", Ward's course notes [S2 L326–334], algorithms.md 1.7), on the plane.
+//!
+//! After a record's `P x P` plane is traced, its `K = round(plane_refine P^2)` pixels of
+//! highest contrast ([`contrast_keys`]) each get `split^2` more rays, one per stratum of
+//! the pixel ([`HemispherePlane::refine_samples`]), and the pixel's sample becomes their
+//! weighted mean with the centre ray ([`merge`]). The reduction is unchanged and reads the
+//! refined pixels. Rays per record: `P^2 + K split^2` (a fixed cost: K pixels are refined
+//! even where fewer have any contrast). Ward notes the naive form is biased [S2 L276–287]:
+//! a pixel is refined because its centre ray differs from its neighbours.
+//!
+//! The depth of a refined pixel is the weighted harmonic mean of its rays' hit depths
+//! (misses add 0 to the sum of 1/Z), so R stays the harmonic mean over every ray traced;
+//! the translational gradient then takes the nearer of two neighbouring pixels as before
+//! (Ward's min rule, between pixels).
+//!
+//! GPU: `plane_refine_select.wgsl` (per record, one workgroup: contrast, exact radix
+//! select, selected pixels in pixel order) and `plane_refine.wgsl` (one invocation per
+//! selected pixel: trace its strata, merge). The functions here are the CPU mirror.
+
+use super::{CacheSettings, HemispherePlane, PlaneSample, PlaneTable, RecordSite};
+use crate::Result;
+use crate::gpu::GpuContext;
+use crate::gpu::pipeline::{Binding, ComputePass};
+use crate::gpu::scene_buffers::GpuScene;
+use bytemuck::{Pod, Zeroable};
+
+/// The channel sum the contrast compares (not luminance: `(r + g) + b` has no product for
+/// a GPU to fuse, so the GPU and the CPU compute the same bits).
+fn channel_sum(s: &PlaneSample) -> f32 {
+    (s.radiance[0] + s.radiance[1]) + s.radiance[2]
+}
+
+/// Each pixel's contrast as the bits of a non-negative f32 (they order as the floats): the
+/// largest `|y - y_neighbour|` over its 4-neighbours on the plane, y the channel sum, times
+/// the pixel's cosine weight (the share of E a wrong pixel costs). As
+/// `plane_refine_select.wgsl`, bit for bit.
+pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample]) -> Vec<u32> {
+    let res = plane.resolution as usize;
+    let n = res * res;
+    (0..n)
+        .map(|k| {
+            let y = channel_sum(&samples[k]);
+            let i = k % res;
+            let mut c = 0.0f32;
+            let mut against = |j: usize| c = c.max((y - channel_sum(&samples[j])).abs());
+            if i > 0 {
+                against(k - 1);
+            }
+            if i + 1 < res {
+                against(k + 1);
+            }
+            if k >= res {
+                against(k - res);
+            }
+            if k + res < n {
+                against(k + res);
+            }
+            (c * plane.pixels[k].cos_weight).to_bits()
+        })
+        .collect()
+}
+
+/// The `refined` pixels of highest contrast, in pixel order; ties go to the lower pixel
+/// index (the GPU's selection exactly).
+pub fn select_pixels(plane: &HemispherePlane, samples: &[PlaneSample], refined: u32) -> Vec<u32> {
+    let keys = contrast_keys(plane, samples);
+    let mut order: Vec<u32> = (0..keys.len() as u32).collect();
+    order.sort_by_key(|&k| (std::cmp::Reverse(keys[k as usize]), k));
+    order.truncate(refined as usize);
+    order.sort_unstable();
+    order
+}
+
+/// A refined pixel: the centre sample weighted `centre_weight`, each sub-sample by its
+/// stratum's weight, radiance averaged and depth harmonically (misses add 0 to the sum of
+/// 1/Z; -1 when every ray missed). Same order of operations as `plane_refine.wgsl`.
+pub fn merge(
+    centre: &PlaneSample,
+    centre_weight: f32,
+    subs: impl IntoIterator<Item = (PlaneSample, f32)>,
+) -> PlaneSample {
+    let mut radiance = glam::Vec3::from(centre.radiance) * centre_weight;
+    let mut inv_depth = if centre.depth > 0.0 {
+        centre_weight / centre.depth
+    } else {
+        0.0
+    };
+    for (s, w) in subs {
+        radiance += glam::Vec3::from(s.radiance) * w;
+        if s.depth > 0.0 {
+            inv_depth += w / s.depth;
+        }
+    }
+    PlaneSample {
+        radiance: radiance.into(),
+        depth: if inv_depth > 0.0 {
+            1.0 / inv_depth
+        } else {
+            -1.0
+        },
+    }
+}
+
+/// The weight of the centre ray in a refined pixel, `1 / (1 + split^2)`.
+pub fn centre_weight(split: u32) -> f32 {
+    1.0 / (1 + split * split) as f32
+}
+
+/// The seed of sub-sample `q` of pixel `pixel` (the centre rays take seeds 0..P^2).
+pub fn subsample_seed_index(resolution: u32, pixel: u32, subsamples: u32, q: u32) -> u32 {
+    resolution * resolution + pixel * subsamples + q
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct SelectParams {
+    resolution: u32,
+    count: u32,
+    refined: u32,
+    _pad: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct RefineParams {
+    resolution: u32,
+    count: u32,
+    refined: u32,
+    light_samples: u32,
+    subsamples: u32,
+    centre_weight: f32,
+    _pad: [u32; 2],
+}
+
+/// The GPU passes of refinement for one [`CacheSettings`] (built only when
+/// `plane_refine` selects at least one pixel).
+pub struct RefinePass {
+    select: ComputePass,
+    refine: ComputePass,
+    /// The sub-sample table, `P^2 split^2` entries.
+    subs: wgpu::Buffer,
+    resolution: u32,
+    refined: u32,
+    split: u32,
+    light_samples: u32,
+}
+
+impl RefinePass {
+    /// The passes and the sub-sample table for `settings`; `None` when refinement is off.
+    pub fn new(ctx: &GpuContext, settings: &CacheSettings) -> Result<Option<Self>> {
+        use Binding::*;
+        let refined = settings.refined_pixels();
+        if refined == 0 {
+            return Ok(None);
+        }
+        let plane = HemispherePlane::new(
+            settings.plane_resolution,
+            settings.plane_fov_degrees,
+            settings.plane_mode,
+        );
+        let split = settings.plane_refine_split;
+        Ok(Some(Self {
+            select: ComputePass::new(
+                ctx,
+                "plane_refine_select.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
+            )?,
+            refine: ComputePass::new(
+                ctx,
+                "plane_refine.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                ],
+            )?,
+            subs: ctx.storage_buffer("refine samples", &plane.refine_samples(split))?,
+            resolution: settings.plane_resolution,
+            refined,
+            split,
+            light_samples: settings.plane_light_samples,
+        }))
+    }
+
+    /// Records the refinement of the `count` planes in `samples` (traced for `sites`, P^2
+    /// each) in place; `selected` receives the K selected pixels per record (a buffer of
+    /// at least `count * K` u32, see [`Self::selected_bytes`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        table: &PlaneTable,
+        sites: &wgpu::Buffer,
+        samples: &wgpu::Buffer,
+        selected: &wgpu::Buffer,
+        count: u32,
+        light_maps: &crate::light_maps::LightMaps,
+        timer: &mut crate::gpu::timer::PassTimer,
+    ) -> Result<()> {
+        let n = u64::from(self.resolution).pow(2);
+        let keys = ctx.storage_buffer_sized("refine keys", u64::from(count) * n * 4)?;
+        let select_params = ctx.uniform_buffer(
+            "refine select params",
+            &SelectParams {
+                resolution: self.resolution,
+                count,
+                refined: self.refined,
+                _pad: 0,
+            },
+        );
+        let bind = self.select.bind(
+            ctx,
+            &[&select_params, &table.pixels, samples, &keys, selected],
+        );
+        self.select.record(
+            enc,
+            &scene.bind_group,
+            &bind,
+            [count, 1, 1],
+            timer.next("plane refinement select"),
+        );
+        let params = ctx.uniform_buffer(
+            "refine params",
+            &RefineParams {
+                resolution: self.resolution,
+                count,
+                refined: self.refined,
+                light_samples: self.light_samples,
+                subsamples: self.split * self.split,
+                centre_weight: centre_weight(self.split),
+                _pad: [0; 2],
+            },
+        );
+        let bind = self.refine.bind(
+            ctx,
+            &[
+                &params,
+                sites,
+                &table.pixels,
+                &self.subs,
+                selected,
+                samples,
+                &light_maps.maps_buffer,
+                &light_maps.depths,
+                &light_maps.first_buffer,
+            ],
+        );
+        self.refine.record(
+            enc,
+            &scene.bind_group,
+            &bind,
+            [self.refined.div_ceil(64), 1, count],
+            timer.next("plane refinement"),
+        );
+        Ok(())
+    }
+
+    /// Bytes of the selection buffer for `count` records.
+    pub fn selected_bytes(&self, count: u32) -> u64 {
+        u64::from(count) * u64::from(self.refined) * 4
+    }
+
+    /// Pixels refined per record (K).
+    pub fn refined(&self) -> u32 {
+        self.refined
+    }
+}
+
+/// The refined plane of `site` from its traced `coarse` plane, with `trace(dir_xy, seed)`
+/// tracing one sub-sample through plane coordinates `dir_xy` with the light-sample seed
+/// index (CPU reference); also returns the selected pixels.
+pub fn refine_plane(
+    plane: &HemispherePlane,
+    settings: &CacheSettings,
+    site: &RecordSite,
+    coarse: &[PlaneSample],
+    mut trace: impl FnMut(&RecordSite, [f32; 2], u32) -> PlaneSample,
+) -> (Vec<PlaneSample>, Vec<u32>) {
+    let refined = settings.refined_pixels();
+    let mut out = coarse.to_vec();
+    if refined == 0 {
+        return (out, Vec::new());
+    }
+    let split = settings.plane_refine_split;
+    let subs = plane.refine_samples(split);
+    let m = split * split;
+    let selected = select_pixels(plane, coarse, refined);
+    for &k in &selected {
+        let mine = &subs[(k * m) as usize..((k + 1) * m) as usize];
+        let traced: Vec<(PlaneSample, f32)> = mine
+            .iter()
+            .enumerate()
+            .map(|(q, s)| {
+                let seed = subsample_seed_index(plane.resolution, k, m, q as u32);
+                (trace(site, s.center, seed), s.weight)
+            })
+            .collect();
+        out[k as usize] = merge(&coarse[k as usize], centre_weight(split), traced);
+    }
+    (out, selected)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::records::PlaneMode;
+
+    fn sample(v: f32) -> PlaneSample {
+        PlaneSample {
+            radiance: [v, v, v],
+            depth: 1.0,
+        }
+    }
+
+    #[test]
+    fn selection_takes_the_highest_contrast_and_breaks_ties_by_index() {
+        let plane = HemispherePlane::new(4, 90.0, PlaneMode::Plain);
+        let mut samples = vec![sample(0.0); 16];
+        samples[5] = sample(1.0); // pixel (1, 1): it and its 4 neighbours share one contrast
+        let keys = contrast_keys(&plane, &samples);
+        assert!(keys.iter().enumerate().all(|(k, &c)| {
+            let near = [1, 4, 5, 6, 9].contains(&k);
+            near == (c > 0)
+        }));
+        // The plain plane's centre pixels (5, 6, 9) weigh more than its edge ones (1, 4).
+        let chosen = select_pixels(&plane, &samples, 3);
+        assert_eq!(chosen, vec![5, 6, 9]);
+        // All equal: the lowest indices.
+        assert_eq!(
+            select_pixels(&plane, &vec![sample(0.5); 16], 3),
+            vec![0, 1, 2]
+        );
+        assert_eq!(select_pixels(&plane, &samples, 16).len(), 16);
+    }
+
+    #[test]
+    fn merge_weights_radiance_and_depth() {
+        let c = PlaneSample {
+            radiance: [1.0, 0.0, 0.0],
+            depth: 2.0,
+        };
+        let miss = PlaneSample {
+            radiance: [0.0; 3],
+            depth: -1.0,
+        };
+        let m = merge(&c, 0.5, [(miss, 0.5)]);
+        assert_eq!(m.radiance, [0.5, 0.0, 0.0]);
+        assert_eq!(m.depth, 4.0); // half the rays hit at 2: 1/Z = 0.25
+        assert_eq!(merge(&miss, 0.5, [(miss, 0.5)]).depth, -1.0);
+    }
+}

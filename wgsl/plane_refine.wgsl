@@ -1,0 +1,65 @@
+// Adaptive plane refinement, step 2: for each selected pixel of each record
+// (plane_refine_select.wgsl), `split^2` more rays through the pixel's strata (the
+// `subs` table, records::plane::HemispherePlane::refine_samples), and the pixel's sample
+// replaced by the weighted mean of its centre ray and those: radiance
+// `L_c w_c + sum L_i w_i`, depth the same weighted harmonic mean of the hit depths (misses
+// add 0 to the sum of 1/Z, as in R), so the reduction (record_reduce.wgsl, unchanged)
+// reads refined pixels. One invocation per (selected pixel, record).
+//!include shared/plane.wgsl
+
+struct RefineParams {
+    resolution: u32,
+    count: u32,
+    refined: u32,           // K selected pixels per record
+    light_samples: u32,
+    subsamples: u32,        // split^2
+    centre_weight: f32,     // 1 / (1 + split^2)
+    _pad0: u32,
+    _pad1: u32,
+}
+
+// Rust: records::plane::RefineSample.
+struct RefineSample {
+    center: vec2f,
+    weight: f32,
+    _pad: f32,
+}
+
+@group(1) @binding(0) var<uniform> params: RefineParams;
+@group(1) @binding(1) var<storage, read> sites: array<RecordSite>;
+@group(1) @binding(2) var<storage, read> plane: array<PlanePixel>;
+@group(1) @binding(3) var<storage, read> subs: array<RefineSample>;
+@group(1) @binding(4) var<storage, read> selected: array<u32>;
+@group(1) @binding(5) var<storage, read_write> samples: array<PlaneSample>;
+@group(1) @binding(6) var<storage, read> light_maps: array<LightMap>;
+@group(1) @binding(7) var<storage, read> light_map_depths: array<f32>;
+@group(1) @binding(8) var<storage, read> light_map_first: array<u32>;
+
+@compute @workgroup_size(64)
+fn main(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    bvh_stack_init(lane);
+    if id.x >= params.refined || id.z >= params.count {
+        return;
+    }
+    let n = params.resolution * params.resolution;
+    let pixel = selected[id.z * params.refined + id.x];
+    let site = sites[id.z];
+    let frame = orthonormal_basis(site.normal);
+    let centre = samples[id.z * n + pixel];
+    var radiance = centre.radiance * params.centre_weight;
+    var inv_depth = select(0.0, params.centre_weight / centre.depth, centre.depth > 0.0);
+    for (var q = 0u; q < params.subsamples; q++) {
+        let sub = subs[pixel * params.subsamples + q];
+        let dir = normalize(frame * vec3f(sub.center, 1.0));
+        let seed = hash_combine(site.seed, n + pixel * params.subsamples + q);
+        let s = trace_plane_ray(site, dir, seed).sample;
+        radiance += s.radiance * sub.weight;
+        if s.depth > 0.0 {
+            inv_depth += sub.weight / s.depth;
+        }
+    }
+    samples[id.z * n + pixel] = PlaneSample(radiance, select(-1.0, 1.0 / inv_depth, inv_depth > 0.0));
+}

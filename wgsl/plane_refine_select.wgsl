@@ -1,0 +1,149 @@
+// Adaptive plane refinement, step 1 (Radiance's -as, Ward's "super-sample high variance
+// regions ... detect variance based on neighborhood", algorithms.md 1.7): per record, one
+// workgroup ranks the plane's pixels by contrast and writes the `refined` pixels of highest
+// contrast, in pixel order, to `selected`. Contrast: the largest difference of the channel
+// sum r + g + b to a 4-neighbour, times the pixel's cosine weight (what a wrong pixel costs
+// E). Ties go to the lower pixel index. The selection is exact and deterministic: a radix
+// select on the contrast's bits (non-negative floats order as their bits) with integer
+// workgroup histograms, then prefix sums in pixel order. The CPU mirror is
+// records::refine::select_pixels.
+//!include shared/records.wgsl
+
+const THREADS: u32 = 256u;
+
+struct SelectParams {
+    resolution: u32,
+    count: u32,
+    refined: u32,       // K pixels to select per record (1 <= K <= P^2)
+    _pad: u32,
+}
+
+@group(1) @binding(0) var<uniform> params: SelectParams;
+@group(1) @binding(1) var<storage, read> plane: array<PlanePixel>;
+@group(1) @binding(2) var<storage, read> samples: array<PlaneSample>;
+@group(1) @binding(3) var<storage, read_write> keys: array<u32>;
+@group(1) @binding(4) var<storage, read_write> selected: array<u32>;
+
+var<workgroup> histogram: array<atomic<u32>, 256>;
+var<workgroup> counts: array<u32, THREADS>;
+var<workgroup> prefix_key: u32;
+var<workgroup> remaining: u32;
+
+fn channel_sum(s: PlaneSample) -> f32 {
+    return (s.radiance.x + s.radiance.y) + s.radiance.z;
+}
+
+// Exclusive prefix sum of `counts` in thread order (serial by thread 0: THREADS entries).
+fn scan_counts(lane: u32) {
+    workgroupBarrier();
+    if lane == 0u {
+        var sum = 0u;
+        for (var t = 0u; t < THREADS; t++) {
+            let c = counts[t];
+            counts[t] = sum;
+            sum += c;
+        }
+    }
+    workgroupBarrier();
+}
+
+@compute @workgroup_size(256)
+fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) lane: u32) {
+    let record = group.x;
+    let res = params.resolution;
+    let n = res * res;
+    let base = record * n;
+    // Each thread owns a contiguous run of pixels (pixel order is thread order).
+    let chunk = (n + THREADS - 1u) / THREADS;
+    let first = min(lane * chunk, n);
+    let last = min(first + chunk, n);
+    for (var k = first; k < last; k++) {
+        let y = channel_sum(samples[base + k]);
+        let i = k % res;
+        var c = 0.0;
+        if i > 0u {
+            c = max(c, abs(y - channel_sum(samples[base + k - 1u])));
+        }
+        if i + 1u < res {
+            c = max(c, abs(y - channel_sum(samples[base + k + 1u])));
+        }
+        if k >= res {
+            c = max(c, abs(y - channel_sum(samples[base + k - res])));
+        }
+        if k + res < n {
+            c = max(c, abs(y - channel_sum(samples[base + k + res])));
+        }
+        keys[base + k] = bitcast<u32>(c * plane[k].weights.x);
+    }
+    if lane == 0u {
+        prefix_key = 0u;
+        remaining = params.refined;
+    }
+    // Radix select, 8 bits a round from the top: the K-th largest key T, and how many of
+    // the keys equal to T are taken (`remaining`).
+    for (var round = 0u; round < 4u; round++) {
+        let shift = 24u - 8u * round;
+        var mask = 0u;
+        if round > 0u {
+            mask = 0xffffffffu << (shift + 8u);
+        }
+        atomicStore(&histogram[lane], 0u);
+        workgroupBarrier();
+        let prefix = prefix_key;
+        for (var k = first; k < last; k++) {
+            let key = keys[base + k];
+            if (key & mask) == prefix {
+                atomicAdd(&histogram[(key >> shift) & 255u], 1u);
+            }
+        }
+        workgroupBarrier();
+        if lane == 0u {
+            var above = 0u;
+            var bin = 255u;
+            loop {
+                let h = atomicLoad(&histogram[bin]);
+                if above + h >= remaining || bin == 0u {
+                    break;
+                }
+                above += h;
+                bin -= 1u;
+            }
+            remaining -= above;
+            prefix_key = prefix | (bin << shift);
+        }
+        workgroupBarrier();
+    }
+    let threshold = prefix_key;
+    let ties = remaining;
+    // Rank of each key equal to T among them, in pixel order.
+    var equal = 0u;
+    for (var k = first; k < last; k++) {
+        equal += u32(keys[base + k] == threshold);
+    }
+    counts[lane] = equal;
+    scan_counts(lane);
+    let tie_rank = counts[lane];
+    // Selected pixels, in pixel order.
+    var mine = 0u;
+    var rank = tie_rank;
+    for (var k = first; k < last; k++) {
+        let key = keys[base + k];
+        if key > threshold || (key == threshold && rank < ties) {
+            mine += 1u;
+        }
+        rank += u32(key == threshold);
+    }
+    workgroupBarrier();
+    counts[lane] = mine;
+    scan_counts(lane);
+    var slot = counts[lane];
+    rank = tie_rank;
+    for (var k = first; k < last; k++) {
+        let key = keys[base + k];
+        if key > threshold || (key == threshold && rank < ties) {
+            selected[record * params.refined + slot] = k;
+            slot += 1u;
+        }
+        rank += u32(key == threshold);
+    }
+}
