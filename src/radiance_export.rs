@@ -6,7 +6,8 @@
 //!   `Kd`); **textures are ignored**, and [`notex_scene_toml`] makes a radsplat scene
 //!   variant without them so that both sides render the same thing;
 //! - emitters sampled by direct lighting (rect lights) as `light` (same radiance,
-//!   W/(sr m²) per channel, one-sided along the same normal), other emitters as `glow` with
+//!   W/(sr m²) per channel, one-sided along the same normal; each rect light one 4-vertex
+//!   `polygon`, not two triangles, so that rpict samples it exactly), other emitters as `glow` with
 //!   radius 0 (seen by camera and indirect rays only, as in radsplat);
 //! - point lights as small `light` spheres of radiance I / (π r²) (intensity I); spot
 //!   lights as Radiance `spot` with the full cone angle inner + outer half-angles (Radiance
@@ -62,6 +63,32 @@ pub fn scene_rad(scene: &Scene) -> String {
     let mut n = 0usize;
     for inst in &scene.instances {
         let mesh = &scene.meshes[inst.mesh as usize];
+        // A rect light's two-triangle quad (the loader's `add_rect_light_mesh`: corners
+        // c, c+u, c+u+v, c+v) becomes one 4-vertex `light` polygon. As two triangles, rpict
+        // samples each triangle over an equal-area rectangle about its centre (rays outside
+        // the triangle miss, the triangle outside it is never sampled) and splits it into at
+        // most 64 parts: fine from afar (Cornell box), but near a panel it lost most of the
+        // light (conference room: walls within ~30 cm of a panel 3-15x too dark in -ab 0).
+        let quad_light = mesh.positions.len() == 4
+            && mesh.indices == [[0, 1, 2], [0, 2, 3]]
+            && mesh.material_ids.len() == 2
+            && mesh.material_ids[0] == mesh.material_ids[1]
+            && scene.materials[mesh.material_ids[0] as usize].sampled_light;
+        if quad_light {
+            let mi = mesh.material_ids[0] as usize;
+            let id = ident("m", mi, &scene.materials[mi].name);
+            let p = |k: usize| v3(inst.transform.transform_point3(mesh.positions[k]));
+            let _ = writeln!(
+                out,
+                "{id} polygon t{n} 0 0 12 {} {} {} {}",
+                p(0),
+                p(1),
+                p(2),
+                p(3)
+            );
+            n += 1;
+            continue;
+        }
         for (t, tri) in mesh.indices.iter().enumerate() {
             let mi = mesh.material_ids[t] as usize;
             let id = ident("m", mi, &scene.materials[mi].name);

@@ -319,9 +319,16 @@ fn export_rad_writes_radiance_scene_and_textureless_variant() {
     );
     assert!(rad.contains("void plastic m0_white 0 0 5 0.725 0.71 0.68 0 0"));
     assert_eq!(
+        rad.lines()
+            .filter(|l| l.starts_with("m3___rect_light_0 polygon ") && l.contains(" 0 0 12 "))
+            .count(),
+        1,
+        "the rect light as one 4-vertex polygon"
+    );
+    assert_eq!(
         rad.matches(" polygon ").count(),
-        32,
-        "30 box triangles + the light's 2"
+        31,
+        "30 box triangles + the light's quad"
     );
     let view = std::fs::read_to_string(dir.join("view.vf")).expect("view.vf");
     // -vh = 2 atan(tan(39.3° / 2) · 32/24)
