@@ -84,7 +84,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
                 renderer.render_gi_frame(&prepared, &scene.camera, &mut cache, None, |n| {
                     bar.set_message(format!("rendering: {n} records"));
                 })?;
-            if record_map.is_some() {
+            if record_map.is_some() || stats.is_some() {
                 records = cache.read(&renderer.ctx)?;
             }
             frame
@@ -103,7 +103,10 @@ pub fn render(args: RenderArgs) -> Result<()> {
         outputs.stage(png, &ImageFormat::Png.encode_frame(png, &frame, exposure)?)?;
     }
     if let Some(stats_path) = &stats {
-        let json = serde_json_string(&prepared.bvh_stats, &frame.stats);
+        let radii = cache
+            .as_ref()
+            .map(|c| crate::records::RadiusStats::of(&records, c.r_max_factor));
+        let json = serde_json_string(&prepared.bvh_stats, &frame.stats, radii);
         outputs.stage(stats_path, json.as_bytes())?;
     }
     outputs.commit()?;
@@ -155,11 +158,22 @@ pub fn render(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
-fn serde_json_string(bvh: &crate::frame::BvhStats, frame: &crate::FrameStats) -> String {
+fn serde_json_string(
+    bvh: &crate::frame::BvhStats,
+    frame: &crate::FrameStats,
+    record_radii: Option<crate::records::RadiusStats>,
+) -> String {
     #[derive(serde::Serialize)]
     struct Stats<'a> {
         bvh: &'a crate::frame::BvhStats,
         frame: &'a crate::FrameStats,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        record_radii: Option<crate::records::RadiusStats>,
     }
-    serde_json::to_string_pretty(&Stats { bvh, frame }).unwrap_or_default()
+    serde_json::to_string_pretty(&Stats {
+        bvh,
+        frame,
+        record_radii,
+    })
+    .unwrap_or_default()
 }

@@ -76,6 +76,41 @@ impl Record {
     }
 }
 
+/// How the records' radii R sit between their R_min and R_max (the `render --stats`
+/// JSON): records at R_min mark where the harmonic mean distance, or Ward's gradient
+/// limit, asked for less than the pixel footprint allows.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct RadiusStats {
+    pub records: usize,
+    /// Share of records with R = R_min (within 0.1 %).
+    pub at_r_min: f64,
+    /// Share of records with R = R_max (within 0.1 %).
+    pub at_r_max: f64,
+    /// Quartiles of R / R_min.
+    pub ratio_quartiles: [f32; 3],
+}
+
+impl RadiusStats {
+    pub fn of(records: &[Record], r_max_factor: f32) -> Self {
+        if records.is_empty() {
+            return Self::default();
+        }
+        let mut ratios: Vec<f32> = records
+            .iter()
+            .map(|r| r.radius / r.r_min.max(f32::MIN_POSITIVE))
+            .collect();
+        ratios.sort_by(f32::total_cmp);
+        let n = ratios.len();
+        let share = |f: &dyn Fn(f32) -> bool| ratios.iter().filter(|&&x| f(x)).count() as f64 / n as f64;
+        Self {
+            records: n,
+            at_r_min: share(&|x| x <= 1.001),
+            at_r_max: share(&|x| x >= r_max_factor * 0.999),
+            ratio_quartiles: [ratios[n / 4], ratios[n / 2], ratios[(3 * n) / 4]],
+        }
+    }
+}
+
 /// Where a new record goes (mirror of WGSL `RecordSite`, 48 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
