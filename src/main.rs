@@ -330,9 +330,9 @@ struct CacheArgs {
     /// noise dominates); a = 0.1 wants 64x64 planes, a = 0.4-0.5 gets by with 24x24-32x32.
     #[arg(short, long, default_value_t = CacheSettings::default().accuracy, value_parser = parse_accuracy)]
     accuracy: f32,
-    /// Hemisphere plane resolution P (P x P rays per record): the noise of each record's
-    /// irradiance. Goes with -a: fewer plane rays need a larger a (fewer, wider records
-    /// average the plane noise over more pixels), see -a.
+    /// Hemisphere plane resolution P (P x P rays per record, plus --plane-refine's): the
+    /// noise of each record's irradiance. Goes with -a: fewer plane rays need a larger a
+    /// (fewer, wider records average the plane noise over more pixels), see -a.
     #[arg(long, default_value_t = CacheSettings::default().plane_resolution, value_parser = parse_plane_resolution)]
     plane_resolution: u32,
     /// Hemisphere plane field of view in degrees.
@@ -344,6 +344,10 @@ struct CacheArgs {
     /// R_min as the validity radius a R_min in pixels at creation.
     #[arg(long, default_value_t = CacheSettings::default().r_min_pixels, value_parser = parse_positive)]
     r_min_pixels: f32,
+    /// A world-space lower bound on R_min, as a fraction of the scene's bounding-box
+    /// diagonal (like Radiance's -ar: R_min is the larger of this and the pixel bound).
+    #[arg(long, default_value_t = CacheSettings::default().r_min_scene)]
+    r_min_scene: f32,
     /// R_max / R_min.
     #[arg(long, default_value_t = CacheSettings::default().r_max_factor, value_parser = parse_r_max_factor)]
     r_max_factor: f32,
@@ -369,8 +373,8 @@ struct CacheArgs {
     /// Adaptive plane refinement (Radiance's -as): the fraction F in [0, 1] of each
     /// record's plane pixels, those of highest contrast to their neighbours, traced again
     /// with --plane-refine-split^2 rays each. Costs F x split^2 x P^2 more plane rays per
-    /// record (F = 0.1, split 2: +40 %), and two passes. 0 (default): off. Not with
-    /// temporal caching (`animate --temporal on`).
+    /// record (F = 0.1, split 2: +40 %), and two passes. 0: off. Temporal caching
+    /// (`animate`) does not refine.
     #[arg(long, default_value_t = CacheSettings::default().plane_refine, value_parser = parse_fraction)]
     plane_refine: f32,
     /// Sub-samples per axis of a refined plane pixel (split x split strata), 1..=8.
@@ -482,6 +486,7 @@ impl CacheArgs {
             plane_fov_degrees: self.plane_fov,
             plane_light_samples: self.plane_light_samples,
             r_min_pixels: self.r_min_pixels,
+            r_min_scene: self.r_min_scene,
             r_max_factor: self.r_max_factor,
             record_budget: self.record_budget,
             gradients: !self.no_gradients,

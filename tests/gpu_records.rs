@@ -83,6 +83,7 @@ fn gpu_planes_and_records_match_the_cpu_reference() {
         &mut cache,
         None,
         None,
+        None,
         |_| {},
     )
     .expect("records");
@@ -285,6 +286,7 @@ fn refinement_off_gives_todays_records() {
         &mut cache,
         None,
         None,
+        None,
         |_| {},
     )
     .expect("records");
@@ -371,6 +373,7 @@ fn gpu_refined_planes_and_records_match_the_cpu_reference() {
             &site_buf,
             sites.len() as u32,
             &mut cache,
+            None,
             None,
             None,
             |_| {},

@@ -9,7 +9,8 @@
 // such a box; every other sample would be traced to the same hit and shaded with the same
 // shadow rays, so the retained bytes are the bytes a trace would give. Bound with the
 // scene at the replacement's frame. One invocation per (pixel, record).
-//!include shared/plane.wgsl
+//!include shared/shading.wgsl
+//!include shared/plane_direction.wgsl
 //!include shared/movers.wgsl
 //!include shared/work_list.wgsl
 

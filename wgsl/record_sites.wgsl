@@ -1,6 +1,8 @@
 // Record sites from visibility-buffer pixels chosen by placement: position, normals, and
 // R_min from the pixel footprint, so that a record's validity radius a R_min spans at
-// least `r_min_pixels` pixels on screen (algorithms.md decision 5).
+// least `r_min_pixels` pixels on screen (algorithms.md decision 5), and at least
+// `r_min_world` (a world-space bound on record spacing, like Radiance's -ar: near the
+// camera the pixel bound alone lets records crowd at high resolutions).
 //!include shared/records.wgsl
 //!include shared/camera.wgsl
 //!include shared/sampling.wgsl
@@ -10,6 +12,10 @@ struct SiteParams {
     first_record: u32,
     r_min_pixels: f32,
     accuracy: f32,
+    r_min_world: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: SiteParams;
@@ -28,7 +34,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let footprint = 2.0 * length(camera.up) * v.t / f32(camera.height);
     var site: RecordSite;
     site.position = v.position;
-    site.r_min = params.r_min_pixels * footprint / params.accuracy;
+    site.r_min = max(params.r_min_pixels * footprint / params.accuracy, params.r_min_world);
     site.normal = v.shading_normal;
     site.seed = hash_u32(params.first_record + id.x);
     site.geometric_normal = v.geometric_normal;

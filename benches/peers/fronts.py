@@ -61,10 +61,10 @@ SETTINGS = {
         "spp": 4096, "dj": 0.7, "light_samples": None, "ref_light_samples": 2,
         "size": "128x128",
         "radsplat": [
-            ("a0.5-P16", ["-a", "0.5", "--plane-resolution", "16"]),
-            ("a0.3-P32", ["-a", "0.3", "--plane-resolution", "32"]),
-            ("a0.15-P96", ["-a", "0.15", "--plane-resolution", "96"]),
-            ("a0.1-P128", ["-a", "0.1", "--plane-resolution", "128"]),
+            ("a0.3-P32-f0.1", ["-a", "0.3", "--plane-resolution", "32", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
+            ("a0.2-P32-f0.1", ["-a", "0.2", "--plane-resolution", "32", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
+            ("a0.15-P48-f0.1", ["-a", "0.15", "--plane-resolution", "48", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
+            ("a0.1-P64-f0.2", ["-a", "0.1", "--plane-resolution", "64", "--plane-refine", "0.2", "--plane-shadows", "maps"]),
         ],
         "rpict": [
             ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),
@@ -80,12 +80,11 @@ SETTINGS = {
         "spp": 128, "dj": 0.0, "light_samples": None, "ref_light_samples": None,
         "size": "1000x1000",
         "radsplat": [
-            ("a0.5-P16", ["-a", "0.5", "--plane-resolution", "16"]),
-            ("a0.5-P24", ["-a", "0.5", "--plane-resolution", "24"]),
-            ("a0.3-P32", ["-a", "0.3", "--plane-resolution", "32"]),
-            ("a0.2-P48", ["-a", "0.2", "--plane-resolution", "48"]),
-            ("a0.15-P64", ["-a", "0.15", "--plane-resolution", "64"]),
-            ("a0.1-P96", ["-a", "0.1", "--plane-resolution", "96"]),
+            ("a0.5-P16-f0.1", ["-a", "0.5", "--plane-resolution", "16", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
+            ("a0.5-P24-f0.1", ["-a", "0.5", "--plane-resolution", "24", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
+            ("a0.3-P32-f0.1", ["-a", "0.3", "--plane-resolution", "32", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
+            ("a0.2-P48-f0.1", ["-a", "0.2", "--plane-resolution", "48", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
+            ("a0.15-P48-f0.1", ["-a", "0.15", "--plane-resolution", "48", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
         ],
         "rpict": [
             ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),
@@ -100,10 +99,10 @@ SETTINGS = {
         "spp": 1024, "dj": 0.7, "light_samples": None, "ref_light_samples": 1,
         "size": "160x120",
         "radsplat": [
-            ("a0.5-P16", ["-a", "0.5", "--plane-resolution", "16"]),
-            ("a0.3-P32", ["-a", "0.3", "--plane-resolution", "32"]),
-            ("a0.15-P64", ["-a", "0.15", "--plane-resolution", "64"]),
-            ("a0.1-P96", ["-a", "0.1", "--plane-resolution", "96"]),
+            ("a0.5-P16-f0.1", ["-a", "0.5", "--plane-resolution", "16", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
+            ("a0.3-P32-f0.1", ["-a", "0.3", "--plane-resolution", "32", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
+            ("a0.2-P48-f0.1", ["-a", "0.2", "--plane-resolution", "48", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
+            ("a0.15-P48-f0.1", ["-a", "0.15", "--plane-resolution", "48", "--plane-refine", "0.1", "--plane-shadows", "maps"]),
         ],
         "rpict": [
             ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),

@@ -218,6 +218,8 @@ pub struct GpuScene {
     _bvh_nodes: wgpu::Texture,
     /// Bytes uploaded, for memory reports.
     pub bytes: u64,
+    /// Length of the diagonal of the scene's world bounds (`bvh::scene_bounds`).
+    pub diagonal: f32,
 }
 
 /// Group 0: the BVH node texture at binding 0, storage buffers at bindings
@@ -377,6 +379,10 @@ impl GpuScene {
             _buffers: buffers,
             _bvh_nodes: bvh_nodes,
             bytes,
+            diagonal: {
+                let (lo, hi) = crate::bvh::scene_bounds(scene);
+                (hi - lo).length()
+            },
         })
     }
 

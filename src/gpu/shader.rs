@@ -61,6 +61,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/shared/reprojection.wgsl"),
     ),
     (
+        "shared/plane_direction.wgsl",
+        include_str!("../../wgsl/shared/plane_direction.wgsl"),
+    ),
+    (
         "shared/plane.wgsl",
         include_str!("../../wgsl/shared/plane.wgsl"),
     ),

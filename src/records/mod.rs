@@ -166,6 +166,10 @@ pub struct CacheSettings {
     pub plane_light_samples: u32,
     /// R_min in pixels of validity radius: a R_min spans this many pixels at creation.
     pub r_min_pixels: f32,
+    /// A world-space lower bound on R_min as a fraction of the scene's bounding-box
+    /// diagonal (like Radiance's `-ar`, whose minimum spacing is size x aa / ar): R_min is
+    /// the larger of the two bounds. 0: the pixel bound alone.
+    pub r_min_scene: f32,
     /// R_max / R_min (Ward: 64).
     pub r_max_factor: f32,
     /// Most records the cache may hold.
@@ -199,20 +203,21 @@ impl Default for CacheSettings {
     fn default() -> Self {
         Self {
             accuracy: 0.2,
-            plane_resolution: 64,
-            plane_fov_degrees: 130.0,
+            plane_resolution: 32,
+            plane_fov_degrees: 150.0,
             plane_mode: PlaneMode::Stretched,
             plane_light_samples: 1,
             r_min_pixels: 3.0,
+            r_min_scene: 1.0 / 64.0,
             r_max_factor: 64.0,
             record_budget: 200_000,
             gradients: true,
-            plane_shadows: PlaneShadows::Rays,
+            plane_shadows: PlaneShadows::Maps,
             light_maps: LightMapSettings {
                 resolution: 512,
-                rect_grid: 2,
+                rect_grid: 3,
             },
-            plane_refine: 0.0,
+            plane_refine: 0.1,
             plane_refine_split: 2,
         }
     }
@@ -285,6 +290,14 @@ impl CacheSettings {
                 "--plane-light-samples",
                 "0".into(),
                 "must be at least 1",
+            );
+        }
+        if !(self.r_min_scene >= 0.0 && self.r_min_scene < 1.0) {
+            return bad(
+                "r_min_scene",
+                "--r-min-scene",
+                self.r_min_scene.to_string(),
+                "must be in [0, 1) (a fraction of the scene's diagonal)",
             );
         }
         if !(self.r_min_pixels > 0.0 && self.r_min_pixels.is_finite()) {
@@ -428,6 +441,8 @@ struct SiteParams {
     first_record: u32,
     r_min_pixels: f32,
     accuracy: f32,
+    r_min_world: f32,
+    _pad: [u32; 3],
 }
 
 /// Parameters of the plane pass (`hemisphere_plane.wgsl`) and of the plane refresh's
@@ -593,6 +608,8 @@ impl RecordPass {
                 first_record,
                 r_min_pixels: self.settings.r_min_pixels,
                 accuracy: self.settings.accuracy,
+                r_min_world: self.settings.r_min_scene * scene.diagonal,
+                _pad: [0; 3],
             },
         );
         let pixel_buf = ctx.storage_buffer("site pixels", pixels)?;

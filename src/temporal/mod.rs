@@ -458,12 +458,14 @@ impl TemporalCache {
         settings.validate()?;
         Ok(Self {
             settings: settings.clone(),
-            // Plane hits trace their shadow rays in animations: light maps would need
-            // tracing again every frame, and the re-shading at t+1 traces rays.
+            // Plane hits trace their shadow rays in animations (light maps would need
+            // tracing again every frame, and the re-shading at t+1 traces rays), and planes
+            // are not refined (refreshed and reprojected planes would be unrefined).
             pass: RecordPass::new(
                 ctx,
                 &CacheSettings {
                     plane_shadows: crate::records::PlaneShadows::Rays,
+                    plane_refine: 0.0,
                     ..cache.clone()
                 },
             )?,

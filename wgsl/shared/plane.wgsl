@@ -5,17 +5,11 @@
 // `light_samples` field and the light-map bindings of shared/light_map_lookup.wgsl.
 //!include shared/trace_and_shade.wgsl
 //!include shared/light_map_lookup.wgsl
-//!include shared/records.wgsl
+//!include shared/plane_direction.wgsl
 
 struct TracedSample {
     sample: PlaneSample,
     hit: PlaneHit,
-}
-
-// The direction of plane pixel `pixel` of the record at `site`, in world space.
-fn plane_direction(site: RecordSite, pixel: u32) -> vec3f {
-    let frame = orthonormal_basis(site.normal);
-    return normalize(frame * vec3f(plane[pixel].rot_center.zw, 1.0));
 }
 
 // Plane hits look shadows up in the frame's light maps where it has them
