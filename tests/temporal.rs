@@ -86,7 +86,10 @@ fn static_animation_reuses_every_record_and_matches_the_static_render() {
     let scene = common::load("cube-in-box.toml", Some((40, 32)));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let prepared = renderer.prepare(&scene).expect("prepare");
-    let mut cache = renderer.new_cache(&settings()).expect("cache");
+    // The static render with the settings temporal caching computes records with.
+    let mut cache = renderer
+        .new_cache(&TemporalCache::record_settings(&settings()))
+        .expect("cache");
     let still = renderer
         .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
         .expect("static frame");

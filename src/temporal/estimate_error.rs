@@ -164,6 +164,8 @@ pub fn estimates_at_sites(
     stride: u32,
 ) -> Result<Vec<Estimate>> {
     let ctx = &renderer.ctx;
+    // The records temporal caching would compute (shadow rays, unrefined planes).
+    let settings = &super::TemporalCache::record_settings(settings);
     let pass = RecordPass::new(ctx, settings)?;
     let reprojection = ReprojectionPass::new(ctx, settings, stride)?;
     let plane_of = |resolution: u32| {

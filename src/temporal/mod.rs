@@ -450,25 +450,38 @@ pub struct TemporalCache {
 }
 
 impl TemporalCache {
+    /// The settings temporal caching computes its records with, from the user's: plane
+    /// hits trace their shadow rays (light maps would need tracing again every frame, and
+    /// the re-shading at t+1 traces rays), planes are not refined (refreshed and
+    /// reprojected planes would be unrefined), and so the refined planes' default field of
+    /// view ([`CacheSettings::PLANE_FOV_REFINED`]) becomes the plain planes' best
+    /// ([`CacheSettings::PLANE_FOV_PLAIN`], thesis Table 4.1).
+    pub fn record_settings(cache: &CacheSettings) -> CacheSettings {
+        let refined_default_fov =
+            cache.plane_refine > 0.0 && cache.plane_fov_degrees == CacheSettings::PLANE_FOV_REFINED;
+        CacheSettings {
+            plane_shadows: crate::records::PlaneShadows::Rays,
+            plane_refine: 0.0,
+            plane_fov_degrees: if refined_default_fov {
+                CacheSettings::PLANE_FOV_PLAIN
+            } else {
+                cache.plane_fov_degrees
+            },
+            ..cache.clone()
+        }
+    }
+
     pub fn new(
         ctx: &GpuContext,
         cache: &CacheSettings,
         settings: &TemporalSettings,
     ) -> Result<Self> {
         settings.validate()?;
+        // Every pass (records, reprojection, plane store) with the same record settings.
+        let cache = &Self::record_settings(cache);
         Ok(Self {
             settings: settings.clone(),
-            // Plane hits trace their shadow rays in animations (light maps would need
-            // tracing again every frame, and the re-shading at t+1 traces rays), and planes
-            // are not refined (refreshed and reprojected planes would be unrefined).
-            pass: RecordPass::new(
-                ctx,
-                &CacheSettings {
-                    plane_shadows: crate::records::PlaneShadows::Rays,
-                    plane_refine: 0.0,
-                    ..cache.clone()
-                },
-            )?,
+            pass: RecordPass::new(ctx, cache)?,
             reprojection: ReprojectionPass::new(
                 ctx,
                 cache,
