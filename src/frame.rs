@@ -37,6 +37,10 @@ pub struct BvhStats {
     pub upload_bytes: u64,
 }
 
+/// What [`Renderer::splat_cache_in_rounds`] returns: the visibility buffer, the splat sums
+/// `(sum w E', sum w)` and the coverage mask, per pixel.
+pub type SplatRounds = (Vec<VisSample>, Vec<[f32; 4]>, Vec<u32>);
+
 /// Options of [`Renderer::render_cached_frame`].
 #[derive(Default)]
 pub struct CachedFrameOptions<'a, 'b> {
@@ -283,7 +287,7 @@ impl Renderer {
         camera: &Camera,
         cache: &IrradianceCache,
         splits: &[u32],
-    ) -> Result<(Vec<VisSample>, Vec<[f32; 4]>, Vec<u32>)> {
+    ) -> Result<SplatRounds> {
         let ctx = &self.ctx;
         let vis = self.visibility(scene, camera, &mut Vec::new())?;
         let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;

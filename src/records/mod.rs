@@ -101,7 +101,8 @@ impl RadiusStats {
             .collect();
         ratios.sort_by(f32::total_cmp);
         let n = ratios.len();
-        let share = |f: &dyn Fn(f32) -> bool| ratios.iter().filter(|&&x| f(x)).count() as f64 / n as f64;
+        let share =
+            |f: &dyn Fn(f32) -> bool| ratios.iter().filter(|&&x| f(x)).count() as f64 / n as f64;
         Self {
             records: n,
             at_r_min: share(&|x| x <= 1.001),
