@@ -124,6 +124,10 @@ pub struct Comparison {
     pub beauty: ErrorStats,
     /// Present when both images have `indirect.*`.
     pub indirect: Option<ErrorStats>,
+    /// Share of the pixels the reference's indirect light reaches (luminance above 1 % of
+    /// its mean) where A's indirect light is zero: holes (planes that missed the bright
+    /// patches, uncovered pixels). Present when both images have `indirect.*`.
+    pub indirect_unlit: Option<f64>,
     /// Beauty over the reflecting surfaces only: pixels where the reference B has a non-zero
     /// `albedo.*` (emitters, whose radiance can dominate RMS(B), and background excluded).
     /// Present when B has `albedo.*`.
@@ -444,13 +448,13 @@ pub fn compare(a: &RgbImage, b: &RgbImage) -> Result<Comparison> {
     check_same_size(a, b)?;
     check_finite(a, "beauty", &a.beauty)?;
     check_finite(b, "beauty", &b.beauty)?;
-    let indirect = match (&a.indirect, &b.indirect) {
+    let (indirect, indirect_unlit) = match (&a.indirect, &b.indirect) {
         (Some(ia), Some(ib)) => {
             check_finite(a, "indirect", ia)?;
             check_finite(b, "indirect", ib)?;
-            Some(error_stats(ia, ib))
+            (Some(error_stats(ia, ib)), Some(unlit_share(ia, ib)))
         }
-        _ => None,
+        _ => (None, None),
     };
     let surfaces = b.albedo.as_ref().map(|albedo| {
         let (sa, sb): (Vec<[f32; 3]>, Vec<[f32; 3]>) = a
@@ -470,8 +474,30 @@ pub fn compare(a: &RgbImage, b: &RgbImage) -> Result<Comparison> {
         height: a.height,
         beauty: error_stats(&a.beauty, &b.beauty),
         indirect,
+        indirect_unlit,
         surfaces,
     })
+}
+
+/// Share of the pixels where the reference `b` has light (luminance above 1 % of its mean)
+/// and `a` has none.
+pub fn unlit_share(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    let n = b.len().max(1) as f64;
+    let mean = b.iter().map(|&p| f64::from(luminance(p))).sum::<f64>() / n;
+    let lit: Vec<bool> = b
+        .iter()
+        .map(|&p| f64::from(luminance(p)) > 0.01 * mean)
+        .collect();
+    let lit_count = lit.iter().filter(|&&l| l).count();
+    if lit_count == 0 {
+        return 0.0;
+    }
+    let holes = a
+        .iter()
+        .zip(&lit)
+        .filter(|&(&p, &l)| l && luminance(p) <= 0.0)
+        .count();
+    holes as f64 / lit_count as f64
 }
 
 /// Rec. 709 luminance of linear RGB.
@@ -573,6 +599,15 @@ mod tests {
         let black = vec![[0.0; 3]; 4];
         assert_eq!(error_stats(&black, &black).relative_rmse, 0.0);
         assert!(error_stats(&b, &black).relative_rmse.is_infinite());
+    }
+
+    #[test]
+    fn unlit_share_counts_holes_where_the_reference_is_lit() {
+        let b = vec![[1.0, 1.0, 1.0], [1.0, 1.0, 1.0], [0.0; 3], [1.0, 1.0, 1.0]];
+        let a = vec![[0.0; 3], [0.5, 0.5, 0.5], [0.0; 3], [2.0, 2.0, 2.0]];
+        // Three lit pixels in b; a is dark at one of them (b's dark pixel does not count).
+        assert!((unlit_share(&a, &b) - 1.0 / 3.0).abs() < 1e-12);
+        assert_eq!(unlit_share(&b, &b), 0.0);
     }
 
     #[test]

@@ -66,6 +66,12 @@ pub fn compare(
         Some(s) => line("indirect", s),
         None => println!("indirect  (not in both files)"),
     }
+    if let Some(share) = c.indirect_unlit {
+        println!(
+            "indirect  zero where the reference has some: {:.3} % of its lit pixels",
+            100.0 * share
+        );
+    }
     if let Some(path) = diff {
         let rgb = diff_image(&ia, &ib, scale);
         // The diff image has a legend strip below the picture.
