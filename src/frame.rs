@@ -7,7 +7,7 @@ use crate::direct::{DirectLightPass, DirectOutput};
 use crate::gpu::scene_buffers::GpuLight;
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, GpuScene};
-use crate::light_maps::LightMapPass;
+use crate::light_maps::{LightMapPass, MappedLights};
 use crate::placement::{PlacementPass, PlacementStats};
 use crate::records::{CacheSettings, PlaneShadows, Record, RecordCache, RecordPass};
 use crate::resolve::ResolvePass;
@@ -327,6 +327,7 @@ impl Renderer {
             &scene.lights,
             scene.bounds,
             settings,
+            crate::light_maps::MappedLights::All,
             &mut Vec::new(),
         )?;
         let mut depths: Vec<f32> = self.ctx.read_buffer(&maps.depths)?;
@@ -408,16 +409,22 @@ impl Renderer {
             ctx, &scene.gpu, &vis, &bounds, records, 0, accuracy, &mask, &mut times,
         )?;
         // Light-space visibility for the plane hits of new records, traced once per frame.
-        let light_maps = match pass.settings.plane_shadows {
-            PlaneShadows::Maps => Some(self.light_map_pass()?.build(
+        let mapped = match pass.settings.plane_shadows {
+            PlaneShadows::Maps => Some(MappedLights::All),
+            PlaneShadows::Auto => Some(MappedLights::DeltaOnly),
+            PlaneShadows::Rays => None,
+        };
+        let light_maps = match mapped {
+            Some(mapped) => Some(self.light_map_pass()?.build(
                 ctx,
                 &scene.gpu,
                 &scene.lights,
                 scene.bounds,
                 &pass.settings.light_maps,
+                mapped,
                 &mut times,
             )?),
-            PlaneShadows::Rays => None,
+            None => None,
         };
         let placement = self.placement_pass()?.place(
             ctx,

@@ -359,8 +359,10 @@ struct CacheArgs {
     no_gradients: bool,
     /// How hemisphere-plane hits are shadowed: `maps` traces light-space visibility maps
     /// once per frame (an orthographic map for a sun, octahedral maps for point and spot
-    /// lights and for fixed points on rect lights) and looks shadows up; `rays` traces a
-    /// shadow ray per light sample at every plane hit (exact). `animate` always uses rays.
+    /// lights, an N x N grid of them per rect light) and looks shadows up; `rays` traces a
+    /// shadow ray per light sample at every plane hit (exact); `auto` maps the sun, point
+    /// and spot lights and traces rays to rect lights (whose maps approximate penumbrae).
+    /// `animate` always uses rays.
     #[arg(long, value_enum, default_value_t = CacheSettings::default().plane_shadows)]
     plane_shadows: radsplat::records::PlaneShadows,
     /// Texels per side of a sun's light map (point and rect-light maps get half).

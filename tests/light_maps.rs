@@ -7,7 +7,8 @@ use glam::Vec3;
 use radsplat::Renderer;
 use radsplat::bvh::cpu_trace::CpuTracer;
 use radsplat::light_maps::{
-    LightMapSettings, MAP_OCTAHEDRAL, MAP_ORTHOGRAPHIC, NO_MAP, layout, reference_depths,
+    LightMapSettings, MAP_OCTAHEDRAL, MAP_ORTHOGRAPHIC, MappedLights, NO_MAP, layout,
+    reference_depths,
 };
 use radsplat::records::{CacheSettings, PlaneShadows};
 use radsplat::scene::{Light, Scene};
@@ -38,7 +39,8 @@ fn light_map_layout_gives_each_light_its_maps() {
         resolution: 64,
         rect_grid: 2,
     };
-    let (maps, first) = layout(&lights, radsplat::bvh::scene_bounds(&scene), &settings);
+    let bounds = radsplat::bvh::scene_bounds(&scene);
+    let (maps, first) = layout(&lights, bounds, &settings, MappedLights::All);
     // Rect: a 2 x 2 grid of octahedral maps; sun: 1 orthographic; point: 1 octahedral.
     assert_eq!(first, vec![6, 0, 2, 4, 0, 5, 0]);
     let kinds: Vec<u32> = maps.iter().map(|m| m.kind).collect();
@@ -53,6 +55,11 @@ fn light_map_layout_gives_each_light_its_maps() {
         next += m.resolution * m.resolution;
     }
     assert!(first[1..].iter().step_by(2).all(|&f| f != NO_MAP));
+    // The default: delta lights only, the rect light keeps its rays.
+    let (delta, first) = layout(&lights, bounds, &settings, MappedLights::DeltaOnly);
+    assert_eq!(first, vec![2, NO_MAP, 0, 0, 0, 1, 0]);
+    assert_eq!(delta.len(), 2);
+    assert_eq!(delta[0].kind, MAP_ORTHOGRAPHIC);
 }
 
 #[test]

@@ -36,6 +36,15 @@ pub struct LightMapSettings {
     pub rect_grid: u32,
 }
 
+/// Which lights get maps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MappedLights {
+    /// Every light.
+    All,
+    /// Suns, point and spot lights (rect lights keep their shadow rays).
+    DeltaOnly,
+}
+
 /// One map (mirror of WGSL `LightMap`, 80 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -101,6 +110,7 @@ pub fn layout(
     lights: &[GpuLight],
     bounds: (Vec3, Vec3),
     settings: &LightMapSettings,
+    mapped: MappedLights,
 ) -> (Vec<GpuLightMap>, Vec<u32>) {
     let mut maps = Vec::new();
     let mut first = vec![0u32; 2 * lights.len() + 1];
@@ -165,6 +175,7 @@ pub fn layout(
                 });
             }
             LIGHT_POINT | LIGHT_SPOT => octahedral(slot_u, v(light.a), &mut maps),
+            LIGHT_RECT if mapped == MappedLights::DeltaOnly => first[1 + 2 * slot] = NO_MAP,
             LIGHT_RECT => {
                 // Cell centres just off the emitting side, so rays leave the light's quad;
                 // cell (i, j) is map i + n j.
@@ -214,9 +225,10 @@ impl LightMapPass {
         lights: &[GpuLight],
         bounds: (Vec3, Vec3),
         settings: &LightMapSettings,
+        mapped: MappedLights,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<LightMaps> {
-        let (layout, first) = layout(lights, bounds, settings);
+        let (layout, first) = layout(lights, bounds, settings, mapped);
         if layout.is_empty() {
             return LightMaps::none(ctx);
         }

@@ -180,7 +180,7 @@ pub struct CacheSettings {
     /// How plane hits find their shadows: light-space maps traced once per frame, or one
     /// shadow ray per sample (exact).
     pub plane_shadows: PlaneShadows,
-    /// The maps' size (with [`PlaneShadows::Maps`]).
+    /// The maps' size (with [`PlaneShadows::Maps`] and [`PlaneShadows::Auto`]).
     pub light_maps: LightMapSettings,
     /// Adaptive plane refinement (Radiance's `-as`, Ward's "adaptive super-sampling" of
     /// high-variance strata, algorithms.md 1.7): the fraction of each record's plane
@@ -194,7 +194,14 @@ pub struct CacheSettings {
 /// How hemisphere-plane hits are shadowed (thesis section 4.4 uses shadow maps).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
 pub enum PlaneShadows {
-    /// Light-space visibility maps ([`crate::light_maps`]), traced once per frame.
+    /// Maps for the delta lights (sun, point, spot), whose visibility a map holds up to its
+    /// resolution; shadow rays for rect lights, whose maps approximate a penumbra by a few
+    /// cells (measured: conference room 160x120 at a 0.15, 48x48 planes, indirect error
+    /// 4.13 % with 3x3 maps per panel against 2.95 % with rays, at 2.1x the plane time;
+    /// Cornell box 2.13 % against 2.05 %).
+    Auto,
+    /// Light-space visibility maps ([`crate::light_maps`]) for every light, traced once
+    /// per frame.
     Maps,
     /// One shadow ray per light sample at every plane hit.
     Rays,
@@ -213,7 +220,7 @@ impl Default for CacheSettings {
             r_max_factor: 64.0,
             record_budget: 200_000,
             gradients: true,
-            plane_shadows: PlaneShadows::Maps,
+            plane_shadows: PlaneShadows::Auto,
             light_maps: LightMapSettings {
                 resolution: 512,
                 rect_grid: 3,
