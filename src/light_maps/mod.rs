@@ -218,6 +218,7 @@ impl LightMapPass {
     }
 
     /// Lays out and traces the maps of `lights` over `scene` (timed as "light maps").
+    #[allow(clippy::too_many_arguments)]
     pub fn build(
         &self,
         ctx: &GpuContext,
