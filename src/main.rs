@@ -357,6 +357,10 @@ struct CacheArgs {
     /// Do not compute or use irradiance gradients.
     #[arg(long)]
     no_gradients: bool,
+    /// Neighbour clamping (Krivanek et al. 2006): a new record's R is at most R_j + |p - p_j|
+    /// over the records placed before it. Quadratic in the record count.
+    #[arg(long)]
+    neighbour_clamp: bool,
     /// How hemisphere-plane hits are shadowed: `maps` traces light-space visibility maps
     /// once per frame (an orthographic map for a sun, octahedral maps for point and spot
     /// lights, an N x N grid of them per rect light) and looks shadows up; `rays` traces a
@@ -492,6 +496,7 @@ impl CacheArgs {
             r_max_factor: self.r_max_factor,
             record_budget: self.record_budget,
             gradients: !self.no_gradients,
+            neighbour_clamp: self.neighbour_clamp,
             plane_shadows: self.plane_shadows,
             light_maps: radsplat::light_maps::LightMapSettings {
                 resolution: self.light_map_resolution,

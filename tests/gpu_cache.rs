@@ -285,3 +285,48 @@ fn rounds_of_splats_and_covers_match_one_full_splat() {
     );
     assert!(first_round.iter().filter(|&&c| c != 0).count() < covered);
 }
+
+/// Neighbour clamping on insertion: records placed in later rounds obey R_i <= R_j + |p_i -
+/// p_j| against the records before them (only records of the same round may break it),
+/// every visible pixel stays covered, and without it the inequality is broken far more.
+#[test]
+fn neighbour_clamping_bounds_new_records_by_earlier_ones() {
+    let scene = common::load("cornell-box.toml", Some((48, 40)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let violations = |clamp: bool| {
+        let mut cache = renderer
+            .new_cache(&CacheSettings {
+                neighbour_clamp: clamp,
+                ..settings()
+            })
+            .expect("cache");
+        let frame = render(&renderer, &scene, &mut cache);
+        let stats = frame.stats.cache.expect("cache stats");
+        assert_eq!(
+            stats.uncovered_pixels, 0,
+            "uncovered pixels (clamp {clamp})"
+        );
+        let records = cache.read(&renderer.ctx).expect("records");
+        let mut broken = 0;
+        for (i, r) in records.iter().enumerate() {
+            if r.radius <= r.r_min * 1.0001 {
+                continue; // at R_min: the clamp cannot go lower
+            }
+            for q in &records[..i] {
+                let bound = q.radius + (r.position() - q.position()).length();
+                if r.radius > bound * 1.0001 {
+                    broken += 1;
+                }
+            }
+        }
+        (broken, records.len())
+    };
+    let (off, n_off) = violations(false);
+    let (on, n_on) = violations(true);
+    eprintln!("pairs breaking the bound: {off} of {n_off} records without, {on} of {n_on} with");
+    assert!(off > 0, "the scene does not exercise the clamp");
+    assert!(
+        on * 4 <= off,
+        "{on} violations with clamping, {off} without"
+    );
+}

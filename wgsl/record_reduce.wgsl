@@ -1,6 +1,7 @@
 // Record reduction: one workgroup per record sums its plane in a fixed order (each thread a
 // fixed strided subset, then a tree), giving E, the harmonic mean distance R and both
-// gradients straight from the plane (algorithms.md 3.3), then clamps R (decision 5).
+// gradients straight from the plane (algorithms.md 3.3), then clamps R (decision 5, and
+// optionally by its neighbours).
 //!include shared/records.wgsl
 //!include shared/sampling.wgsl
 
@@ -13,7 +14,7 @@ struct ReduceParams {
     gradients: u32,         // 0: store zero gradients
     r_max_factor: f32,      // R_max = r_max_factor * R_min (Ward: 64)
     cos_weight_sum: f32,    // sum of the plane's cosine weights (pi when stretched)
-    _pad0: u32,
+    neighbour_clamp: u32,   // 1: R <= R_j + |p - p_j| over the records before this batch
     _pad1: u32,
 }
 
@@ -33,6 +34,7 @@ struct Partial {
 }
 
 var<workgroup> partials: array<Partial, THREADS>;
+var<workgroup> neighbour_bounds: array<f32, THREADS>;
 
 fn add(a: Partial, b: Partial) -> Partial {
     return Partial(
@@ -103,6 +105,27 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         }
         workgroupBarrier();
     }
+    // Neighbour clamping on insertion (Krivanek et al. 2006, algorithms.md 1.8): R_new <=
+    // R_j + |p_new - p_j| for every record j placed before this batch, the triangle
+    // inequality of the distance to the nearest surface, so a record cannot claim a wider
+    // validity than its neighbours' distances allow (records are never shrunk after they
+    // are placed, so coverage stays exact). Each lane takes a strided subset; the minimum
+    // does not depend on the order.
+    var bound = 1.0e30;
+    if params.neighbour_clamp != 0u && record < params.count {
+        let p = sites[record].position;
+        for (var j = lane; j < params.first_record; j += THREADS) {
+            bound = min(bound, records[j].radius + length(records[j].position - p));
+        }
+    }
+    neighbour_bounds[lane] = bound;
+    workgroupBarrier();
+    for (var stride = THREADS / 2u; stride > 0u; stride /= 2u) {
+        if lane < stride {
+            neighbour_bounds[lane] = min(neighbour_bounds[lane], neighbour_bounds[lane + stride]);
+        }
+        workgroupBarrier();
+    }
     if lane != 0u || record >= params.count {
         return;
     }
@@ -120,6 +143,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     if sum.inv_distance > 0.0 {
         radius = clamp(params.cos_weight_sum / sum.inv_distance, site.r_min, r_max);
     }
+    radius = max(min(radius, neighbour_bounds[0]), site.r_min);
     let frame = orthonormal_basis(site.normal);
     let e = sum.irradiance;
     var rot = array<vec3f, 3>(vec3f(0.0), vec3f(0.0), vec3f(0.0));

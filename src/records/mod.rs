@@ -173,6 +173,10 @@ pub struct CacheSettings {
     pub r_min_scene: f32,
     /// R_max / R_min (Ward: 64).
     pub r_max_factor: f32,
+    /// Neighbour clamping on insertion (Krivanek et al. 2006): a new record's R is at most
+    /// R_j + |p - p_j| over the records placed before its batch. Costs new x old record
+    /// pairs per round (quadratic in the record count): off by default.
+    pub neighbour_clamp: bool,
     /// Most records the cache may hold.
     pub record_budget: u32,
     /// Store and use rotational and translational gradients.
@@ -218,6 +222,7 @@ impl Default for CacheSettings {
             r_min_pixels: 3.0,
             r_min_scene: 1.0 / 64.0,
             r_max_factor: 64.0,
+            neighbour_clamp: false,
             record_budget: 200_000,
             gradients: true,
             plane_shadows: PlaneShadows::Auto,
@@ -481,7 +486,8 @@ struct ReduceParams {
     gradients: u32,
     r_max_factor: f32,
     cos_weight_sum: f32,
-    _pad: [u32; 2],
+    neighbour_clamp: u32,
+    _pad: u32,
 }
 
 /// Planes traced at t and estimated at t+1 ([`RecordPass::trace_planes_ahead`]).
@@ -907,7 +913,8 @@ impl RecordPass {
                 gradients: u32::from(self.settings.gradients),
                 r_max_factor: self.settings.r_max_factor,
                 cos_weight_sum: table.cos_weight_sum,
-                _pad: [0; 2],
+                neighbour_clamp: u32::from(self.settings.neighbour_clamp),
+                _pad: 0,
             },
         );
         let bind = self.reduce.bind(
