@@ -526,6 +526,13 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
 fn main() -> ExitCode {
     // SAFETY: first thing in main, before any thread is started.
     unsafe { radsplat::gpu::context::quiet_device_select_layer() };
+    // A closed pipe on stdout (`radsplat compare A B | head`) ends the process quietly, as
+    // for any Unix tool, instead of panicking in `println!` (Rust ignores SIGPIPE).
+    // SAFETY: restores the default disposition before any thread is started.
+    #[cfg(unix)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let cli = Cli::parse();
     let result = match cli.command {
