@@ -611,7 +611,7 @@ impl Renderer {
         self.ctx.check()?;
         Ok(PreparedScene {
             lights: scene.lights.iter().map(GpuLight::new).collect(),
-            bounds: crate::bvh::scene_bounds(scene),
+            bounds: bvh.world_bounds(),
             bvh_stats: BvhStats {
                 triangles: bvh.triangles.len(),
                 blas_nodes: bvh.blas_nodes.len(),

@@ -423,6 +423,15 @@ impl SceneBvh {
         nodes
     }
 
+    /// World-space bounds of every instance: the TLAS root's box, the union of the
+    /// instance boxes ([`scene_bounds`] without another pass over the vertices).
+    pub fn world_bounds(&self) -> (Vec3, Vec3) {
+        match self.tlas_bvh.nodes.first() {
+            Some(root) => (root.aabb().min.into(), root.aabb().max.into()),
+            None => (Vec3::ZERO, Vec3::ZERO),
+        }
+    }
+
     /// Index of the TLAS root in [`SceneBvh::gpu_nodes`].
     pub fn tlas_root(&self) -> u32 {
         self.blas_nodes.len() as u32

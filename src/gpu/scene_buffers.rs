@@ -218,7 +218,7 @@ pub struct GpuScene {
     _bvh_nodes: wgpu::Texture,
     /// Bytes uploaded, for memory reports.
     pub bytes: u64,
-    /// Length of the diagonal of the scene's world bounds (`bvh::scene_bounds`).
+    /// Length of the diagonal of the scene's world bounds (`SceneBvh::world_bounds`).
     pub diagonal: f32,
 }
 
@@ -380,7 +380,7 @@ impl GpuScene {
             _bvh_nodes: bvh_nodes,
             bytes,
             diagonal: {
-                let (lo, hi) = crate::bvh::scene_bounds(scene);
+                let (lo, hi) = bvh.world_bounds();
                 (hi - lo).length()
             },
         })
