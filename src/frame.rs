@@ -7,7 +7,7 @@ use crate::direct::{DirectLightPass, DirectOutput};
 use crate::gpu::scene_buffers::GpuLight;
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, GpuScene};
-use crate::light_maps::{LightMapPass, MappedLights};
+use crate::light_maps::{LightMapPass, LightMapSettings, LightMaps, MappedLights};
 use crate::placement::{PlacementPass, PlacementStats};
 use crate::records::{CacheSettings, PlaneShadows, Record, RecordCache, RecordPass};
 use crate::resolve::ResolvePass;
@@ -25,7 +25,14 @@ pub struct PreparedScene {
     /// from.
     pub lights: Vec<GpuLight>,
     pub bounds: (glam::Vec3, glam::Vec3),
+    /// The light maps traced for this scene, with what they were traced for: they depend
+    /// on the scene, not the camera, so every frame rendered from it (a walkthrough, an
+    /// engine's views) reuses them.
+    light_maps: std::sync::Mutex<Option<TracedLightMaps>>,
 }
+
+/// Light maps of a prepared scene and the settings they were traced with.
+type TracedLightMaps = (LightMapSettings, MappedLights, std::sync::Arc<LightMaps>);
 
 /// Size and build time of a scene's BVH.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
@@ -220,6 +227,37 @@ impl Renderer {
         self.light_maps.get(|| LightMapPass::new(&self.ctx))
     }
 
+    /// The light maps of `scene` for `settings` and `mapped`: traced on first use and kept
+    /// with the scene, traced again only for other settings.
+    fn scene_light_maps(
+        &self,
+        scene: &PreparedScene,
+        settings: &LightMapSettings,
+        mapped: MappedLights,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<std::sync::Arc<LightMaps>> {
+        let mut slot = scene
+            .light_maps
+            .lock()
+            .map_err(|_| Error::Gpu("internal: light-map cache poisoned".into()))?;
+        if let Some((s, m, maps)) = slot.as_ref() {
+            if (s, *m) == (settings, mapped) {
+                return Ok(maps.clone());
+            }
+        }
+        let maps = std::sync::Arc::new(self.light_map_pass()?.build(
+            &self.ctx,
+            &scene.gpu,
+            &scene.lights,
+            scene.bounds,
+            settings,
+            mapped,
+            times,
+        )?);
+        *slot = Some((*settings, mapped, maps.clone()));
+        Ok(maps)
+    }
+
     fn resolve_pass(&self) -> Result<&ResolvePass> {
         self.resolve.get(|| ResolvePass::new(&self.ctx))
     }
@@ -408,22 +446,16 @@ impl Renderer {
         splat_pass.cover(
             ctx, &scene.gpu, &vis, &bounds, records, 0, accuracy, &mask, &mut times,
         )?;
-        // Light-space visibility for the plane hits of new records, traced once per frame.
+        // Light-space visibility for the plane hits of new records, traced once per scene.
         let mapped = match pass.settings.plane_shadows {
             PlaneShadows::Maps => Some(MappedLights::All),
             PlaneShadows::Auto => Some(MappedLights::DeltaOnly),
             PlaneShadows::Rays => None,
         };
         let light_maps = match mapped {
-            Some(mapped) => Some(self.light_map_pass()?.build(
-                ctx,
-                &scene.gpu,
-                &scene.lights,
-                scene.bounds,
-                &pass.settings.light_maps,
-                mapped,
-                &mut times,
-            )?),
+            Some(mapped) => {
+                Some(self.scene_light_maps(scene, &pass.settings.light_maps, mapped, &mut times)?)
+            }
             None => None,
         };
         let placement = self.placement_pass()?.place(
@@ -435,7 +467,7 @@ impl Renderer {
             splat_pass,
             &bounds,
             &mask,
-            light_maps.as_ref(),
+            light_maps.as_deref(),
             max_new_records,
             lookahead,
             &mut times,
@@ -612,6 +644,7 @@ impl Renderer {
         Ok(PreparedScene {
             lights: scene.lights.iter().map(GpuLight::new).collect(),
             bounds: bvh.world_bounds(),
+            light_maps: Default::default(),
             bvh_stats: BvhStats {
                 triangles: bvh.triangles.len(),
                 blas_nodes: bvh.blas_nodes.len(),

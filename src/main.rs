@@ -362,7 +362,7 @@ struct CacheArgs {
     #[arg(long)]
     neighbour_clamp: bool,
     /// How hemisphere-plane hits are shadowed: `maps` traces light-space visibility maps
-    /// once per frame (an orthographic map for a sun, octahedral maps for point and spot
+    /// once per scene (an orthographic map for a sun, octahedral maps for point and spot
     /// lights, an N x N grid of them per rect light) and looks shadows up; `rays` traces a
     /// shadow ray per light sample at every plane hit (exact); `auto` maps the sun, point
     /// and spot lights and traces rays to rect lights (whose maps approximate penumbrae).

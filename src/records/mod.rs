@@ -181,7 +181,7 @@ pub struct CacheSettings {
     pub record_budget: u32,
     /// Store and use rotational and translational gradients.
     pub gradients: bool,
-    /// How plane hits find their shadows: light-space maps traced once per frame, or one
+    /// How plane hits find their shadows: light-space maps traced once per prepared scene, or one
     /// shadow ray per sample (exact).
     pub plane_shadows: PlaneShadows,
     /// The maps' size (with [`PlaneShadows::Maps`] and [`PlaneShadows::Auto`]).
