@@ -1,5 +1,5 @@
 //! Light-space visibility maps: the compute equivalent of the shadow maps the thesis shades
-//! hemisphere planes with (section 4.4). Once per frame, each light traces a grid of rays
+//! hemisphere planes with (section 4.4). Once per prepared scene, each light traces a grid of rays
 //! from its side (`wgsl/light_map_trace.wgsl`) and stores the distance to the first
 //! surface; plane hits then look their shadows up (`wgsl/shared/light_map_lookup.wgsl`)
 //! instead of tracing a shadow ray each. A sun gets an orthographic map over the scene's

@@ -205,7 +205,7 @@ pub enum PlaneShadows {
     /// Cornell box 2.13 % against 2.05 %).
     Auto,
     /// Light-space visibility maps ([`crate::light_maps`]) for every light, traced once
-    /// per frame.
+    /// per prepared scene.
     Maps,
     /// One shadow ray per light sample at every plane hit.
     Rays,
