@@ -338,6 +338,12 @@ struct CacheArgs {
     /// Hemisphere plane field of view in degrees.
     #[arg(long, default_value_t = CacheSettings::default().plane_fov_degrees, value_parser = parse_plane_fov)]
     plane_fov: f32,
+    /// How the plane's pixels are spaced: `cosine` evenly in sin(angle) along each axis, so
+    /// that every column and row carries the same cosine weight (a 32x32 plane at 150
+    /// degrees is worth about 950 equally weighted rays); `uniform` evenly on the plane,
+    /// as the thesis rasterises it (worth about 155). `animate` uses `uniform`.
+    #[arg(long, value_enum, default_value_t = CacheSettings::default().plane_spacing)]
+    plane_spacing: radsplat::records::PlaneSpacing,
     /// Light samples per area light at each plane hit.
     #[arg(long, default_value_t = CacheSettings::default().plane_light_samples, value_parser = parse_at_least_one)]
     plane_light_samples: u32,
@@ -357,10 +363,11 @@ struct CacheArgs {
     /// Do not compute or use irradiance gradients.
     #[arg(long)]
     no_gradients: bool,
-    /// Neighbour clamping (Krivanek et al. 2006): a new record's R is at most R_j + |p - p_j|
-    /// over the records placed before it. Quadratic in the record count.
+    /// Turn neighbour clamping off (Krivanek et al. 2006, on by default: a new record's R is
+    /// at most R_j + |p - p_j| over the records placed before it; quadratic in the record
+    /// count).
     #[arg(long)]
-    neighbour_clamp: bool,
+    no_neighbour_clamp: bool,
     /// How hemisphere-plane hits are shadowed: `maps` traces light-space visibility maps
     /// once per scene (an orthographic map for a sun, octahedral maps for point and spot
     /// lights, an N x N grid of them per rect light) and looks shadows up; `rays` traces a
@@ -490,13 +497,14 @@ impl CacheArgs {
             accuracy: self.accuracy,
             plane_resolution: self.plane_resolution,
             plane_fov_degrees: self.plane_fov,
+            plane_spacing: self.plane_spacing,
             plane_light_samples: self.plane_light_samples,
             r_min_pixels: self.r_min_pixels,
             r_min_scene: self.r_min_scene,
             r_max_factor: self.r_max_factor,
             record_budget: self.record_budget,
             gradients: !self.no_gradients,
-            neighbour_clamp: self.neighbour_clamp,
+            neighbour_clamp: !self.no_neighbour_clamp,
             plane_shadows: self.plane_shadows,
             light_maps: radsplat::light_maps::LightMapSettings {
                 resolution: self.light_map_resolution,

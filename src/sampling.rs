@@ -69,6 +69,27 @@ pub fn orthonormal_basis(n: Vec3) -> Mat3 {
     )
 }
 
+/// The tangent frame of a record's hemisphere plane (WGSL `record_frame`, records.wgsl):
+/// [`orthonormal_basis`] around `n`, turned about it by an angle drawn from the record's
+/// seed, so that nearby records with the same normal do not share their plane's directions
+/// and their sampling errors average out where they overlap.
+pub fn record_frame(n: Vec3, seed: u32) -> Mat3 {
+    let base = orthonormal_basis(n);
+    let angle = 6.283_185_5_f32 * u32_to_unit(hash_combine(seed, 0x7f4a_7c15));
+    let (s, c) = (angle.sin(), angle.cos());
+    Mat3::from_cols(
+        c * base.x_axis + s * base.y_axis,
+        c * base.y_axis - s * base.x_axis,
+        base.z_axis,
+    )
+}
+
+/// Index of the first light sample of plane sample `index` in its record's sequences (WGSL
+/// `plane_light_first`): the samples of one record's plane stratify each light together.
+pub fn plane_light_first(index: u32, count: u32) -> u32 {
+    index * count
+}
+
 /// Cosine-weighted direction around +z.
 pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
     let r = u.x.sqrt();

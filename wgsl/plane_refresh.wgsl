@@ -63,7 +63,8 @@ fn main(
     }
     let s = surface_at(Hit(0.0, h.instance, h.triangle, h.u, h.v), dir);
     if meets_a_mover(origin, s.position - origin, 1.0)
-        || shadows_may_change(s, hash_combine(site.seed, pixel), params.light_samples) {
+        || shadows_may_change(s, site.seed, plane_light_first(pixel, params.light_samples),
+                              params.light_samples) {
         push_work(sample);
     }
 }

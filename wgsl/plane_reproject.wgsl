@@ -66,7 +66,7 @@ fn main(
         moved[sample] = vec4f(0.0, 0.0, 0.0, -1.0);
         return;
     }
-    let frame = orthonormal_basis(site.normal);
+    let frame = record_frame(site);
     let m = moved_hit(site, h, pixel);
     // Tangent-frame coordinates of the moved point (frame columns are t, b, n).
     let local = vec3f(dot(m.to_point, frame[0]), dot(m.to_point, frame[1]), dot(m.to_point, frame[2]));
@@ -86,7 +86,7 @@ fn main(
     // from, so a record that moves keeps it too, as long as it sees the same side.
     let still = motion[h.instance].moves == 0u && m.same_side;
     if params.reuse_shading != 0u && still
-        && !shadows_may_change(m.surface, m.seed, params.light_samples) {
+        && !shadows_may_change(m.surface, m.seed, m.first, params.light_samples) {
         moved[sample] = vec4f(traced[sample].radiance, local.z);
     } else {
         push_work(sample);

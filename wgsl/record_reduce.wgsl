@@ -144,7 +144,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         radius = clamp(params.cos_weight_sum / sum.inv_distance, site.r_min, r_max);
     }
     radius = max(min(radius, neighbour_bounds[0]), site.r_min);
-    let frame = orthonormal_basis(site.normal);
+    let frame = record_frame(site);
     let e = sum.irradiance;
     var rot = array<vec3f, 3>(vec3f(0.0), vec3f(0.0), vec3f(0.0));
     var tr = array<vec3f, 3>(vec3f(0.0), vec3f(0.0), vec3f(0.0));

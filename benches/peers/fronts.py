@@ -61,10 +61,11 @@ SETTINGS = {
         "spp": 4096, "dj": 0.7, "light_samples": None, "ref_light_samples": 2,
         "size": "128x128",
         "radsplat": [
-            ("a0.3-P24", ["-a", "0.3", "--plane-resolution", "24"]),
-            ("a0.15-P48", ["-a", "0.15", "--plane-resolution", "48"]),
+            ("a0.3-P16", ["-a", "0.3", "--plane-resolution", "16"]),
+            ("a0.2-P32", ["-a", "0.2", "--plane-resolution", "32"]),
+            ("a0.15-P32", ["-a", "0.15", "--plane-resolution", "32"]),
+            ("a0.1-P32", ["-a", "0.1", "--plane-resolution", "32"]),
             ("a0.1-P48", ["-a", "0.1", "--plane-resolution", "48"]),
-            ("a0.1-P64", ["-a", "0.1", "--plane-resolution", "64"]),
         ],
         "rpict": [
             ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),
@@ -80,11 +81,11 @@ SETTINGS = {
         "spp": 128, "dj": 0.0, "light_samples": None, "ref_light_samples": None,
         "size": "1000x1000",
         "radsplat": [
-            ("a1.0-P8", ["-a", "1.0", "--plane-resolution", "8"]),
             ("a0.7-P12", ["-a", "0.7", "--plane-resolution", "12"]),
             ("a0.5-P16", ["-a", "0.5", "--plane-resolution", "16"]),
+            ("a0.3-P16", ["-a", "0.3", "--plane-resolution", "16"]),
             ("a0.3-P24", ["-a", "0.3", "--plane-resolution", "24"]),
-            ("a0.15-P32", ["-a", "0.15", "--plane-resolution", "32"]),
+            ("a0.15-P24", ["-a", "0.15", "--plane-resolution", "24"]),
         ],
         "rpict": [
             ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),
@@ -96,13 +97,14 @@ SETTINGS = {
     # 160x120: rpict -ab 1 at its defaults takes ~16 CPU s at 80x60 on this scene (331k
     # triangles), so ~65 s here, its cheaper points 10-30 s, its dearest a few minutes.
     "conference": {
-        "spp": 1024, "dj": 0.7, "light_samples": None, "ref_light_samples": 1,
+        "spp": 8192, "dj": 0.7, "light_samples": None, "ref_light_samples": 1,
         "size": "160x120",
         "radsplat": [
             ("a0.5-P16", ["-a", "0.5", "--plane-resolution", "16"]),
             ("a0.3-P24", ["-a", "0.3", "--plane-resolution", "24"]),
-            ("a0.15-P48", ["-a", "0.15", "--plane-resolution", "48"]),
-            ("a0.1-P48", ["-a", "0.1", "--plane-resolution", "48"]),
+            ("a0.15-P24", ["-a", "0.15", "--plane-resolution", "24"]),
+            ("a0.15-P32", ["-a", "0.15", "--plane-resolution", "32"]),
+            ("a0.1-P32", ["-a", "0.1", "--plane-resolution", "32"]),
         ],
         "rpict": [
             ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),

@@ -111,6 +111,12 @@ impl<'a> DirectReference<'a> {
 
     /// Direct irradiance, as WGSL `direct_irradiance`.
     pub fn direct_irradiance(&self, s: &Surface, seed: u32) -> Vec3 {
+        self.direct_irradiance_at(s, seed, 0)
+    }
+
+    /// The same with the light samples from index `first` of their sequences on, as WGSL
+    /// `shadow_loop_start_at` (hemisphere planes: `plane_light_first`).
+    pub fn direct_irradiance_at(&self, s: &Surface, seed: u32, first: u32) -> Vec3 {
         let (n, ng) = (s.shading_normal, s.geometric_normal);
         let count = self.light_samples;
         let mut e = Vec3::ZERO;
@@ -171,7 +177,7 @@ impl<'a> DirectReference<'a> {
                     let light_seed = hash_combine(seed, li as u32);
                     let mut sum = 0.0;
                     for k in 0..count {
-                        let xi = sobol_2d(k, light_seed);
+                        let xi = sobol_2d(first + k, light_seed);
                         let q = corner + xi.x * edge_u + xi.y * edge_v;
                         let to_q = q - s.position;
                         let d2 = to_q.length_squared();
@@ -195,7 +201,7 @@ impl<'a> DirectReference<'a> {
             let env_seed = hash_combine(seed, 0xe17);
             let unoccluded = (0..count)
                 .filter(|&k| {
-                    let dir = frame * cosine_hemisphere(sobol_2d(k, env_seed));
+                    let dir = frame * cosine_hemisphere(sobol_2d(first + k, env_seed));
                     dir.dot(ng) > 0.0 && self.visible(s, dir, true)
                 })
                 .count();

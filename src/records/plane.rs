@@ -23,6 +23,40 @@ pub enum PlaneMode {
     Plain,
 }
 
+/// How the plane's pixel edges are spaced along each axis.
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum PlaneSpacing {
+    /// Evenly on the plane (the thesis's rasterised plane): a pixel at angle theta from the
+    /// normal carries cos^4 theta of the central pixel's cosine weight, so at a 150 degree
+    /// field of view the 1,024 pixels of a 32 x 32 plane are worth about 155 equally
+    /// weighted ones (`(sum w)^2 / sum w^2`).
+    Uniform,
+    /// Evenly in `sin(atan x)` (the default): the marginal cosine-weighted density of the
+    /// plane coordinate x is `(1 + x^2)^(-3/2) / 2`, whose integral is `sin(atan x) / 2`, so
+    /// every column (and row) of pixels carries the same share of the cosine-weighted
+    /// hemisphere, as in Ward and Heckbert's stratified hemisphere. The weights still vary
+    /// (between about 0.26 and 4 times the central pixel's at 150 degrees, their product is
+    /// not separable), but a 32 x 32 plane is worth about 950 equally weighted pixels: the
+    /// same rays give a record about a sixth of the variance.
+    Cosine,
+}
+
+impl PlaneSpacing {
+    /// The plane coordinate at fraction `t` in [0, 1] of an axis of half-extent `s`.
+    pub fn at(self, s: f64, t: f64) -> f64 {
+        match self {
+            PlaneSpacing::Uniform => -s + 2.0 * s * t,
+            PlaneSpacing::Cosine => {
+                let u = s / (1.0 + s * s).sqrt() * (2.0 * t - 1.0);
+                u / (1.0 - u * u).sqrt()
+            }
+        }
+    }
+}
+
 /// Per-pixel weights of the plane (Rust mirror of WGSL `PlanePixel`, 32 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -63,7 +97,8 @@ pub struct HemispherePlane {
     pub resolution: u32,
     pub fov_degrees: f32,
     pub mode: PlaneMode,
-    /// `resolution^2` pixels, row-major, row j at y = -s + (j + 1/2) * 2s / resolution.
+    pub spacing: PlaneSpacing,
+    /// `resolution^2` pixels, row-major, row j at y = `spacing.at(s, (j + 1/2) / resolution)`.
     pub pixels: Vec<PlanePixel>,
 }
 
@@ -124,13 +159,13 @@ fn rect(f: impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1: f64) -> f64 
 
 impl HemispherePlane {
     /// Builds the table for a `resolution x resolution` plane with the given full field of
-    /// view (degrees, in (0, 180)).
-    pub fn new(resolution: u32, fov_degrees: f32, mode: PlaneMode) -> Self {
+    /// view (degrees, in (0, 180)) and pixel spacing.
+    pub fn new(resolution: u32, fov_degrees: f32, mode: PlaneMode, spacing: PlaneSpacing) -> Self {
         let p = resolution as usize;
         let s = (f64::from(fov_degrees).to_radians() * 0.5).tan();
-        let delta = 2.0 * s / resolution as f64;
+        let at = |t: f64| spacing.at(s, t);
         // Pixel edges; the outer ones go to infinity when stretched.
-        let mut edges: Vec<f64> = (0..=p).map(|i| -s + i as f64 * delta).collect();
+        let mut edges: Vec<f64> = (0..=p).map(|i| at(i as f64 / p as f64)).collect();
         if mode == PlaneMode::Stretched {
             edges[0] = f64::NEG_INFINITY;
             edges[p] = f64::INFINITY;
@@ -169,8 +204,8 @@ impl HemispherePlane {
                     edge_y: edge_y as f32,
                     rotation: [(-wy * scale) as f32, (wx * scale) as f32],
                     center: [
-                        (-s + (i as f64 + 0.5) * delta) as f32,
-                        (-s + (j as f64 + 0.5) * delta) as f32,
+                        at((i as f64 + 0.5) / p as f64) as f32,
+                        at((j as f64 + 0.5) / p as f64) as f32,
                     ],
                 });
             }
@@ -179,13 +214,14 @@ impl HemispherePlane {
             resolution,
             fov_degrees,
             mode,
+            spacing,
             pixels,
         }
     }
 
     /// The sub-samples of adaptive refinement ([`RefineSample`]): `split x split` strata
     /// per pixel, `split^2` entries per pixel in pixel order, strata row-major. A finite
-    /// pixel edge-interval is split evenly on the plane; an interval stretched to infinity
+    /// pixel edge-interval is split evenly in the plane's spacing; an interval stretched to infinity
     /// (border pixels, [`PlaneMode::Stretched`]) is split evenly in angle, from the finite
     /// edge's angle to the horizon, so the sub-samples reach the grazing band the
     /// stretched pixel stands for. Each stratum's weight is its share of the pixel's
@@ -197,11 +233,12 @@ impl HemispherePlane {
         let p = self.resolution as usize;
         let m = split.max(1) as usize;
         let s = (f64::from(self.fov_degrees).to_radians() * 0.5).tan();
-        let delta = 2.0 * s / p as f64;
+        let spacing = self.spacing;
         let stretched = self.mode == PlaneMode::Stretched;
         // Sub-interval edges and centres of pixel interval i along one axis.
         let axis = |i: usize| -> (Vec<f64>, Vec<f64>) {
-            let (lo, hi) = (-s + i as f64 * delta, -s + (i + 1) as f64 * delta);
+            let edge = |t: f64| spacing.at(s, (i as f64 + t) / p as f64);
+            let (lo, hi) = (edge(0.0), edge(1.0));
             let to_lo = stretched && i == 0;
             let to_hi = stretched && i + 1 == p;
             let at = |t: f64| -> f64 {
@@ -216,7 +253,7 @@ impl HemispherePlane {
                         let a = hi.atan();
                         (a - (1.0 - t) * (a + FRAC_PI_2)).tan()
                     }
-                    (false, false) => lo + t * (hi - lo),
+                    (false, false) => edge(t),
                 }
             };
             let mut edges: Vec<f64> = (0..=m).map(|q| at(q as f64 / m as f64)).collect();
@@ -271,16 +308,19 @@ mod tests {
 
     #[test]
     fn stretched_weights_partition_the_hemisphere() {
-        for resolution in [4, 16, 64, 128] {
-            for fov in [60.0, 90.0, 120.0, 150.0, 170.0] {
-                let plane = HemispherePlane::new(resolution, fov, PlaneMode::Stretched);
-                let (c, s) = sums(&plane);
-                assert!((c - PI).abs() < 1e-4, "{resolution} {fov}: cos sum {c}");
-                assert!(
-                    (s - 2.0 * PI).abs() < 1e-4,
-                    "{resolution} {fov}: sa sum {s}"
-                );
-                assert!(plane.pixels.iter().all(|p| p.cos_weight > 0.0));
+        for spacing in [PlaneSpacing::Uniform, PlaneSpacing::Cosine] {
+            for resolution in [4, 16, 64, 128] {
+                for fov in [60.0, 90.0, 120.0, 150.0, 170.0] {
+                    let plane =
+                        HemispherePlane::new(resolution, fov, PlaneMode::Stretched, spacing);
+                    let (c, s) = sums(&plane);
+                    assert!((c - PI).abs() < 1e-4, "{resolution} {fov}: cos sum {c}");
+                    assert!(
+                        (s - 2.0 * PI).abs() < 1e-4,
+                        "{resolution} {fov}: sa sum {s}"
+                    );
+                    assert!(plane.pixels.iter().all(|p| p.cos_weight > 0.0));
+                }
             }
         }
     }
@@ -289,10 +329,12 @@ mod tests {
     fn coverage_matches_the_digest_table() {
         for (fov, f) in [(90.0, 0.554), (120.0, 0.787), (150.0, 0.945)] {
             assert!((HemispherePlane::plain_coverage(fov) - f).abs() < 1e-3);
-            let plain = HemispherePlane::new(32, fov, PlaneMode::Plain);
-            assert!((sums(&plain).0 / PI - f).abs() < 1e-3);
-            let ratio = HemispherePlane::new(32, fov, PlaneMode::CoverageRatio);
-            assert!((sums(&ratio).0 - PI).abs() < 1e-4);
+            for spacing in [PlaneSpacing::Uniform, PlaneSpacing::Cosine] {
+                let plain = HemispherePlane::new(32, fov, PlaneMode::Plain, spacing);
+                assert!((sums(&plain).0 / PI - f).abs() < 1e-3);
+                let ratio = HemispherePlane::new(32, fov, PlaneMode::CoverageRatio, spacing);
+                assert!((sums(&ratio).0 - PI).abs() < 1e-4);
+            }
         }
     }
 
@@ -337,7 +379,7 @@ mod tests {
     #[test]
     fn refine_samples_lie_in_their_pixels_and_their_weights_sum_to_the_rest() {
         for mode in [PlaneMode::Stretched, PlaneMode::Plain] {
-            let plane = HemispherePlane::new(8, 130.0, mode);
+            let plane = HemispherePlane::new(8, 130.0, mode, PlaneSpacing::Uniform);
             let s = (65.0f64).to_radians().tan() as f32;
             let delta = 2.0 * s / 8.0;
             let subs = plane.refine_samples(2);
@@ -364,7 +406,7 @@ mod tests {
             assert!((subs[4 * k + 3].center[1] - (c[1] + delta / 4.0)).abs() < 1e-5);
         }
         // A stretched corner's sub-samples go past the plane's edge toward the horizon.
-        let plane = HemispherePlane::new(8, 130.0, PlaneMode::Stretched);
+        let plane = HemispherePlane::new(8, 130.0, PlaneMode::Stretched, PlaneSpacing::Uniform);
         let corner = plane.refine_samples(2)[4 * 63 + 3];
         assert!(corner.center[0] > plane.pixels[63].center[0] * 2.0);
     }
@@ -372,7 +414,7 @@ mod tests {
     #[test]
     fn rotation_weights_integrate_to_zero_and_are_antisymmetric() {
         // Over the whole hemisphere, int (n x w) dw = 0 by symmetry.
-        let plane = HemispherePlane::new(16, 120.0, PlaneMode::Stretched);
+        let plane = HemispherePlane::new(16, 120.0, PlaneMode::Stretched, PlaneSpacing::Cosine);
         let (sx, sy) = plane.pixels.iter().fold((0.0f64, 0.0f64), |(a, b), p| {
             (a + f64::from(p.rotation[0]), b + f64::from(p.rotation[1]))
         });
@@ -380,5 +422,79 @@ mod tests {
         // A pixel right of centre (x > 0) has n x w pointing along +y.
         let right = plane.pixels[8 * 16 + 12];
         assert!(right.rotation[1] > 0.0 && right.rotation[0].abs() < right.rotation[1]);
+    }
+
+    /// (sum w)^2 / sum w^2: how many equally weighted pixels the plane's pixels are worth.
+    fn effective_pixels(p: &HemispherePlane) -> f64 {
+        let (s, s2) = p.pixels.iter().fold((0.0, 0.0), |(a, b), px| {
+            let w = f64::from(px.cos_weight);
+            (a + w, b + w * w)
+        });
+        s * s / s2
+    }
+
+    #[test]
+    fn cosine_spacing_gives_every_column_the_same_weight() {
+        // Columns of an unstretched cosine-spaced plane: equal shares of the covered
+        // cosine-weighted solid angle up to the rows' finite extent, within a few %;
+        // the uniform plane's columns differ by an order of magnitude.
+        let column_weights = |spacing| {
+            let p = HemispherePlane::new(16, 150.0, PlaneMode::Plain, spacing);
+            (0..16)
+                .map(|i| {
+                    (0..16)
+                        .map(|j| f64::from(p.pixels[j * 16 + i].cos_weight))
+                        .sum::<f64>()
+                })
+                .collect::<Vec<f64>>()
+        };
+        let spread = |w: Vec<f64>| {
+            let max = w.iter().cloned().fold(f64::MIN, f64::max);
+            let min = w.iter().cloned().fold(f64::MAX, f64::min);
+            max / min
+        };
+        let cosine = spread(column_weights(PlaneSpacing::Cosine));
+        let uniform = spread(column_weights(PlaneSpacing::Uniform));
+        assert!(cosine < 1.6, "cosine-spaced columns spread {cosine}");
+        assert!(uniform > 10.0, "uniform columns spread {uniform}");
+        // The figures of PlaneSpacing's documentation (32 x 32 at 150 degrees).
+        let worth =
+            |spacing| effective_pixels(&HemispherePlane::new(32, 150.0, PlaneMode::Plain, spacing));
+        let (u, c) = (worth(PlaneSpacing::Uniform), worth(PlaneSpacing::Cosine));
+        assert!((140.0..170.0).contains(&u), "uniform worth {u}");
+        assert!((900.0..1000.0).contains(&c), "cosine worth {c}");
+        // Edges and centres: odd-symmetric, increasing, the outer edge at tan(fov / 2).
+        let s = 75f64.to_radians().tan();
+        assert!((PlaneSpacing::Cosine.at(s, 1.0) - s).abs() < 1e-9);
+        assert!(PlaneSpacing::Cosine.at(s, 0.5).abs() < 1e-12);
+        let p = HemispherePlane::new(8, 150.0, PlaneMode::Stretched, PlaneSpacing::Cosine);
+        for i in 0..7 {
+            assert!(p.pixels[i].center[0] < p.pixels[i + 1].center[0]);
+            assert!((p.pixels[i].center[0] + p.pixels[7 - i].center[0]).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn cosine_spaced_refine_samples_lie_in_their_pixels() {
+        let plane = HemispherePlane::new(8, 150.0, PlaneMode::Plain, PlaneSpacing::Cosine);
+        let s = 75f64.to_radians().tan();
+        let edge = |i: usize| PlaneSpacing::Cosine.at(s, i as f64 / 8.0) as f32;
+        let subs = plane.refine_samples(2);
+        for k in 0..64 {
+            let w: f64 = subs[4 * k..4 * k + 4]
+                .iter()
+                .map(|q| f64::from(q.weight))
+                .sum();
+            assert!((w - 0.8).abs() < 1e-5, "pixel {k}: weights {w}");
+            for q in &subs[4 * k..4 * k + 4] {
+                for (a, i) in [(0, k % 8), (1, k / 8)] {
+                    let c = q.center[a];
+                    assert!(
+                        c > edge(i) - 1e-5 && c < edge(i + 1) + 1e-5,
+                        "pixel {k}: {c}"
+                    );
+                }
+            }
+        }
     }
 }

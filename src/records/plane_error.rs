@@ -204,14 +204,23 @@ pub fn plane_error_table(
     ];
     let tables: Vec<[HemispherePlane; 3]> = fovs
         .iter()
-        .map(|&fov| MODES.map(|mode| HemispherePlane::new(settings.plane_resolution, fov, mode)))
+        .map(|&fov| {
+            MODES.map(|mode| {
+                HemispherePlane::new(settings.plane_resolution, fov, mode, settings.plane_spacing)
+            })
+        })
         .collect();
     let equal_tables: Vec<Option<HemispherePlane>> = fovs
         .iter()
         .map(|&fov| {
-            refine
-                .as_ref()
-                .map(|r| HemispherePlane::new(r.equal_resolution, fov, PlaneMode::Stretched))
+            refine.as_ref().map(|r| {
+                HemispherePlane::new(
+                    r.equal_resolution,
+                    fov,
+                    PlaneMode::Stretched,
+                    settings.plane_spacing,
+                )
+            })
         })
         .collect();
     // Per field of view: squared errors of plain, coverage ratio, stretched, refined,

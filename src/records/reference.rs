@@ -4,7 +4,7 @@
 
 use super::{CacheSettings, HemispherePlane, PlaneSample, Record, RecordSite};
 use crate::direct::reference::{DirectReference, offset_ray_origin};
-use crate::sampling::{hash_combine, hash_u32, orthonormal_basis};
+use crate::sampling::{hash_u32, plane_light_first, record_frame};
 use crate::scene::Scene;
 use crate::visibility::{GpuCamera, VisSample};
 use glam::{DVec3, Vec3};
@@ -21,11 +21,7 @@ impl<'a> RecordReference<'a> {
     pub fn new(scene: &'a Scene, settings: &CacheSettings) -> Self {
         Self {
             shading: DirectReference::new(scene, settings.plane_light_samples),
-            plane: HemispherePlane::new(
-                settings.plane_resolution,
-                settings.plane_fov_degrees,
-                settings.plane_mode,
-            ),
+            plane: settings.plane(settings.plane_resolution),
             settings: settings.clone(),
         }
     }
@@ -64,14 +60,14 @@ impl<'a> RecordReference<'a> {
             .collect()
     }
 
-    /// One plane ray of `site` through plane coordinates `(x, y, 1)`, its hit's light
-    /// samples scrambled by `hash_combine(site.seed, seed_index)` (WGSL
+    /// One plane ray of `site` through plane coordinates `(x, y, 1)`, plane sample
+    /// `index` of the record (its hit's light samples: [`plane_light_first`]; WGSL
     /// `trace_plane_ray`).
-    pub fn trace_ray(&self, site: &RecordSite, xy: [f32; 2], seed_index: u32) -> PlaneSample {
+    pub fn trace_ray(&self, site: &RecordSite, xy: [f32; 2], index: u32) -> PlaneSample {
         let scene = self.shading.scene;
         let n = Vec3::from(site.normal);
         let ng = Vec3::from(site.geometric_normal);
-        let frame = orthonormal_basis(n);
+        let frame = record_frame(n, site.seed);
         let origin = offset_ray_origin(site.position.into(), ng);
         let dir = (frame * Vec3::new(xy[0], xy[1], 1.0)).normalize();
         let miss = PlaneSample {
@@ -90,9 +86,11 @@ impl<'a> RecordReference<'a> {
             return miss;
         };
         let s = self.shading.surface_at(&hit, dir);
-        let e = self
-            .shading
-            .direct_irradiance(&s, hash_combine(site.seed, seed_index));
+        let e = self.shading.direct_irradiance_at(
+            &s,
+            site.seed,
+            plane_light_first(index, self.shading.light_samples),
+        );
         let m = &scene.materials[s.material as usize];
         let emission = if s.front_face && !m.sampled_light {
             m.emission
@@ -191,7 +189,7 @@ pub fn reduce_plane(
     } else {
         r_max
     };
-    let frame = orthonormal_basis(site.normal.into()).as_dmat3();
+    let frame = record_frame(site.normal.into(), site.seed).as_dmat3();
     let mut rot = [DVec3::ZERO; 3];
     let mut tr = [DVec3::ZERO; 3];
     if settings.gradients {

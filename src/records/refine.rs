@@ -155,11 +155,7 @@ impl RefinePass {
         if refined == 0 {
             return Ok(None);
         }
-        let plane = HemispherePlane::new(
-            settings.plane_resolution,
-            settings.plane_fov_degrees,
-            settings.plane_mode,
-        );
+        let plane = settings.plane(settings.plane_resolution);
         let split = settings.plane_refine_split;
         Ok(Some(Self {
             select: ComputePass::new(
@@ -330,7 +326,12 @@ mod tests {
 
     #[test]
     fn selection_takes_the_highest_contrast_and_breaks_ties_by_index() {
-        let plane = HemispherePlane::new(4, 90.0, PlaneMode::Plain);
+        let plane = HemispherePlane::new(
+            4,
+            90.0,
+            PlaneMode::Plain,
+            crate::records::PlaneSpacing::Uniform,
+        );
         let mut samples = vec![sample(0.0); 16];
         samples[5] = sample(1.0); // pixel (1, 1): it and its 4 neighbours share one contrast
         let keys = contrast_keys(&plane, &samples);

@@ -23,7 +23,7 @@ pub fn splat_records(
         for r in &records[first.min(records.len())..] {
             let err = r.error_at(p, n);
             if err <= accuracy && r.in_front_of(p, n, accuracy) {
-                let w = 1.0 / err.max(1e-6);
+                let w = splat_weight(err, accuracy);
                 let e = r.irradiance_at(p, n);
                 sum[0] += w * e.x;
                 sum[1] += w * e.y;
@@ -65,4 +65,11 @@ pub fn record_coverage(
         }
     }
     counts
+}
+
+/// The weight of a record with Ward's error `err <= accuracy` at a pixel (WGSL
+/// `splat_weight`): `1 / err - 1 / a`, so that it falls to zero at the edge of the record's
+/// validity area, floored at 1e-6.
+pub fn splat_weight(err: f32, accuracy: f32) -> f32 {
+    (1.0 / err.max(1e-6) - 1.0 / accuracy).max(1e-6)
 }

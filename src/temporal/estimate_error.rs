@@ -168,13 +168,7 @@ pub fn estimates_at_sites(
     let settings = &super::TemporalCache::record_settings(settings);
     let pass = RecordPass::new(ctx, settings)?;
     let reprojection = ReprojectionPass::new(ctx, settings, stride)?;
-    let plane_of = |resolution: u32| {
-        crate::records::HemispherePlane::new(
-            resolution,
-            settings.plane_fov_degrees,
-            settings.plane_mode,
-        )
-    };
+    let plane_of = |resolution: u32| settings.plane(resolution);
     let (plane, estimate_plane) = (
         plane_of(settings.plane_resolution),
         plane_of(reprojection.table.resolution),

@@ -453,7 +453,9 @@ impl TemporalCache {
     /// The settings temporal caching computes its records with, from the user's: plane
     /// hits trace their shadow rays (light maps would need tracing again every frame, and
     /// the re-shading at t+1 traces rays), planes are not refined (refreshed and
-    /// reprojected planes would be unrefined), and so the refined planes' default field of
+    /// reprojected planes would be unrefined) and are evenly spaced (reprojection bins moved
+    /// hits into an even grid of cells), records are not neighbour-clamped, and so the
+    /// refined planes' default field of
     /// view ([`CacheSettings::PLANE_FOV_REFINED`]) becomes the plain planes' best
     /// ([`CacheSettings::PLANE_FOV_PLAIN`], thesis Table 4.1).
     pub fn record_settings(cache: &CacheSettings) -> CacheSettings {
@@ -462,6 +464,11 @@ impl TemporalCache {
         CacheSettings {
             plane_shadows: crate::records::PlaneShadows::Rays,
             plane_refine: 0.0,
+            // Reprojection bins moved hits into cells of an evenly spaced plane.
+            plane_spacing: crate::records::PlaneSpacing::Uniform,
+            // A replacement sits at its predecessor's place: clamping would tie its R to
+            // the record it replaces (unmeasured over time; the static default only).
+            neighbour_clamp: false,
             plane_fov_degrees: if refined_default_fov {
                 CacheSettings::PLANE_FOV_PLAIN
             } else {

@@ -10,7 +10,7 @@ use super::reprojection::subset_pixel;
 use crate::direct::reference::{DirectReference, offset_ray_origin};
 use crate::records::reference::RecordReference;
 use crate::records::{PlaneMode, PlaneSample, RecordSite};
-use crate::sampling::{hash_combine, orthonormal_basis};
+use crate::sampling::{plane_light_first, record_frame};
 use glam::{Mat4, Vec3};
 use std::f32::consts::PI;
 
@@ -45,7 +45,7 @@ pub fn reproject_plane(
     let stretched = at_t.settings.plane_mode == PlaneMode::Stretched;
     let n = Vec3::from(site.normal);
     let ng = Vec3::from(site.geometric_normal);
-    let frame = orthonormal_basis(n);
+    let frame = record_frame(n, site.seed);
     let origin = offset_ray_origin(site.position.into(), ng);
     let index = |x: f32| -> Option<usize> {
         let i = ((x + half) / (2.0 * half) * res as f32).floor() as i64;
@@ -90,7 +90,11 @@ pub fn reproject_plane(
             }
         }
         let s = next.surface_at(&hit, view.normalize());
-        let e = next.direct_irradiance(&s, hash_combine(site.seed, k as u32));
+        let e = next.direct_irradiance_at(
+            &s,
+            site.seed,
+            plane_light_first(k as u32, next.light_samples),
+        );
         let m = &next.scene.materials[s.material as usize];
         let emission = if s.front_face && !m.sampled_light {
             m.emission

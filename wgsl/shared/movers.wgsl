@@ -120,12 +120,12 @@ fn pyramid_meets_box(p: Pyramid, blo: vec3f, bhi: vec3f) -> bool {
 // shadows are taken as changed (conservative).
 const NEAR_MOVERS: u32 = 8u;
 
-// Whether any shadow ray `direct_irradiance_samples(s, seed, count)` may trace passes
+// Whether any shadow ray `shadow_loop_start_at(s, seed, first, count)` may trace passes
 // through the box of an instance that moves over the span. When none does (and the
 // lights and s itself do not move), every shadow ray has the same outcome at the end of
 // the span as at its start, so the radiance traced then is exactly the radiance now.
 // Conservative: it tests every sample, including those the cosine tests would skip.
-fn shadows_may_change(s: Surface, seed: u32, count: u32) -> bool {
+fn shadows_may_change(s: Surface, seed: u32, first: u32, count: u32) -> bool {
     if params.moving_count == 0u {
         return false;
     }
@@ -167,7 +167,7 @@ fn shadows_may_change(s: Surface, seed: u32, count: u32) -> bool {
             }
             let light_seed = hash_combine(seed, li);
             for (var k = 0u; k < count; k++) {
-                let d = rect_light_point(light, k, light_seed) - origin;
+                let d = rect_light_point(light, first + k, light_seed) - origin;
                 for (var j = 0u; j < n; j++) {
                     if segment_meets_mover(origin, d, 1.0, near[j]) {
                         return true;
@@ -180,7 +180,7 @@ fn shadows_may_change(s: Surface, seed: u32, count: u32) -> bool {
         let frame = orthonormal_basis(s.shading_normal);
         let env_seed = hash_combine(seed, ENVIRONMENT_SEED);
         for (var k = 0u; k < count; k++) {
-            let dir = frame * cosine_hemisphere(sobol_2d(k, env_seed));
+            let dir = frame * cosine_hemisphere(sobol_2d(first + k, env_seed));
             if meets_a_mover(origin, dir, INF) {
                 return true;
             }

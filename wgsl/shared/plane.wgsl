@@ -25,20 +25,22 @@ fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32 {
 // samples that intersect a light source"; decision 7's "misses see the environment" holds
 // for an environment that is not a light).
 fn trace_plane_sample(site: RecordSite, pixel: u32) -> TracedSample {
-    return trace_plane_ray(site, plane_direction(site, pixel), hash_combine(site.seed, pixel));
+    return trace_plane_ray(site, plane_direction(site, pixel), pixel);
 }
 
-// The same for any direction `dir` (world space) above the record, its hit's light samples
-// scrambled by `seed` (adaptive refinement's sub-samples, plane_refine.wgsl).
-fn trace_plane_ray(site: RecordSite, dir: vec3f, seed: u32) -> TracedSample {
+// The same for any direction `dir` (world space) above the record, as plane sample `index`
+// of the record: its hit's light samples are those of `plane_light_first(index, count)` on
+// (adaptive refinement's sub-samples, plane_refine.wgsl, number theirs past the pixels).
+fn trace_plane_ray(site: RecordSite, dir: vec3f, index: u32) -> TracedSample {
     var out = TracedSample(PlaneSample(vec3f(0.0), -1.0), PlaneHit(NO_HIT, 0u, 0.0, 0.0));
     // Directions below the geometric surface (shading normals differ from it) see the
     // surface itself: no light, no distance.
     if dot(dir, site.geometric_normal) > 0.0 {
         let origin = offset_ray_origin(site.position, site.geometric_normal);
         // The ray and its hit's shadow rays through one traversal (cheaper to compile).
-        let shaded = trace_and_shade(
-            Ray(origin, 0.0, dir, INF), seed, params.light_samples);
+        let shaded = trace_and_shade_at(
+            Ray(origin, 0.0, dir, INF), site.seed, plane_light_first(index, params.light_samples),
+            params.light_samples);
         let hit = shaded.hit;
         if hit.instance != NO_HIT {
             let s = shaded.surface;

@@ -6,6 +6,6 @@
 
 // The direction of plane pixel `pixel` of the record at `site`, in world space.
 fn plane_direction(site: RecordSite, pixel: u32) -> vec3f {
-    let frame = orthonormal_basis(site.normal);
+    let frame = record_frame(site);
     return normalize(frame * vec3f(plane[pixel].rot_center.zw, 1.0));
 }

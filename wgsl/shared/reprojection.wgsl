@@ -36,7 +36,8 @@ struct InstanceMotion {
 struct MovedHit {
     surface: Surface,     // rebuilt at t+1, facing the record
     to_point: vec3f,      // record -> hit, in the record's frame at t (for the projection)
-    seed: u32,            // the light-sample seed the plane pass used for this sample
+    seed: u32,            // the light-sample seed and first sequence index the plane
+    first: u32,           // pass used for this sample (`plane_light_first`)
     // The hit is seen from the same side of its surface as at t. Always so when the
     // record does not move; a record that moves with its instance could cross the plane
     // of a surface it sees (the side decides which normal is lit).
@@ -67,6 +68,6 @@ fn moved_hit(site: RecordSite, h: PlaneHit, pixel: u32) -> MovedHit {
             same_side = before * after > 0.0 && abs(before) > 1.0e-4 && abs(after) > 1.0e-4;
         }
     }
-    let seed = hash_combine(site.seed, pixel);
-    return MovedHit(surface_facing(probe, view), to_point, seed, same_side);
+    return MovedHit(surface_facing(probe, view), to_point, site.seed,
+                    plane_light_first(pixel, params.light_samples), same_side);
 }

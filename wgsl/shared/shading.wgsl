@@ -178,6 +178,7 @@ struct ShadowLoop {
     count: u32,        // samples per rect light and for the environment
     slot: u32,         // current slot
     k: u32,            // next sample of the current slot
+    first: u32,        // index of sample 0 in the slots' Sobol sequences
     seed: u32,
     env_frame: mat3x3f,
     env_seed: u32,
@@ -190,12 +191,20 @@ struct ShadowLoop {
 }
 
 fn shadow_loop_start(s: Surface, seed: u32, count: u32) -> ShadowLoop {
+    return shadow_loop_start_at(s, seed, 0u, count);
+}
+
+// The same with the samples taken from index `first` of the sequences on: samples of one
+// sequence (one seed) at several surfaces, `count` apart, stratify the light over them
+// all (the hemisphere planes' hits, shared/plane.wgsl).
+fn shadow_loop_start_at(s: Surface, seed: u32, first: u32, count: u32) -> ShadowLoop {
     var st: ShadowLoop;
     let env = scene_info.environment;
     st.slots = scene_info.light_count + select(0u, 1u, any(env != vec3f(0.0)));
     st.count = count;
     st.slot = 0u;
     st.k = 0u;
+    st.first = first;
     st.seed = seed;
     st.env_frame = orthonormal_basis(s.shading_normal);
     st.env_seed = hash_combine(seed, ENVIRONMENT_SEED);
@@ -242,7 +251,7 @@ fn shadow_sample(st: ShadowLoop, s: Surface, light: Light, kind: u32) -> ShadowS
         out.lit = !(out.cos_s <= 0.0 || dot(ng, l) <= 0.0);
     } else if kind == LIGHT_RECT {
         let nl = normalize_rect_normal(light);
-        let q = rect_light_point(light, st.k, hash_combine(st.seed, st.slot));
+        let q = rect_light_point(light, st.first + st.k, hash_combine(st.seed, st.slot));
         let to_q = q - s.position;
         out.d2 = dot(to_q, to_q);
         let l = to_q * inverseSqrt(out.d2);
@@ -251,7 +260,7 @@ fn shadow_sample(st: ShadowLoop, s: Surface, light: Light, kind: u32) -> ShadowS
         out.target_point = q;
         out.lit = !(out.cos_s <= 0.0 || out.cos_l <= 0.0 || dot(ng, l) <= 0.0);
     } else if kind == LIGHT_ENVIRONMENT {
-        let dir = st.env_frame * cosine_hemisphere(sobol_2d(st.k, st.env_seed));
+        let dir = st.env_frame * cosine_hemisphere(sobol_2d(st.first + st.k, st.env_seed));
         out.target_point = dir;
         out.to_infinity = true;
         out.lit = dot(dir, ng) > 0.0;

@@ -19,3 +19,9 @@ fn contribution_error(k: u32, p: vec3f, n: vec3f) -> f32 {
     }
     return 1.0e30;
 }
+
+// The weight of a contributing record with error `err` <= a (splat_gather.wgsl; CPU mirror
+// splat::reference::splat_weight).
+fn splat_weight(err: f32, accuracy: f32) -> f32 {
+    return max(1.0 / max(err, 1.0e-6) - 1.0 / accuracy, 1.0e-6);
+}

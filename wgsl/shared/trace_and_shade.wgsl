@@ -18,6 +18,12 @@ struct ShadedHit {
 // visibility in [0, 1] of the current sample from light-space maps, or a negative value
 // to trace its shadow ray (shared/light_map_lookup.wgsl; `return -1.0;` traces them all).
 fn trace_and_shade(primary: Ray, seed: u32, count: u32) -> ShadedHit {
+    return trace_and_shade_at(primary, seed, 0u, count);
+}
+
+// The same with the light samples from index `first` of their sequences on
+// (`shadow_loop_start_at`).
+fn trace_and_shade_at(primary: Ray, seed: u32, first: u32, count: u32) -> ShadedHit {
     var out: ShadedHit;
     out.irradiance = vec3f(0.0);
     var st: ShadowLoop;
@@ -31,7 +37,7 @@ fn trace_and_shade(primary: Ray, seed: u32, count: u32) -> ShadedHit {
                 break;
             }
             out.surface = surface_at(h, primary.dir);
-            st = shadow_loop_start(out.surface, seed, count);
+            st = shadow_loop_start_at(out.surface, seed, first, count);
         } else if h.instance == NO_HIT {
             shadow_loop_add(&st);
         }
