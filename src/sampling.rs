@@ -116,6 +116,28 @@ mod tests {
     }
 
     #[test]
+    fn record_frames_are_orthonormal_around_the_normal_and_turned_by_the_seed() {
+        let n = Vec3::new(0.3, -0.5, 0.2).normalize();
+        let mut tangents = Vec::new();
+        for seed in 0..32u32 {
+            let m = record_frame(n, seed);
+            assert!((m.z_axis - n).length() < 1e-6);
+            assert!(m.x_axis.dot(m.y_axis).abs() < 1e-5 && m.x_axis.dot(n).abs() < 1e-5);
+            assert!((m.x_axis.length() - 1.0).abs() < 1e-5);
+            // Right-handed like orthonormal_basis: t x b = n.
+            assert!((m.x_axis.cross(m.y_axis) - n).length() < 1e-5);
+            assert_eq!(record_frame(n, seed), m, "deterministic");
+            tangents.push(m.x_axis);
+        }
+        // Turned: the tangents of 32 seeds spread around the normal (a fixed frame would
+        // give one tangent 32 times); their mean is short.
+        let mean = tangents.iter().copied().sum::<Vec3>() / 32.0;
+        assert!(mean.length() < 0.35, "mean tangent {mean}");
+        // Plane light samples: consecutive runs of one sequence.
+        assert_eq!(plane_light_first(3, 4), 12);
+    }
+
+    #[test]
     fn basis_is_orthonormal() {
         for n in [
             Vec3::Z,

@@ -73,3 +73,26 @@ pub fn record_coverage(
 pub fn splat_weight(err: f32, accuracy: f32) -> f32 {
     (1.0 / err.max(1e-6) - 1.0 / accuracy).max(1e-6)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::splat_weight;
+
+    #[test]
+    fn splat_weights_fall_to_zero_at_the_validity_edge() {
+        let a = 0.2;
+        // Inside: Ward's 1/err less its value at the edge.
+        assert!((splat_weight(0.05, a) - 15.0).abs() < 1e-4);
+        assert!((splat_weight(0.1, a) - 5.0).abs() < 1e-4);
+        // Decreasing, continuous to (almost) zero at err = a: no step at the edge.
+        let mut last = f32::INFINITY;
+        for k in 1..=100 {
+            let w = splat_weight(a * k as f32 / 100.0, a);
+            assert!(w > 0.0 && w <= last, "k {k}: {w}");
+            last = w;
+        }
+        assert!(splat_weight(a, a) <= 1e-5);
+        // The record's own point: capped, finite.
+        assert!(splat_weight(0.0, a).is_finite());
+    }
+}
