@@ -326,8 +326,9 @@ struct CacheArgs {
     /// Accuracy a in (0, 1]: a record contributes where Ward's weight w >= 1/a. Smaller
     /// a places more, smaller records: less interpolation error, more time, and each
     /// record's own plane noise shows more. Lower a only together with a larger
-    /// --plane-resolution: on the Cornell box 128x128 a = 0.1 with 16x16 planes gave 2.1 %
-    /// indirect error, with 32x32 1.2 %; a = 0.3-0.5 gets by with 16x16.
+    /// --plane-resolution: on the Cornell box 128x128 a = 0.1 gave 1.9 % indirect error with
+    /// 16x16 planes, 1.0 % with 32x32 and 0.87 % with 48x48 (a = 0.2: 2.1 %, 1.7 % with the
+    /// default 24x24, 1.4 % with 32x32); a = 0.3-0.5 gets by with 16x16.
     #[arg(short, long, default_value_t = CacheSettings::default().accuracy, value_parser = parse_accuracy)]
     accuracy: f32,
     /// Hemisphere plane resolution P (P x P rays per record, plus --plane-refine's): the
