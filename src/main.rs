@@ -73,6 +73,9 @@ enum Command {
         fovs: Vec<f32>,
         #[arg(long, default_value_t = 64)]
         plane_resolution: u32,
+        /// How the planes' pixels are spaced (as `render --plane-spacing`).
+        #[arg(long, value_enum, default_value_t = CacheSettings::default().plane_spacing)]
+        plane_spacing: radsplat::records::PlaneSpacing,
         /// Light samples per area light at each hit (planes and Monte Carlo alike).
         #[arg(long, default_value_t = 1)]
         light_samples: u32,
@@ -652,6 +655,7 @@ fn main() -> ExitCode {
             mc_samples,
             fovs,
             plane_resolution,
+            plane_spacing,
             light_samples,
             plane_refine,
             plane_refine_split,
@@ -663,7 +667,7 @@ fn main() -> ExitCode {
             points,
             mc_samples,
             &fovs,
-            plane_resolution,
+            (plane_resolution, plane_spacing),
             light_samples,
             (plane_refine, plane_refine_split, equal_rays_resolution),
             json,

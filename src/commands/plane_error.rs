@@ -18,7 +18,7 @@ pub fn plane_error(
     points: usize,
     mc_samples: u32,
     fovs: &[f32],
-    plane_resolution: u32,
+    (plane_resolution, plane_spacing): (u32, crate::records::PlaneSpacing),
     light_samples: u32,
     refine: (f32, u32, Option<u32>),
     json: Option<PathBuf>,
@@ -28,6 +28,7 @@ pub fn plane_error(
     let (plane_refine, plane_refine_split, equal_resolution) = refine;
     let settings = CacheSettings {
         plane_resolution,
+        plane_spacing,
         plane_light_samples: light_samples,
         plane_refine,
         plane_refine_split,
