@@ -47,13 +47,12 @@ fn main(
     let n = params.resolution * params.resolution;
     let pixel = selected[id.z * params.refined + id.x];
     let site = sites[id.z];
-    let frame = record_frame(site);
     let centre = samples[id.z * n + pixel];
     var radiance = centre.radiance * params.centre_weight;
     var inv_depth = select(0.0, params.centre_weight / centre.depth, centre.depth > 0.0);
     for (var q = 0u; q < params.subsamples; q++) {
         let sub = subs[pixel * params.subsamples + q];
-        let dir = normalize(frame * vec3f(sub.center, 1.0));
+        let dir = plane_point_direction(site, sub.center);
         let s = trace_plane_ray(site, dir, n + pixel * params.subsamples + q).sample;
         radiance += s.radiance * sub.weight;
         if s.depth > 0.0 {

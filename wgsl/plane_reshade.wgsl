@@ -26,13 +26,7 @@ fn main(
     let plane_size = params.resolution * params.resolution;
     let pixel = sample % plane_size;
     let m = moved_hit(sites[sample / plane_size], hits[sample], pixel);
-    var st = shadow_loop_start_at(m.surface, m.seed, m.first, params.light_samples);
-    while shadow_loop_next(&st, m.surface) {
-        if visible(m.surface, st.sample.target_point, st.sample.to_infinity) {
-            shadow_loop_add(&st);
-        }
-    }
-    let e = st.e;
+    let e = direct_irradiance_samples_at(m.surface, m.seed, m.first, params.light_samples);
     let radiance = surface_albedo(m.surface) * (1.0 / PI) * e + indirect_emission(m.surface);
     moved[sample] = vec4f(radiance, moved[sample].w);
 }

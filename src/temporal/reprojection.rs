@@ -17,13 +17,13 @@
 
 use super::motion::{instance_motions, lights_unchanged};
 use super::plane_refresh::SpanMotion;
-use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
 use crate::records::{CacheSettings, PlaneMode, PlaneTable};
 use crate::scene::Scene;
+use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 
 /// Largest plane the reprojection keys can index (14 bits of sample index,
@@ -141,6 +141,15 @@ impl ReprojectionPass {
     pub fn new(ctx: &GpuContext, settings: &CacheSettings, stride: u32) -> Result<Self> {
         use Binding::*;
         validate_estimate_stride(stride, settings.plane_resolution)?;
+        // plane_reproject.wgsl's `plane_index` bins moved hits into evenly spaced cells
+        // (`TemporalCache::record_settings` gives records such planes).
+        if settings.plane_spacing != crate::records::PlaneSpacing::Uniform {
+            return Err(Error::Usage(
+                "reprojection needs evenly spaced planes (plane_spacing: uniform; \
+                 TemporalCache::record_settings sets it)"
+                    .into(),
+            ));
+        }
         Ok(Self {
             stride,
             table: PlaneTable::new(ctx, settings.plane_resolution / stride, settings)?,

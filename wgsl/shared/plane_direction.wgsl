@@ -6,6 +6,11 @@
 
 // The direction of plane pixel `pixel` of the record at `site`, in world space.
 fn plane_direction(site: RecordSite, pixel: u32) -> vec3f {
-    let frame = record_frame(site);
-    return normalize(frame * vec3f(plane[pixel].rot_center.zw, 1.0));
+    return plane_point_direction(site, plane[pixel].rot_center.zw);
+}
+
+// The direction through plane coordinates `xy` (the point (x, y, 1) of the record's
+// frame), in world space: pixel centres and refinement's sub-samples alike.
+fn plane_point_direction(site: RecordSite, xy: vec2f) -> vec3f {
+    return normalize(record_frame(site) * vec3f(xy, 1.0));
 }

@@ -345,7 +345,13 @@ fn shadow_loop_add_visible(st: ptr<function, ShadowLoop>, v: f32) {
 // Same with `count` samples per area light and for the environment (secondary hits use
 // fewer than camera pixels: the hemisphere sum averages their noise).
 fn direct_irradiance_samples(s: Surface, seed: u32, count: u32) -> vec3f {
-    var st = shadow_loop_start(s, seed, count);
+    return direct_irradiance_samples_at(s, seed, 0u, count);
+}
+
+// The same with the samples from index `first` of their sequences on
+// (`shadow_loop_start_at`: a plane sample re-shaded with its plane's light samples).
+fn direct_irradiance_samples_at(s: Surface, seed: u32, first: u32, count: u32) -> vec3f {
+    var st = shadow_loop_start_at(s, seed, first, count);
     while shadow_loop_next(&st, s) {
         if visible(s, st.sample.target_point, st.sample.to_infinity) {
             shadow_loop_add(&st);
