@@ -12,7 +12,7 @@ use crate::placement::{PlacementPass, PlacementStats};
 use crate::records::{CacheSettings, PlaneShadows, Record, RecordCache, RecordPass};
 use crate::resolve::ResolvePass;
 use crate::scene::{Camera, Scene};
-use crate::splat::{CoverageMask, SplatBuffer, SplatPass};
+use crate::splat::{CoverageMask, SplatBuffer, SplatPass, SplatSource};
 use crate::visibility::{VisSample, VisibilityBuffer, VisibilityPass};
 use crate::{Error, Result};
 use std::time::Instant;
@@ -296,18 +296,15 @@ impl Renderer {
         let mut times = Vec::new();
         let splat_pass = self.splat_pass()?;
         let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
-        splat_pass.splat(
-            ctx,
-            &scene.gpu,
-            &vis,
-            &bounds,
-            &cache.records,
-            0,
-            cache.settings().accuracy,
-            &splat,
-            false,
-            &mut times,
-        )?;
+        let src = SplatSource {
+            scene: &scene.gpu,
+            vis: &vis,
+            bounds: &bounds,
+            records: &cache.records,
+            first: 0,
+            accuracy: cache.settings().accuracy,
+        };
+        splat_pass.splat(ctx, src, &splat, false, &mut times)?;
         let sums = ctx.read_buffer(&splat.sums)?;
         let visibility = vis.read(ctx)?;
         ctx.check()?;
@@ -337,12 +334,16 @@ impl Renderer {
         let mut first = 0;
         for &end in splits.iter().chain([&cache.records.count]) {
             let partial = cache.records.prefix(end);
-            splat_pass.splat(
-                ctx, &scene.gpu, &vis, &bounds, &partial, first, accuracy, &splat, true, &mut times,
-            )?;
-            splat_pass.cover(
-                ctx, &scene.gpu, &vis, &bounds, &partial, first, accuracy, &mask, &mut times,
-            )?;
+            let src = SplatSource {
+                scene: &scene.gpu,
+                vis: &vis,
+                bounds: &bounds,
+                records: &partial,
+                first,
+                accuracy,
+            };
+            splat_pass.splat(ctx, src, &splat, true, &mut times)?;
+            splat_pass.cover(ctx, src, &mask, &mut times)?;
             first = partial.count;
         }
         let sums = ctx.read_buffer(&splat.sums)?;
@@ -443,9 +444,15 @@ impl Renderer {
         let splat_pass = self.splat_pass()?;
         let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
         let mask = CoverageMask::new(ctx, camera.width, camera.height)?;
-        splat_pass.cover(
-            ctx, &scene.gpu, &vis, &bounds, records, 0, accuracy, &mask, &mut times,
-        )?;
+        let held = SplatSource {
+            scene: &scene.gpu,
+            vis: &vis,
+            bounds: &bounds,
+            records,
+            first: 0,
+            accuracy,
+        };
+        splat_pass.cover(ctx, held, &mask, &mut times)?;
         // Light-space visibility for the plane hits of new records, traced once per scene.
         let mapped = match pass.settings.plane_shadows {
             PlaneShadows::Maps => Some(MappedLights::All),
@@ -480,9 +487,16 @@ impl Renderer {
         };
         let splat = SplatBuffer::with_coverage(ctx, camera.width, camera.height, coverage_records)?;
         if !placement_only || count_coverage {
-            splat_pass.splat(
-                ctx, &scene.gpu, &vis, &bounds, records, 0, accuracy, &splat, false, &mut times,
-            )?;
+            // Every record, those placement added included.
+            let all = SplatSource {
+                scene: &scene.gpu,
+                vis: &vis,
+                bounds: &bounds,
+                records,
+                first: 0,
+                accuracy,
+            };
+            splat_pass.splat(ctx, all, &splat, false, &mut times)?;
         }
 
         let rays_per_record = pass.settings.plane_rays_per_record();
@@ -595,9 +609,15 @@ impl Renderer {
         };
         let splat_pass = self.splat_pass()?;
         let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, vis, times)?;
-        splat_pass.splat(
-            ctx, &scene.gpu, vis, &bounds, records, 0, accuracy, &out, false, times,
-        )?;
+        let src = SplatSource {
+            scene: &scene.gpu,
+            vis,
+            bounds: &bounds,
+            records,
+            first: 0,
+            accuracy,
+        };
+        splat_pass.splat(ctx, src, &out, false, times)?;
         out.read_coverage(ctx)
     }
 

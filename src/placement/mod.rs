@@ -17,7 +17,7 @@ use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::light_maps::LightMaps;
 use crate::records::{Lookahead, RecordCache, RecordPass};
-use crate::splat::{CoverageMask, SplatPass, TileBounds};
+use crate::splat::{CoverageMask, SplatPass, SplatSource, TileBounds};
 use crate::visibility::VisibilityBuffer;
 use bytemuck::{Pod, Zeroable};
 
@@ -174,17 +174,15 @@ impl PlacementPass {
                         None,
                         |_| {},
                     )?);
-                    splat_pass.cover(
-                        ctx,
+                    let new_records = SplatSource {
                         scene,
                         vis,
                         bounds,
-                        cache,
+                        records: cache,
                         first,
-                        settings.accuracy,
-                        mask,
-                        times,
-                    )?;
+                        accuracy: settings.accuracy,
+                    };
+                    splat_pass.cover(ctx, new_records, mask, times)?;
                     stats.new_records += n;
                     stats.rounds += 1;
                     placed += n;

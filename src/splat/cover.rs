@@ -3,13 +3,12 @@
 //! records and marks the pixels they cover (`wgsl/splat_cover.wgsl`); the weighted gather
 //! runs once per frame, after placement, instead of once per round.
 
-use super::{SplatPass, TILE_SIZE, TileBounds};
+use super::{SplatPass, SplatSource, TILE_SIZE};
 use crate::Result;
 use crate::gpu::GpuContext;
-use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
-use crate::records::{Record, RecordCache};
-use crate::visibility::{VisSample, VisibilityBuffer};
+use crate::records::Record;
+use crate::visibility::VisSample;
 use glam::Vec3;
 
 /// One flag per pixel (u32, row-major): 1 where a record covers the pixel.
@@ -41,37 +40,27 @@ impl CoverageMask {
 impl SplatPass {
     /// Marks in `mask` the visible pixels of `vis` that records `first..cache.count`
     /// contribute to (pixels already marked stay marked). Appends per-pass GPU times.
-    #[allow(clippy::too_many_arguments)]
     pub fn cover(
         &self,
         ctx: &GpuContext,
-        scene: &GpuScene,
-        vis: &VisibilityBuffer,
-        bounds: &TileBounds,
-        cache: &RecordCache,
-        first: u32,
-        accuracy: f32,
+        src: SplatSource,
         mask: &CoverageMask,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<()> {
+        let SplatSource {
+            scene,
+            vis,
+            records: cache,
+            first,
+            ..
+        } = src;
         // The cover's workgroups are the splat's tiles (`@workgroup_size(TILE_SIZE,
         // TILE_SIZE)`), within the device's 256 invocations.
         const _: () = assert!(TILE_SIZE * TILE_SIZE <= 256);
         if cache.count <= first {
             return Ok(());
         }
-        let bins = self.bin(
-            ctx,
-            scene,
-            vis,
-            bounds,
-            cache,
-            first,
-            accuracy,
-            (false, 0),
-            false,
-            times,
-        )?;
+        let bins = self.bin(ctx, src, (false, 0), false, times)?;
         if bins.total == 0 {
             return Ok(());
         }

@@ -161,6 +161,23 @@ pub struct SplatStats {
 
 /// The splat passes (`splat_bin_count`, `splat_bin_scan`, `splat_bin_scatter`,
 /// `splat_bin_sort`, `splat_gather`, and placement's `splat_cover`).
+/// What a splat, a cover or a binning reads: the frame's visible surfaces and their per-tile
+/// bounds, and records `first..records.count` with the accuracy they splat at.
+#[derive(Clone, Copy)]
+pub struct SplatSource<'a> {
+    /// The prepared scene (its bind group: the passes read instances and the camera).
+    pub scene: &'a GpuScene,
+    /// The frame's visibility buffer: the pixels records splat onto.
+    pub vis: &'a VisibilityBuffer,
+    /// Per-tile bounds of `vis` ([`SplatPass::tile_bounds`]), for binning.
+    pub bounds: &'a TileBounds,
+    /// The record buffer; records `first..records.count` are splatted.
+    pub records: &'a RecordCache,
+    pub first: u32,
+    /// Ward's accuracy a: a record contributes where its error is at most a.
+    pub accuracy: f32,
+}
+
 pub struct SplatPass {
     count: ComputePass,
     scan: ComputePass,
@@ -256,40 +273,29 @@ impl SplatPass {
         })
     }
 
-    /// Splats records `first..cache.count` into `out`: onto its previous sums when
-    /// `accumulate`, else from zero. Appends per-pass GPU times to `times`.
-    #[allow(clippy::too_many_arguments)]
+    /// Splats `src`'s records into `out`: onto its previous sums when `accumulate`, else
+    /// from zero. Appends per-pass GPU times to `times`.
     pub fn splat(
         &self,
         ctx: &GpuContext,
-        scene: &GpuScene,
-        vis: &VisibilityBuffer,
-        bounds: &TileBounds,
-        cache: &RecordCache,
-        first: u32,
-        accuracy: f32,
+        src: SplatSource,
         out: &SplatBuffer,
         accumulate: bool,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<SplatStats> {
+        let SplatSource {
+            scene,
+            vis,
+            records: cache,
+            ..
+        } = src;
         if out.coverage_records > 0 && cache.count > out.coverage_records {
             return Err(Error::Usage(format!(
                 "splat: {} records exceed the coverage counters' {}",
                 cache.count, out.coverage_records
             )));
         }
-        let bins = self.bin(
-            ctx,
-            scene,
-            vis,
-            bounds,
-            cache,
-            first,
-            accuracy,
-            (accumulate, out.coverage_mode),
-            true,
-            times,
-        )?;
+        let bins = self.bin(ctx, src, (accumulate, out.coverage_mode), true, times)?;
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         if bins.total > 0 || !accumulate {
@@ -320,24 +326,26 @@ impl SplatPass {
         Ok(bins.stats())
     }
 
-    /// Bins records `first..cache.count` into the 16 x 16-pixel tiles their footprints
-    /// bound: counts, prefix sum, scatter and, when `sorted`, the rank sort by record id
-    /// that makes a gather's sums deterministic. `(accumulate, count_coverage)` go into
-    /// the bins' parameters for the gather.
-    #[allow(clippy::too_many_arguments)]
+    /// Bins `src`'s records into the `TILE_SIZE`-pixel tiles their footprints bound:
+    /// counts, prefix sum, scatter and, when `sorted`, the rank sort by record id that makes
+    /// a gather's sums deterministic. `(accumulate, count_coverage)` go into the bins'
+    /// parameters for the gather.
     pub(crate) fn bin(
         &self,
         ctx: &GpuContext,
-        scene: &GpuScene,
-        vis: &VisibilityBuffer,
-        bounds: &TileBounds,
-        cache: &RecordCache,
-        first: u32,
-        accuracy: f32,
+        src: SplatSource,
         (accumulate, count_coverage): (bool, u32),
         sorted: bool,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<TileBins> {
+        let SplatSource {
+            scene,
+            vis,
+            bounds,
+            records: cache,
+            first,
+            accuracy,
+        } = src;
         let (width, height) = (vis.width, vis.height);
         let tiles_x = width.div_ceil(TILE_SIZE);
         let tiles_y = height.div_ceil(TILE_SIZE);
