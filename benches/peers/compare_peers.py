@@ -21,7 +21,6 @@ import json
 import resource
 import os
 import re
-import shutil
 import subprocess
 import sys
 import time
@@ -38,6 +37,19 @@ def radiance_dirs():
         sys.exit("pyradiance is not installed: run benches/peers/run.sh (it makes a venv)")
     root = Path(pyradiance.__file__).resolve().parent
     return root / "bin", root / "lib"
+
+
+def peer_env(radsplat):
+    """The environment both renderers run in (Radiance's binaries on PATH, its RAYPATH), the
+    resolved radsplat binary (exits if it is missing) and Radiance's bin directory."""
+    bindir, libdir = radiance_dirs()
+    env = dict(os.environ)
+    env["RAYPATH"] = f".:{libdir}"
+    env["PATH"] = f"{bindir}:{env.get('PATH', '')}"
+    radsplat = radsplat.resolve()
+    if not radsplat.exists():
+        sys.exit(f"{radsplat} not found: run `cargo build --release` first")
+    return env, radsplat, bindir
 
 
 # CPU seconds (user + system) of the last command run: rpict is single-threaded, so its CPU
@@ -112,13 +124,7 @@ def main():
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
 
-    bindir, libdir = radiance_dirs()
-    env = dict(os.environ)
-    env["RAYPATH"] = f".:{libdir}"
-    env["PATH"] = f"{bindir}:{env.get('PATH', '')}"
-    radsplat = args.radsplat.resolve()
-    if not radsplat.exists():
-        sys.exit(f"{radsplat} not found: run `cargo build --release` first")
+    env, radsplat, bindir = peer_env(args.radsplat)
     w, h = (int(v) for v in args.size.lower().split("x"))
     out = (args.out or REPO / "out/peers" / args.scene.stem).resolve()
     out.mkdir(parents=True, exist_ok=True)

@@ -36,7 +36,6 @@ import argparse
 import hashlib
 import json
 import math
-import os
 import re
 import statistics
 import sys
@@ -44,11 +43,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compare_peers import (  # noqa: E402  (shared pieces of the single-setting comparison)
-    LAST_CPU, REPO, count_ambient_records, radiance_dirs, run)
+    LAST_CPU, REPO, count_ambient_records, peer_env, run)
 
 # Settings per scene (the scene file's stem). Every list gets its side's defaults point
 # added in front ("defaults": no cache flags); labels name the points in tables, files, plot.
-# radsplat's defaults are -a 0.2 with 64 x 64 planes; rpict's are -aa 0.2 -ad 512 -as 128
+# radsplat's defaults are CacheSettings::default() (-a 0.2, 24 x 24 planes); rpict's are -aa 0.2 -ad 512 -as 128
 # -ar 64 (`rpict -defaults`). "spp": reference bounce samples per pixel; "dj": rpict's
 # source jitter (0: fixed points on each source, as for a sun); "light_samples": radsplat's
 # light samples (None: the scene file's); "ref_light_samples": the references' light samples
@@ -272,15 +271,9 @@ def main():
     size = args.size or cfg.get("size")
     seed_a, seed_b = (int(s) for s in args.seeds.split(","))
 
-    bindir, libdir = radiance_dirs()
+    env, radsplat, bindir = peer_env(args.radsplat)
     import pyradiance
     rad_version = getattr(pyradiance, "__version__", "?")
-    env = dict(os.environ)
-    env["RAYPATH"] = f".:{libdir}"
-    env["PATH"] = f"{bindir}:{env.get('PATH', '')}"
-    radsplat = args.radsplat.resolve()
-    if not radsplat.exists():
-        sys.exit(f"{radsplat} not found: run `cargo build --release` first")
     if size is None:
         text = args.scene.read_text()
         m = re.search(r"resolution\s*=\s*\[\s*(\d+)\s*,\s*(\d+)\s*\]", text)
