@@ -53,8 +53,9 @@ pub type SplatRounds = (Vec<VisSample>, Vec<[f32; 4]>, Vec<u32>);
 pub struct CachedFrameOptions<'a, 'b> {
     /// At most this many new records (None: until every visible pixel is covered).
     pub max_new_records: Option<u32>,
-    /// Also estimate every new record at the next frame (temporal caching).
-    pub lookahead: Option<&'a mut crate::records::Lookahead<'b>>,
+    /// A stage run inside record computation (temporal caching: estimate every new
+    /// record at the next frame).
+    pub stage: Option<&'a mut (dyn crate::records::RecordStage + 'b)>,
     /// Count the pixels each record covers.
     pub count_coverage: bool,
     /// Only place records: no direct light, no resolve; the returned frame has stats and
@@ -402,7 +403,8 @@ impl Renderer {
     }
 
     /// The frame of [`Renderer::render_gi_frame`] over `records` (computed by `pass`),
-    /// with the temporal options: new records also estimated at t+1 (`lookahead`), and
+    /// with the temporal options: new records also seen by a record stage (`stage`:
+    /// temporal caching estimates them at t+1), and
     /// per-record coverage counted (returned, one count per record of `records`; empty
     /// when not counted).
     pub fn render_cached_frame(
@@ -416,7 +418,7 @@ impl Renderer {
     ) -> Result<(Frame, Vec<u32>)> {
         let CachedFrameOptions {
             max_new_records,
-            lookahead,
+            stage,
             count_coverage,
             placement_only,
             visibility,
@@ -476,7 +478,7 @@ impl Renderer {
             &mask,
             light_maps.as_deref(),
             max_new_records,
-            lookahead,
+            stage,
             &mut times,
             progress,
         )?;

@@ -21,6 +21,7 @@ pub mod direct;
 pub mod error;
 pub mod frame;
 pub mod gpu;
+pub mod hsh;
 pub mod light_maps;
 pub mod output;
 pub mod placement;

@@ -45,7 +45,7 @@ fn sobol_dim1(mut i: u32) -> u32 {
     r
 }
 
-fn u32_to_unit(x: u32) -> f32 {
+pub fn u32_to_unit(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 

@@ -88,7 +88,6 @@ fn gpu_planes_and_records_match_the_cpu_reference() {
         &mut cache,
         None,
         None,
-        None,
         |_| {},
     )
     .expect("records");
@@ -301,7 +300,6 @@ fn refinement_off_gives_todays_records() {
         &mut cache,
         None,
         None,
-        None,
         |_| {},
     )
     .expect("records");
@@ -390,7 +388,6 @@ fn gpu_refined_planes_and_records_match_the_cpu_reference() {
             &site_buf,
             sites.len() as u32,
             &mut cache,
-            None,
             None,
             None,
             |_| {},

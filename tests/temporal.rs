@@ -394,14 +394,14 @@ fn reproject_against_cpu(
         ReprojectionPass::new(&renderer.ctx, &settings, stride).expect("reprojection pass");
     let next_frame = NextFrame::new(&renderer.ctx, &prepared_next.gpu, scene, next, anchored)
         .expect("next frame");
-    let planes = pass
-        .trace_planes_ahead(
-            &renderer.ctx,
-            &prepared.gpu,
-            Some((&next_frame, &reprojection)),
-            &sites,
-        )
-        .expect("planes");
+    let planes = radsplat::temporal::trace_planes_ahead(
+        &pass,
+        &renderer.ctx,
+        &prepared.gpu,
+        Some((&next_frame, &reprojection)),
+        &sites,
+    )
+    .expect("planes");
     renderer.ctx.check().expect("no wgpu errors");
 
     let cpu_t = RecordReference::new(scene, &settings);

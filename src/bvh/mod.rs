@@ -26,7 +26,7 @@ pub mod wide;
 
 use crate::scene::{Mesh, Scene};
 use bounded::Degenerate;
-use glam::{Mat4, Vec3, Vec3A};
+use glam::{Vec3, Vec3A};
 use gpu_layout::{GpuInstance, GpuNode, GpuTriangle, GpuTriangleShading};
 use obvhs::{BvhBuildParams, aabb::Aabb, bvh2::Bvh2, triangle::Triangle};
 use std::time::{Duration, Instant};
@@ -462,10 +462,7 @@ fn build_tlas(bounds: &[Aabb]) -> Built {
     })
 }
 
-/// Object-space transform helpers shared by the CPU reference and the GPU layout.
-pub fn normal_matrix(transform: Mat4) -> glam::Mat3 {
-    glam::Mat3::from_mat4(transform).inverse().transpose()
-}
+pub use crate::scene::normal_matrix;
 
 /// Scene bounds over all instances (for ray offsets and camera sanity checks).
 pub fn scene_bounds(scene: &Scene) -> (Vec3, Vec3) {
@@ -487,6 +484,7 @@ pub fn tree_depth(bvh: &Bvh2) -> u32 {
 mod tests {
     use super::*;
     use crate::scene::load_scene;
+    use glam::Mat4;
     use std::path::Path;
 
     fn bundled(name: &str) -> Scene {

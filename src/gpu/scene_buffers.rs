@@ -59,12 +59,19 @@ pub struct GpuMaterial {
     pub albedo: [f32; 3],
     pub texture: u32,
     pub emission: [f32; 3],
-    /// Bit flags, `MATERIAL_SAMPLED_LIGHT`.
+    /// Bit flags, `MATERIAL_SAMPLED_LIGHT`, `MATERIAL_PHONG`.
     pub flags: u32,
+    /// The glossy lobe's reflectance (zero without one).
+    pub specular: [f32; 3],
+    /// The glossy lobe's exponent.
+    pub exponent: f32,
 }
 
 /// [`GpuMaterial::flags`]: the emitter is sampled by direct lighting (a rect light's quad).
 pub const MATERIAL_SAMPLED_LIGHT: u32 = 1;
+/// [`GpuMaterial::flags`]: the material has a Phong glossy lobe
+/// ([`crate::scene::GlossyLobe::Phong`]).
+pub const MATERIAL_PHONG: u32 = 2;
 
 /// Rust mirror of WGSL `TextureInfo`.
 #[repr(C)]
@@ -177,15 +184,26 @@ fn gpu_materials(scene: &Scene) -> Vec<GpuMaterial> {
     scene
         .materials
         .iter()
-        .map(|m| GpuMaterial {
-            albedo: m.albedo.into(),
-            texture: m.albedo_texture.unwrap_or(NO_TEXTURE),
-            emission: m.emission.into(),
-            flags: if m.sampled_light {
-                MATERIAL_SAMPLED_LIGHT
-            } else {
-                0
-            },
+        .map(|m| {
+            let (lobe, specular, exponent) = match m.glossy {
+                Some(crate::scene::GlossyLobe::Phong { specular, exponent }) => {
+                    (MATERIAL_PHONG, specular.into(), exponent)
+                }
+                None => (0, [0.0; 3], 0.0),
+            };
+            GpuMaterial {
+                albedo: m.albedo.into(),
+                texture: m.albedo_texture.unwrap_or(NO_TEXTURE),
+                emission: m.emission.into(),
+                flags: lobe
+                    | if m.sampled_light {
+                        MATERIAL_SAMPLED_LIGHT
+                    } else {
+                        0
+                    },
+                specular,
+                exponent,
+            }
         })
         .collect()
 }

@@ -16,7 +16,7 @@ use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::light_maps::LightMaps;
-use crate::records::{Lookahead, RecordCache, RecordPass};
+use crate::records::{RecordCache, RecordPass, RecordStage};
 use crate::splat::{CoverageMask, SplatPass, SplatSource, TileBounds};
 use crate::visibility::VisibilityBuffer;
 use bytemuck::{Pod, Zeroable};
@@ -137,7 +137,7 @@ impl PlacementPass {
         mask: &CoverageMask,
         light_maps: Option<&LightMaps>,
         limit: Option<u32>,
-        mut lookahead: Option<&mut Lookahead<'_>>,
+        mut stage: Option<&mut (dyn RecordStage + '_)>,
         times: &mut Vec<(&'static str, f64)>,
         mut progress: impl FnMut(u32),
     ) -> Result<PlacementStats> {
@@ -170,8 +170,7 @@ impl PlacementPass {
                         n,
                         cache,
                         light_maps,
-                        lookahead.as_deref_mut(),
-                        None,
+                        stage.as_deref_mut(),
                         |_| {},
                     )?);
                     let new_records = SplatSource {

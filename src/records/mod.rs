@@ -8,6 +8,7 @@ pub mod plane;
 pub mod plane_error;
 pub mod reference;
 pub mod refine;
+pub mod stage;
 
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
@@ -18,6 +19,7 @@ use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 pub use plane::{HemispherePlane, PlaneMode, PlanePixel, PlaneSpacing, RefineSample};
+pub use stage::{PlaneBatch, RecordStage};
 
 /// One irradiance record (Rust mirror of WGSL `Record`, 144 bytes): p, n, R, E and the
 /// rotational and translational gradients per colour channel (algorithms.md decision 3).
@@ -135,21 +137,6 @@ pub struct PlaneSample {
     pub radiance: [f32; 3],
     /// Hit depth along the record normal (`r cos(theta)`), negative on a miss.
     pub depth: f32,
-}
-
-/// What [`RecordPass::compute`] needs to also estimate each new record at the next frame
-/// (temporal caching, algorithms.md 4.3): the scene at t+1 and a cache that receives the
-/// estimates at the same indices as the new records.
-pub struct Lookahead<'a> {
-    pub next_frame: crate::temporal::reprojection::NextFrame<'a>,
-    pub reprojection: &'a crate::temporal::ReprojectionPass,
-    /// Records at t+1, in step with the cache (`next.count == cache.count`).
-    pub next: &'a mut RecordCache,
-    /// With an estimate stride above 1, the records of the samples at t the estimate was
-    /// moved from (tau = E(t+1) / this); in step with the cache, written only then.
-    pub subset: &'a mut RecordCache,
-    /// Keeps the sites and traced planes of the records computed.
-    pub capture: Option<&'a mut crate::temporal::plane_refresh::PlaneCapture>,
 }
 
 /// Settings of the irradiance cache (scene file `[cache]`, CLI flags).
@@ -510,17 +497,6 @@ struct ReduceParams {
     _pad: u32,
 }
 
-/// Planes traced at t and estimated at t+1 ([`RecordPass::trace_planes_ahead`]).
-#[derive(Clone, Debug, Default)]
-pub struct PlanesAhead {
-    /// The planes traced at t, P^2 samples per site.
-    pub now: Vec<PlaneSample>,
-    /// The planes estimated at t+1, (P / stride)^2 samples per site.
-    pub estimate: Vec<PlaneSample>,
-    /// The samples at t the estimate was moved from, (P / stride)^2 per site.
-    pub subset: Vec<PlaneSample>,
-}
-
 /// Planes traced and refined by [`RecordPass::trace_planes_refined`].
 #[derive(Clone, Debug, Default)]
 pub struct RefinedPlanes {
@@ -533,10 +509,10 @@ pub struct RefinedPlanes {
 }
 
 /// The records a reduction writes: `count` records from `first_record`, at `sites`.
-struct ReductionBatch<'a> {
-    sites: &'a wgpu::Buffer,
-    first_record: u32,
-    count: u32,
+pub struct ReductionBatch<'a> {
+    pub sites: &'a wgpu::Buffer,
+    pub first_record: u32,
+    pub count: u32,
 }
 
 /// A [`HemispherePlane`]'s pixel table on the GPU, as the record reduction reads it.
@@ -681,8 +657,9 @@ impl RecordPass {
 
     /// Computes records for `count` sites (a buffer of [`RecordSite`]) and appends them to
     /// `cache`; `on_batch` is called after each batch with the number done. Returns the
-    /// per-pass GPU times. With `refresh`, the sites' planes are refreshed from retained
-    /// ones instead of traced ([`crate::temporal::plane_refresh`]).
+    /// per-pass GPU times. A `stage` (temporal caching) runs inside each batch
+    /// ([`RecordStage`]): it may replace the tracing, read the planes and their hits, and
+    /// reduce more planes.
     #[allow(clippy::too_many_arguments)]
     pub fn compute(
         &self,
@@ -692,12 +669,11 @@ impl RecordPass {
         count: u32,
         cache: &mut RecordCache,
         light_maps: Option<&LightMaps>,
-        mut lookahead: Option<&mut Lookahead<'_>>,
-        refresh: Option<&crate::temporal::plane_refresh::PlaneRefresh<'_>>,
+        mut stage: Option<&mut (dyn RecordStage + '_)>,
         mut on_batch: impl FnMut(u32),
     ) -> Result<Vec<(&'static str, f64)>> {
         let light_maps = light_maps.unwrap_or(&self.no_light_maps);
-        if self.refine.is_some() && (lookahead.is_some() || refresh.is_some()) {
+        if self.refine.is_some() && stage.is_some() {
             return Err(Error::Usage(
                 "plane refinement (--plane-refine) does not work with temporal caching yet \
                  (its refreshed and reprojected planes are unrefined): use --plane-refine 0 \
@@ -708,42 +684,22 @@ impl RecordPass {
         cache.reserve(ctx, count)?;
         let res = self.settings.plane_resolution;
         // Sized to this call's largest batch: small placement rounds stay small.
-        let batch_records = u64::from(self.batch.min(count.max(1)));
-        let batch_samples = batch_records * u64::from(res * res);
+        let batch_records = self.batch.min(count.max(1));
+        let batch_samples = u64::from(batch_records) * u64::from(res * res);
         let samples = ctx.storage_buffer_sized("plane samples", batch_samples * 16)?;
-        // Temporal caching: the hits of each sample, for the estimate at t+1.
+        // A stage (temporal caching) reads the hit of each sample.
+        let record_hits = stage.is_some();
         let hits = ctx.storage_buffer_sized(
             "plane hits",
-            if lookahead.is_some() || refresh.is_some() {
-                batch_samples * 16
-            } else {
-                16
-            },
+            if record_hits { batch_samples * 16 } else { 16 },
         )?;
-        // The estimated planes at t+1 and the samples at t they were moved from.
-        let mut estimate_planes = None;
-        if let Some(la) = lookahead.as_deref_mut() {
-            for (what, records) in [("lookahead", &la.next), ("subset", &la.subset)] {
-                if records.count != cache.count {
-                    return Err(Error::Usage(format!(
-                        "{what} records ({}) out of step with the cache ({})",
-                        records.count, cache.count
-                    )));
-                }
-            }
-            la.next.reserve(ctx, count)?;
-            la.subset.reserve(ctx, count)?;
-            let cells = batch_records * u64::from(la.reprojection.table.resolution.pow(2));
-            estimate_planes = Some((
-                ctx.storage_buffer_sized("estimated planes", cells * 16)?,
-                ctx.storage_buffer_sized("estimate subsets", cells * 16)?,
-            ));
+        if let Some(st) = stage.as_deref_mut() {
+            st.begin(ctx, cache, count, batch_records)?;
         }
         let selected = match &self.refine {
-            Some(r) => ctx.storage_buffer_sized(
-                "refined pixels",
-                r.selected_bytes(self.batch.min(count.max(1))),
-            )?,
+            Some(r) => {
+                ctx.storage_buffer_sized("refined pixels", r.selected_bytes(batch_records))?
+            }
             None => ctx.storage_buffer_sized("refined pixels", 16)?,
         };
         let mut times = Vec::new();
@@ -761,83 +717,56 @@ impl RecordPass {
                 0,
                 u64::from(n) * site_bytes,
             );
-            let plane_params = ctx.uniform_buffer(
-                "plane params",
-                &PlaneParams {
-                    resolution: res,
-                    count: n,
-                    light_samples: self.settings.plane_light_samples,
-                    record_hits: u32::from(lookahead.is_some() || refresh.is_some()),
-                },
-            );
-            let plane_bind = self.plane.bind(
-                ctx,
-                &[
-                    &plane_params,
-                    &batch_sites,
-                    &self.table.pixels,
-                    &samples,
-                    &hits,
-                    &light_maps.maps_buffer,
-                    &light_maps.depths,
-                    &light_maps.first_buffer,
-                ],
-            );
+            let batch = PlaneBatch {
+                sites: &batch_sites,
+                samples: &samples,
+                hits: &hits,
+                first_record: cache.count,
+                first_site: done,
+                count: n,
+            };
             let mut timer = crate::gpu::timer::PassTimer::new(ctx, 12);
-            match refresh {
-                Some(r) => r.record(
+            let replaced = match stage.as_deref_mut() {
+                Some(st) => st.replace_tracing(
                     ctx,
                     &mut enc,
                     scene,
                     &self.settings,
-                    &self.table.pixels,
-                    &batch_sites,
-                    &samples,
-                    &hits,
-                    done,
-                    n,
+                    &self.table,
+                    &batch,
                     &mut timer,
                 )?,
-                None => {
-                    self.plane.record(
-                        &mut enc,
-                        &scene.bind_group,
-                        &plane_bind,
-                        [res.div_ceil(8), res.div_ceil(8), n],
-                        timer.next("hemisphere planes"),
-                    );
-                    if let Some(r) = &self.refine {
-                        r.record(
-                            ctx,
-                            &mut enc,
-                            scene,
-                            &self.table,
-                            &batch_sites,
-                            &samples,
-                            &selected,
-                            n,
-                            light_maps,
-                            &mut timer,
-                        )?;
-                    }
-                }
-            }
-            if let Some(capture) = lookahead
-                .as_deref_mut()
-                .and_then(|la| la.capture.as_deref_mut())
-            {
-                capture.capture(
+                None => false,
+            };
+            if !replaced {
+                self.record_planes(
                     ctx,
                     &mut enc,
-                    &batch_sites,
-                    &samples,
-                    &hits,
-                    cache.count,
-                    n,
-                    res,
-                )?;
+                    scene,
+                    &batch,
+                    record_hits,
+                    light_maps,
+                    timer.next("hemisphere planes"),
+                );
+                if let Some(r) = &self.refine {
+                    r.record(
+                        ctx,
+                        &mut enc,
+                        scene,
+                        &self.table,
+                        &batch_sites,
+                        &samples,
+                        &selected,
+                        n,
+                        light_maps,
+                        &mut timer,
+                    )?;
+                }
             }
-            let batch = ReductionBatch {
+            if let Some(st) = stage.as_deref_mut() {
+                st.planes_ready(ctx, &mut enc, &batch, res)?;
+            }
+            let reduction = ReductionBatch {
                 sites: &batch_sites,
                 first_record: cache.count,
                 count: n,
@@ -847,61 +776,20 @@ impl RecordPass {
                 &mut enc,
                 scene,
                 &self.table,
-                &batch,
+                &reduction,
                 &samples,
                 &cache.buffer,
                 &mut timer,
             );
-            if let (Some(la), Some((estimate, subset))) =
-                (lookahead.as_deref_mut(), estimate_planes.as_ref())
-            {
-                // E(t+1) estimate: reproject this batch's plane, then reduce it into the
-                // lookahead records at the same indices; with a stride, also the samples
-                // at t it was moved from (tau is the ratio of the two).
-                la.reprojection.record(
-                    ctx,
-                    &mut enc,
-                    &la.next_frame,
-                    &self.settings,
-                    &batch_sites,
-                    &hits,
-                    &samples,
-                    (estimate, subset),
-                    n,
-                    &mut timer,
-                )?;
-                let table = &la.reprojection.table;
-                let next_scene = la.next_frame.scene;
-                self.record_reduction(
-                    ctx,
-                    &mut enc,
-                    next_scene,
-                    table,
-                    &batch,
-                    estimate,
-                    &la.next.buffer,
-                    &mut timer,
-                );
-                if la.reprojection.stride > 1 {
-                    self.record_reduction(
-                        ctx,
-                        &mut enc,
-                        scene,
-                        table,
-                        &batch,
-                        subset,
-                        &la.subset.buffer,
-                        &mut timer,
-                    );
-                }
+            if let Some(st) = stage.as_deref_mut() {
+                st.reduced(ctx, &mut enc, scene, self, &batch, &mut timer)?;
             }
             timer.resolve(&mut enc);
             ctx.queue.submit([enc.finish()]);
             times.extend(timer.read(ctx)?);
             cache.count += n;
-            if let Some(la) = lookahead.as_deref_mut() {
-                la.next.count += n;
-                la.subset.count += n;
+            if let Some(st) = stage.as_deref_mut() {
+                st.batch_done(n);
             }
             done += n;
             on_batch(done);
@@ -909,10 +797,56 @@ impl RecordPass {
         Ok(times)
     }
 
-    /// Records the reduction of a batch's planes (`table`'s resolution, in `samples`) into
-    /// `records` (`record_reduce.wgsl`).
+    /// Records the plane pass (`hemisphere_plane.wgsl`) for `batch`: its samples, and with
+    /// `record_hits` what each sample hit.
     #[allow(clippy::too_many_arguments)]
-    fn record_reduction(
+    fn record_planes(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        batch: &PlaneBatch<'_>,
+        record_hits: bool,
+        light_maps: &LightMaps,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let res = self.settings.plane_resolution;
+        let plane_params = ctx.uniform_buffer(
+            "plane params",
+            &PlaneParams {
+                resolution: res,
+                count: batch.count,
+                light_samples: self.settings.plane_light_samples,
+                record_hits: u32::from(record_hits),
+            },
+        );
+        let plane_bind = self.plane.bind(
+            ctx,
+            &[
+                &plane_params,
+                batch.sites,
+                &self.table.pixels,
+                batch.samples,
+                batch.hits,
+                &light_maps.maps_buffer,
+                &light_maps.depths,
+                &light_maps.first_buffer,
+            ],
+        );
+        self.plane.record(
+            enc,
+            &scene.bind_group,
+            &plane_bind,
+            [res.div_ceil(8), res.div_ceil(8), batch.count],
+            timestamps,
+        );
+    }
+
+    /// Records the reduction of a batch's planes (`table`'s resolution, in `samples`) into
+    /// `records` (`record_reduce.wgsl`). Stages reduce their own planes with it (temporal
+    /// caching: the planes estimated at t+1 into the records at t+1).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_reduction(
         &self,
         ctx: &GpuContext,
         enc: &mut wgpu::CommandEncoder,
@@ -1004,22 +938,23 @@ impl RecordPass {
         scene: &GpuScene,
         sites: &[RecordSite],
     ) -> Result<Vec<PlaneSample>> {
-        Ok(self.trace_planes_ahead(ctx, scene, None, sites)?.now)
+        Ok(self
+            .trace_planes_then(ctx, scene, sites, false, |_, _| Ok(()))?
+            .0)
     }
 
-    /// As [`RecordPass::trace_planes`], and with `ahead = (scene at t+1, reprojection)`
-    /// also the planes estimated at t+1 by reprojection and the samples at t they were
-    /// moved from (tests, Table 5.1); those are empty without `ahead`.
-    pub fn trace_planes_ahead(
+    /// Traces the planes of `sites` (at most one batch), with `record_hits` also what each
+    /// sample hit, and lets `then` record more work on the planes in the same submission
+    /// (temporal caching's reprojection, `temporal::trace_planes_ahead`). Returns the
+    /// samples, unrefined, and what `then` returned.
+    pub fn trace_planes_then<T>(
         &self,
         ctx: &GpuContext,
         scene: &GpuScene,
-        ahead: Option<(
-            &crate::temporal::reprojection::NextFrame<'_>,
-            &crate::temporal::ReprojectionPass,
-        )>,
         sites: &[RecordSite],
-    ) -> Result<PlanesAhead> {
+        record_hits: bool,
+        then: impl FnOnce(&mut wgpu::CommandEncoder, &PlaneBatch<'_>) -> Result<T>,
+    ) -> Result<(Vec<PlaneSample>, T)> {
         let res = self.settings.plane_resolution;
         let n = sites.len() as u32;
         if n > self.batch {
@@ -1031,70 +966,30 @@ impl RecordPass {
         let sites_buf = ctx.storage_buffer("record sites", sites)?;
         let plane_bytes = u64::from(n) * u64::from(res * res) * 16;
         let samples = ctx.storage_buffer_sized("plane samples", plane_bytes)?;
-        let params = ctx.uniform_buffer(
-            "plane params",
-            &PlaneParams {
-                resolution: res,
-                count: n,
-                light_samples: self.settings.plane_light_samples,
-                record_hits: u32::from(ahead.is_some()),
-            },
-        );
         let hits =
-            ctx.storage_buffer_sized("plane hits", if ahead.is_some() { plane_bytes } else { 16 })?;
-        let bind = self.plane.bind(
-            ctx,
-            &[
-                &params,
-                &sites_buf,
-                &self.table.pixels,
-                &samples,
-                &hits,
-                &self.no_light_maps.maps_buffer,
-                &self.no_light_maps.depths,
-                &self.no_light_maps.first_buffer,
-            ],
-        );
+            ctx.storage_buffer_sized("plane hits", if record_hits { plane_bytes } else { 16 })?;
+        let batch = PlaneBatch {
+            sites: &sites_buf,
+            samples: &samples,
+            hits: &hits,
+            first_record: 0,
+            first_site: 0,
+            count: n,
+        };
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        self.plane.record(
+        self.record_planes(
+            ctx,
             &mut enc,
-            &scene.bind_group,
-            &bind,
-            [res.div_ceil(8), res.div_ceil(8), n],
+            scene,
+            &batch,
+            record_hits,
+            &self.no_light_maps,
             None,
         );
-        let mut estimated = None;
-        if let Some((next, reprojection)) = ahead {
-            let cells = u64::from(n) * u64::from(reprojection.table.resolution.pow(2));
-            let estimate = ctx.storage_buffer_sized("estimated planes", cells * 16)?;
-            let subset = ctx.storage_buffer_sized("estimate subsets", cells * 16)?;
-            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 3);
-            reprojection.record(
-                ctx,
-                &mut enc,
-                next,
-                &self.settings,
-                &sites_buf,
-                &hits,
-                &samples,
-                (&estimate, &subset),
-                n,
-                &mut timer,
-            )?;
-            estimated = Some((estimate, subset, cells as usize));
-        }
+        let out = then(&mut enc, &batch)?;
         ctx.queue.submit([enc.finish()]);
-        let mut out = PlanesAhead {
-            now: ctx.read_buffer(&samples)?,
-            ..Default::default()
-        };
-        out.now.truncate((n * res * res) as usize);
-        if let Some((estimate, subset, cells)) = estimated {
-            out.estimate = ctx.read_buffer(&estimate)?;
-            out.estimate.truncate(cells);
-            out.subset = ctx.read_buffer(&subset)?;
-            out.subset.truncate(cells);
-        }
-        Ok(out)
+        let mut now: Vec<PlaneSample> = ctx.read_buffer(&samples)?;
+        now.truncate((n * res * res) as usize);
+        Ok((now, out))
     }
 }

@@ -813,7 +813,7 @@ mod tests {
         assert!(p(0.0, 0.0).abs_diff_eq(c, 1e-6));
         assert!(p(1.0, 0.0).abs_diff_eq(c + u, 1e-6));
         assert!(p(1.0, 1.0).abs_diff_eq(c + u + v, 1e-6));
-        let n = crate::bvh::normal_matrix(m) * quad.edge_u.cross(quad.edge_v);
+        let n = crate::scene::normal_matrix(m) * quad.edge_u.cross(quad.edge_v);
         assert!(n.normalize().abs_diff_eq(u.cross(v).normalize(), 1e-6));
     }
 }

@@ -11,7 +11,7 @@ use super::animation::{
 use super::asset_path::resolve_asset;
 use super::obj::{ObjData, load_obj};
 use super::texture::TextureCache;
-use super::{Camera, Instance, Light, Material, Mesh, RenderSettings, Scene};
+use super::{Camera, GlossyLobe, Instance, Light, Material, Mesh, RenderSettings, Scene};
 use crate::{Error, Result};
 use glam::{Mat4, Vec2, Vec3};
 use serde::Deserialize;
@@ -137,6 +137,10 @@ struct MaterialDef {
     albedo: Option<[f32; 3]>,
     emission: Option<[f32; 3]>,
     texture: Option<String>,
+    /// The glossy (Phong) lobe's reflectance; `[0, 0, 0]` removes the lobe.
+    specular: Option<[f32; 3]>,
+    /// The Phong exponent.
+    exponent: Option<f32>,
 }
 
 /// All light parameters in one flat table; which ones a type takes is checked by hand, so
@@ -571,6 +575,62 @@ impl<'a> SceneBuilder<'a> {
             Some("") => Some(None),
             Some(name) => Some(Some(resolve_asset(ctx.path, &field("texture"), name)?)),
         };
+        let specular = def
+            .specular
+            .map(|v| ctx.unit_range3(&field("specular"), v))
+            .transpose()?;
+        if let Some(e) = def.exponent {
+            if !(e.is_finite() && e >= 0.0) {
+                return Err(ctx.field_error(
+                    &field("exponent"),
+                    format!("must be a finite number >= 0, got {e}"),
+                ));
+            }
+        }
+        for &m in &targets {
+            let material = &self.materials[m];
+            let lobe = match (specular, def.exponent, material.glossy) {
+                (Some(ks), _, _) if ks.max_element() <= 0.0 => None,
+                (Some(ks), e, old) => Some(GlossyLobe::Phong {
+                    specular: ks,
+                    exponent: e.or(old.map(|l| l.exponent())).unwrap_or(1.0),
+                }),
+                (None, Some(e), Some(old)) => Some(GlossyLobe::Phong {
+                    specular: old.specular(),
+                    exponent: e,
+                }),
+                (None, Some(_), None) => {
+                    return Err(ctx.field_error(
+                        &field("exponent"),
+                        format!(
+                            "material '{}' has no glossy lobe: give `specular` too",
+                            def.name
+                        ),
+                    ));
+                }
+                (None, None, old) => old,
+            };
+            let kd = albedo.unwrap_or(material.albedo);
+            if let Some(l) = lobe {
+                let sum = kd + l.specular();
+                if sum.max_element() > 1.0 + 1e-6 {
+                    let name = if specular.is_some() {
+                        "specular"
+                    } else {
+                        "albedo"
+                    };
+                    return Err(ctx.field_error(
+                        &field(name),
+                        format!(
+                            "albedo + specular must be at most 1 per channel (energy), got \
+                             {kd} + {}",
+                            l.specular()
+                        ),
+                    ));
+                }
+            }
+            self.materials[m].glossy = lobe;
+        }
         for m in targets {
             if let Some(albedo) = albedo {
                 self.materials[m].albedo = albedo;
@@ -594,6 +654,7 @@ impl<'a> SceneBuilder<'a> {
             albedo_texture: None,
             emission: radiance,
             sampled_light: true,
+            glossy: None,
         });
         self.material_textures.push(None);
         let material = (self.materials.len() - 1) as u32;

@@ -8,10 +8,13 @@
 
 pub mod animation;
 pub mod asset_path;
+pub mod brdf;
 pub mod file;
 pub mod limits;
 pub mod obj;
 pub mod texture;
+
+pub use brdf::GlossyLobe;
 
 use glam::{Mat4, Vec2, Vec3};
 use std::path::PathBuf;
@@ -62,6 +65,9 @@ pub struct Material {
     /// accounts for it, so indirect light must count it as zero (Ward: "we count as zero any
     /// samples that intersect a light source") or it would be counted twice.
     pub sampled_light: bool,
+    /// A glossy lobe beside the Lambertian one (MTL `Ks`/`Ns`, scene file `specular` and
+    /// `exponent`); `albedo + specular <= 1` per channel.
+    pub glossy: Option<GlossyLobe>,
 }
 
 /// An 8-bit RGBA texture, sRGB-encoded colour, rows top to bottom (v = 1 is the top row).
@@ -162,4 +168,11 @@ impl Scene {
             .map(|i| self.meshes[i.mesh as usize].indices.len())
             .sum()
     }
+}
+
+/// The matrix that takes object-space normals to world space under `transform` (the
+/// inverse transpose of its linear part); shared by the scene's lights, the CPU references
+/// and the GPU layout.
+pub fn normal_matrix(transform: glam::Mat4) -> glam::Mat3 {
+    glam::Mat3::from_mat4(transform).inverse().transpose()
 }

@@ -9,7 +9,7 @@
 //! normalised (unusable ones become zero), and degenerate triangles are dropped.
 
 use super::asset_path::{parent_dir, resolve_asset_from};
-use super::{Material, Mesh};
+use super::{GlossyLobe, Material, Mesh};
 use crate::{Error, Result};
 use glam::{DVec3, Vec2, Vec3};
 use std::cell::RefCell;
@@ -596,6 +596,7 @@ fn convert_materials(
             .emissive
             .map_or(Vec3::ZERO, Vec3::from_array)
             .max(Vec3::ZERO);
+        let glossy = mtl_glossy_lobe(material, albedo, &library.path);
         out.push(ObjMaterial {
             material: Material {
                 name: material.name.clone(),
@@ -603,12 +604,52 @@ fn convert_materials(
                 albedo_texture: None,
                 emission,
                 sampled_light: false,
+                glossy,
             },
             texture,
             library: Some(library.path.clone()),
         });
     }
     Ok(out)
+}
+
+/// The glossy lobe of an MTL material: Phong with `Ks` and exponent `Ns` (default 1), on
+/// illumination models 2 and up ("highlight on") or when `illum` is absent; none when `Ks`
+/// is black. MTL files often have `Kd + Ks > 1`; the lobe is then scaled down to conserve
+/// energy (`Kd + Ks <= 1` per channel), with a warning naming the material.
+fn mtl_glossy_lobe(
+    material: &tobj::Material,
+    albedo: Vec3,
+    library: &std::path::Path,
+) -> Option<GlossyLobe> {
+    if material.illumination_model.is_some_and(|m| m < 2) {
+        return None;
+    }
+    let specular = material
+        .specular
+        .map_or(Vec3::ZERO, Vec3::from_array)
+        .clamp(Vec3::ZERO, Vec3::ONE);
+    if specular.max_element() <= 0.0 {
+        return None;
+    }
+    let exponent = material.shininess.unwrap_or(1.0).max(0.0);
+    let room = (Vec3::ONE - albedo).max(Vec3::ZERO);
+    let over = (specular / room.max(Vec3::splat(1e-6))).max_element();
+    let specular = if over > 1.0 {
+        log::warn!(
+            "{}: material '{}': Kd + Ks exceeds 1 ({} + {}); Ks scaled by {:.3} to conserve \
+             energy",
+            library.display(),
+            material.name,
+            albedo,
+            specular,
+            1.0 / over
+        );
+        specular / over
+    } else {
+        specular
+    };
+    Some(GlossyLobe::Phong { specular, exponent })
 }
 
 /// The default material for faces without one.
@@ -619,6 +660,7 @@ pub fn default_material() -> Material {
         albedo_texture: None,
         emission: Vec3::ZERO,
         sampled_light: false,
+        glossy: None,
     }
 }
 

@@ -104,7 +104,7 @@ impl SplatBuffer {
     /// As [`SplatBuffer::new`], also counting for each record that `expiring` (one flag per
     /// record id) marks as expiring after this frame the pixels it contributes to where no
     /// record outlives the frame: the pixels that need it replaced (temporal caching's
-    /// [`crate::temporal::Replacement::Needed`]). Counts start at zero.
+    /// replacement of the records that cover pixels). Counts start at zero.
     pub fn with_needed_coverage(
         ctx: &GpuContext,
         width: u32,

@@ -185,8 +185,13 @@ pub fn estimates_at_sites(
     let motions = super::motion::instance_motions(at_t.1, next.1);
     let mut out = Vec::with_capacity(sites.len());
     for chunk in sites.chunks(pass.batch as usize) {
-        let planes =
-            pass.trace_planes_ahead(ctx, &at_t.0.gpu, Some((&next_frame, &reprojection)), chunk)?;
+        let planes = super::trace_planes_ahead(
+            &pass,
+            ctx,
+            &at_t.0.gpu,
+            Some((&next_frame, &reprojection)),
+            chunk,
+        )?;
         let truth_sites: Vec<RecordSite> = chunk
             .iter()
             .map(|site| match motions.get(site.instance as usize) {
@@ -196,9 +201,7 @@ pub fn estimates_at_sites(
                 _ => *site,
             })
             .collect();
-        let truth = pass
-            .trace_planes_ahead(ctx, &next.0.gpu, None, &truth_sites)?
-            .now;
+        let truth = super::trace_planes_ahead(&pass, ctx, &next.0.gpu, None, &truth_sites)?.now;
         for (i, site) in chunk.iter().enumerate() {
             let span = i * cells..(i + 1) * cells;
             let estimated = i * estimate_cells..(i + 1) * estimate_cells;

@@ -10,17 +10,19 @@
 
 pub mod animation;
 pub mod estimate_error;
+pub mod lookahead;
 pub mod motion;
 pub mod plane_refresh;
 pub mod reference;
 pub mod reprojection;
 
+pub use lookahead::{Lookahead, PlanesAhead, RefreshStage, trace_planes_ahead};
 pub use motion::{InstanceMotion, RecordAnchor};
 pub use reprojection::{NextFrame, ReprojectionPass};
 
 use crate::frame::{CachedFrameOptions, Frame, PreparedScene, Renderer};
 use crate::gpu::GpuContext;
-use crate::records::{CacheSettings, Lookahead, Record, RecordCache, RecordPass, RecordSite};
+use crate::records::{CacheSettings, Record, RecordCache, RecordPass, RecordSite, RecordStage};
 use crate::scene::{Camera, Scene};
 use crate::visibility::VisibilityBuffer;
 use crate::{Error, Result};
@@ -725,13 +727,13 @@ impl TemporalCache {
             ..Default::default()
         };
         let mut lookahead = match scenes.next {
-            Some((next, next_cpu)) => Some(Lookahead {
-                next_frame: NextFrame::new(ctx, &next.gpu, scenes.scene, next_cpu, anchored)?,
-                reprojection: &self.reprojection,
-                next: &mut self.next_records,
-                subset: &mut self.subset_records,
-                capture: Some(&mut capture),
-            }),
+            Some((next, next_cpu)) => Some(Lookahead::new(
+                NextFrame::new(ctx, &next.gpu, scenes.scene, next_cpu, anchored)?,
+                &self.reprojection,
+                &mut self.next_records,
+                &mut self.subset_records,
+                Some(&mut capture),
+            )),
             None => None,
         };
         let mut retraced_lists = Vec::new();
@@ -763,6 +765,12 @@ impl TemporalCache {
                 }
                 None => None,
             };
+            let mut stage = RefreshStage {
+                refresh: refresh.as_ref(),
+                lookahead: lookahead.as_mut(),
+            };
+            let stage = (stage.refresh.is_some() || stage.lookahead.is_some())
+                .then_some(&mut stage as &mut dyn RecordStage);
             times.extend(self.pass.compute(
                 ctx,
                 &scenes.now.gpu,
@@ -770,8 +778,7 @@ impl TemporalCache {
                 sites.len() as u32,
                 &mut self.frame_records,
                 None,
-                lookahead.as_mut(),
-                refresh.as_ref(),
+                stage,
                 |_| {},
             )?);
             if let Some(r) = refresh {
@@ -790,7 +797,7 @@ impl TemporalCache {
             &self.pass,
             CachedFrameOptions {
                 max_new_records: self.settings.max_new_records,
-                lookahead: lookahead.as_mut(),
+                stage: lookahead.as_mut().map(|la| la as &mut dyn RecordStage),
                 count_coverage: self.settings.replacement == Replacement::Covering,
                 placement_only,
                 visibility,

@@ -6,7 +6,7 @@
 //! the listed samples with the lights at t+1, an indirect dispatch sized by the list) and
 //! `plane_fill` (take each cell's nearest sample, fill holes from the deepest neighbour).
 //! The resulting plane goes through the ordinary record reduction
-//! ([`crate::records::RecordPass::compute`] with a [`crate::records::Lookahead`]).
+//! ([`crate::records::RecordPass::compute`] with a [`super::Lookahead`] stage).
 //!
 //! With an estimate stride s > 1 only every s-th sample each way is moved, onto a plane of
 //! P/s cells, and the samples at t it was moved from are reduced too: tau is the ratio of

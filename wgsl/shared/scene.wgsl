@@ -32,7 +32,9 @@ struct Material {
     albedo: vec3f,
     texture: u32,   // NO_TEXTURE or index into texture_infos
     emission: vec3f,
-    flags: u32,     // MATERIAL_SAMPLED_LIGHT
+    flags: u32,     // MATERIAL_SAMPLED_LIGHT, MATERIAL_PHONG
+    specular: vec3f, // the glossy lobe's reflectance (0 without one)
+    exponent: f32,   // the glossy lobe's Phong exponent
 }
 
 struct TextureInfo {
@@ -45,6 +47,7 @@ struct TextureInfo {
 const NO_TEXTURE: u32 = 0xffffffffu;
 // The emitter is a rect light's quad, already sampled by direct lighting.
 const MATERIAL_SAMPLED_LIGHT: u32 = 1u;
+const MATERIAL_PHONG: u32 = 2u;      // Rust: gpu::scene_buffers::MATERIAL_PHONG
 const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;
 const LIGHT_RECT: u32 = 2u;
