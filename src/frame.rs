@@ -4,6 +4,7 @@
 
 use crate::bvh::SceneBvh;
 use crate::direct::{DirectLightPass, DirectOutput};
+use crate::glossy::GlossyIndirectPass;
 use crate::gpu::scene_buffers::GpuLight;
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, GpuScene};
@@ -153,6 +154,7 @@ pub struct Renderer {
     placement: OnFirstUse<PlacementPass>,
     resolve: OnFirstUse<ResolvePass>,
     light_maps: OnFirstUse<LightMapPass>,
+    glossy: OnFirstUse<GlossyIndirectPass>,
 }
 
 /// A pass built when it is first asked for.
@@ -205,6 +207,7 @@ impl Renderer {
             placement: OnFirstUse::new(),
             resolve: OnFirstUse::new(),
             light_maps: OnFirstUse::new(),
+            glossy: OnFirstUse::new(),
         })
     }
 
@@ -222,6 +225,10 @@ impl Renderer {
 
     fn placement_pass(&self) -> Result<&PlacementPass> {
         self.placement.get(|| PlacementPass::new(&self.ctx))
+    }
+
+    fn glossy_pass(&self) -> Result<&GlossyIndirectPass> {
+        self.glossy.get(|| GlossyIndirectPass::new(&self.ctx))
     }
 
     fn light_map_pass(&self) -> Result<&LightMapPass> {
@@ -539,9 +546,22 @@ impl Renderer {
             return Ok((frame, coverage));
         };
 
-        // Resolve: direct + albedo / pi * interpolated irradiance.
-        let mut timer = PassTimer::new(ctx, 1);
+        // Glossy lobes' indirect light (Monte Carlo through the lobe), then the resolve:
+        // direct + albedo / pi * interpolated irradiance + glossy.
+        let mut timer = PassTimer::new(ctx, 2);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        let glossy = if scene.gpu.has_glossy {
+            Some(self.glossy_pass()?.record(
+                ctx,
+                &mut encoder,
+                &scene.gpu,
+                &vis,
+                pass.settings.glossy_samples,
+                timer.next("glossy indirect"),
+            )?)
+        } else {
+            None
+        };
         let indirect = self.resolve_pass()?.record(
             ctx,
             &mut encoder,
@@ -549,6 +569,7 @@ impl Renderer {
             &splat,
             &direct.albedo,
             &direct.beauty,
+            glossy.as_ref(),
             timer.next("resolve"),
         )?;
         timer.resolve(&mut encoder);

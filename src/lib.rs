@@ -20,6 +20,7 @@ pub mod compare_seq;
 pub mod direct;
 pub mod error;
 pub mod frame;
+pub mod glossy;
 pub mod gpu;
 pub mod hsh;
 pub mod light_maps;

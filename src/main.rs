@@ -364,6 +364,10 @@ struct CacheArgs {
     /// Most records the cache may hold.
     #[arg(long, default_value_t = CacheSettings::default().record_budget, value_parser = parse_record_budget)]
     record_budget: u32,
+    /// Lobe directions per pixel for the indirect light of glossy materials (Monte Carlo
+    /// through the lobe, each hit shaded with direct light).
+    #[arg(long, default_value_t = CacheSettings::default().glossy_samples, value_parser = parse_at_least_one)]
+    glossy_samples: u32,
     /// Do not compute or use irradiance gradients.
     #[arg(long)]
     no_gradients: bool,
@@ -516,6 +520,7 @@ impl CacheArgs {
             },
             plane_refine: self.plane_refine,
             plane_refine_split: self.plane_refine_split,
+            glossy_samples: self.glossy_samples,
             ..CacheSettings::default()
         }
     }

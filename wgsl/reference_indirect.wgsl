@@ -9,8 +9,11 @@
 // radiance albedo / pi * E = albedo / N * sum(L); the host does that last step.
 // Rays that miss add nothing: the environment is already a light of `direct_irradiance`
 // (it would otherwise be counted twice, like sampled emitters: Ward's rule).
+// Pixels with a glossy lobe also sample the lobe (importance sampling, `glossy_bounce`):
+// `glossy_sum` gathers f cos / pdf * L per sample, the host divides by N. The two lobes'
+// estimates add up to the pixel's first-bounce indirect light.
 // CPU mirror: src/reference/cpu.rs.
-//!include shared/trace_and_shade.wgsl
+//!include shared/glossy_bounce.wgsl
 //!include shared/camera.wgsl
 
 struct ReferenceParams {
@@ -29,6 +32,7 @@ struct ReferenceParams {
 @group(1) @binding(1) var<storage, read> vis: array<VisSample>;
 @group(1) @binding(2) var<uniform> params: ReferenceParams;
 @group(1) @binding(3) var<storage, read_write> radiance_sum: array<vec4f>;
+@group(1) @binding(4) var<storage, read_write> glossy_sum: array<vec4f>;
 
 // Scramble seed of a pixel's hemisphere directions (the direct pass uses hash_u32(pixel)).
 // A non-zero `seed` is hashed in too: a different Owen scramble of the Sobol points and
@@ -78,12 +82,19 @@ fn main(
     if v.instance == NO_HIT {
         return;
     }
-    let s = surface_at(Hit(v.t, v.instance, v.triangle, v.bary.x, v.bary.y),
-                       camera_ray_dir(camera, vec2u(id.x, y)));
+    let dir = camera_ray_dir(camera, vec2u(id.x, y));
+    let s = surface_at(Hit(v.t, v.instance, v.triangle, v.bary.x, v.bary.y), dir);
     let seed = indirect_seed(pixel, params.seed);
     var sum = radiance_sum[pixel].xyz;
     for (var k = params.sample_begin; k < params.sample_end; k++) {
         sum += bounce_radiance(s, seed, k);
     }
     radiance_sum[pixel] = vec4f(sum, 1.0);
+    if has_phong(s) {
+        var g = glossy_sum[pixel].xyz;
+        for (var k = params.sample_begin; k < params.sample_end; k++) {
+            g += glossy_bounce(s, -dir, seed, k);
+        }
+        glossy_sum[pixel] = vec4f(g, 1.0);
+    }
 }

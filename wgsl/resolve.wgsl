@@ -1,5 +1,6 @@
 // Resolve: indirect = albedo / pi * sum(w E'_k) / sum(w) (thesis Algorithm 3's
-// normalisation, Lambertian reflection), final = emission + direct + indirect.
+// normalisation, Lambertian reflection) + the glossy lobe's indirect light (glossy
+// indirect pass; zero without glossy materials), final = emission + direct + indirect.
 //!include shared/ray.wgsl
 
 struct ResolveParams {
@@ -14,6 +15,7 @@ struct ResolveParams {
 @group(1) @binding(2) var<storage, read> albedo: array<vec4f>;
 @group(1) @binding(3) var<storage, read_write> beauty: array<vec4f>;   // in: direct; out: + indirect
 @group(1) @binding(4) var<storage, read_write> indirect: array<vec4f>;
+@group(1) @binding(5) var<storage, read> glossy: array<vec4f>;
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3u) {
@@ -26,6 +28,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     if s.w > 0.0 {
         l = albedo[pixel].xyz * (1.0 / PI) * (s.xyz / s.w);
     }
+    l = l + glossy[pixel].xyz;
     indirect[pixel] = vec4f(l, 1.0);
     beauty[pixel] = vec4f(beauty[pixel].xyz + l, 1.0);
 }

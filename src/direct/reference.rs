@@ -117,6 +117,19 @@ impl<'a> DirectReference<'a> {
     /// The same with the light samples from index `first` of their sequences on, as WGSL
     /// `shadow_loop_start_at` (hemisphere planes: `plane_light_first`).
     pub fn direct_irradiance_at(&self, s: &Surface, seed: u32, first: u32) -> Vec3 {
+        self.direct_light_at(s, seed, first, |_, _| {})
+    }
+
+    /// Direct irradiance as [`DirectReference::direct_irradiance_at`], calling `visible_sample`
+    /// with each visible shadow sample's direction and share of the irradiance (`L cos dw`):
+    /// what a glossy lobe weighs (WGSL `shadow_sample_direction`, `shadow_sample_irradiance`).
+    pub fn direct_light_at(
+        &self,
+        s: &Surface,
+        seed: u32,
+        first: u32,
+        mut visible_sample: impl FnMut(Vec3, Vec3),
+    ) -> Vec3 {
         let (n, ng) = (s.shading_normal, s.geometric_normal);
         let count = self.light_samples;
         let mut e = Vec3::ZERO;
@@ -152,6 +165,7 @@ impl<'a> DirectReference<'a> {
                     if intensity == Vec3::ZERO || !self.visible(s, position, false) {
                         continue;
                     }
+                    visible_sample(l, intensity * (cos_s / d2));
                     e += intensity * cos_s / d2;
                 }
                 Light::Sun {
@@ -163,6 +177,7 @@ impl<'a> DirectReference<'a> {
                     if cos_s <= 0.0 || ng.dot(l) <= 0.0 || !self.visible(s, l, true) {
                         continue;
                     }
+                    visible_sample(l, irradiance * cos_s);
                     e += irradiance * cos_s;
                 }
                 Light::Rect {
@@ -188,6 +203,10 @@ impl<'a> DirectReference<'a> {
                             continue;
                         }
                         if self.visible(s, q, false) {
+                            visible_sample(
+                                l,
+                                radiance * (cos_s * cos_l / d2 * (area / count as f32)),
+                            );
                             sum += cos_s * cos_l / d2;
                         }
                     }
@@ -202,7 +221,11 @@ impl<'a> DirectReference<'a> {
             let unoccluded = (0..count)
                 .filter(|&k| {
                     let dir = frame * cosine_hemisphere(sobol_2d(first + k, env_seed));
-                    dir.dot(ng) > 0.0 && self.visible(s, dir, true)
+                    let seen = dir.dot(ng) > 0.0 && self.visible(s, dir, true);
+                    if seen {
+                        visible_sample(dir, env * (PI / count as f32));
+                    }
+                    seen
                 })
                 .count();
             e += env * (PI * unoccluded as f32 / count as f32);
@@ -225,8 +248,16 @@ impl<'a> DirectReference<'a> {
         let s = self.surface_at(&hit, dir);
         let albedo = self.albedo(&s);
         let pixel = y * camera.width + x;
-        let direct = albedo / PI * self.direct_irradiance(&s, hash_u32(pixel));
         let m = &self.scene.materials[s.material as usize];
+        // As direct_light.wgsl: the glossy lobe weighs the same visible shadow samples.
+        let wo = -dir;
+        let mut glossy = Vec3::ZERO;
+        let e = self.direct_light_at(&s, hash_u32(pixel), 0, |wi, share| {
+            if let Some(lobe) = &m.glossy {
+                glossy += lobe.eval(s.shading_normal, wo, wi) * share;
+            }
+        });
+        let direct = albedo / PI * e + glossy;
         let emission = if s.front_face { m.emission } else { Vec3::ZERO };
         ReferencePixel {
             hit: Some((hit.instance, hit.triangle)),

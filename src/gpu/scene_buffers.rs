@@ -238,6 +238,8 @@ pub struct GpuScene {
     pub bytes: u64,
     /// Length of the diagonal of the scene's world bounds (`SceneBvh::world_bounds`).
     pub diagonal: f32,
+    /// Whether any material has a glossy lobe (passes for glossy pixels run only then).
+    pub has_glossy: bool,
 }
 
 /// Group 0: the BVH node texture at binding 0, storage buffers at bindings
@@ -401,6 +403,7 @@ impl GpuScene {
                 let (lo, hi) = bvh.world_bounds();
                 (hi - lo).length()
             },
+            has_glossy: scene.materials.iter().any(|m| m.glossy.is_some()),
         })
     }
 

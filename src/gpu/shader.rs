@@ -33,12 +33,24 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/shared/camera.wgsl"),
     ),
     (
+        "shared/glossy.wgsl",
+        include_str!("../../wgsl/shared/glossy.wgsl"),
+    ),
+    (
+        "shared/glossy_bounce.wgsl",
+        include_str!("../../wgsl/shared/glossy_bounce.wgsl"),
+    ),
+    (
         "visibility.wgsl",
         include_str!("../../wgsl/visibility.wgsl"),
     ),
     (
         "direct_light.wgsl",
         include_str!("../../wgsl/direct_light.wgsl"),
+    ),
+    (
+        "glossy_indirect.wgsl",
+        include_str!("../../wgsl/glossy_indirect.wgsl"),
     ),
     (
         "shared/records.wgsl",

@@ -185,6 +185,9 @@ pub struct CacheSettings {
     pub plane_refine: f32,
     /// Sub-samples per axis of a refined pixel (`split x split` strata).
     pub plane_refine_split: u32,
+    /// Lobe directions per glossy pixel for its glossy indirect light ([`crate::glossy`]:
+    /// importance-sampled Monte Carlo).
+    pub glossy_samples: u32,
 }
 
 /// How hemisphere-plane hits are shadowed (thesis section 4.4 uses shadow maps).
@@ -225,6 +228,7 @@ impl Default for CacheSettings {
             },
             plane_refine: 0.1,
             plane_refine_split: 2,
+            glossy_samples: 16,
         }
     }
 }

@@ -1,7 +1,9 @@
 //! Plain-Rust mirror of the reference pass (`wgsl/reference_indirect.wgsl`): the same
 //! bounce directions (bit-identical Sobol points and seeds), the same sum order, with rays
 //! traced by obvhs on the CPU ([`crate::bvh::cpu_trace`]) and direct light at the bounce
-//! hits from [`DirectReference`].
+//! hits from [`DirectReference`]. Also the mirror of the glossy bounce
+//! (`wgsl/shared/glossy_bounce.wgsl`) and of the glossy indirect pass
+//! (`wgsl/glossy_indirect.wgsl`, [`crate::glossy`]).
 
 use crate::direct::reference::{DirectReference, ReferencePixel, Surface, offset_ray_origin};
 use crate::sampling::{cosine_hemisphere, hash_combine, hash_u32, orthonormal_basis, sobol_2d};
@@ -115,11 +117,86 @@ impl<'a> IndirectReference<'a> {
         for k in 0..self.spp {
             sum += self.bounce_radiance(&s, seed, k);
         }
-        let indirect = direct.albedo * (sum * (1.0 / self.spp as f32));
+        let mut indirect = direct.albedo * (sum * (1.0 / self.spp as f32));
+        // The glossy lobe's own importance-sampled estimate, as the GPU's `glossy_sum`.
+        if self.direct.scene.materials[s.material as usize]
+            .glossy
+            .is_some()
+        {
+            let mut g = Vec3::ZERO;
+            for k in 0..self.spp {
+                g += glossy_bounce(self, &s, -dir, seed, k);
+            }
+            indirect += g * (1.0 / self.spp as f32);
+        }
         IndirectPixel {
             direct,
             indirect,
             beauty: direct.beauty + indirect,
         }
     }
+}
+
+/// WGSL `GLOSSY_SEED`.
+pub const GLOSSY_SEED: u32 = 0x6c055;
+
+/// WGSL `glossy_pixel_seed`: the glossy indirect pass's scramble for a pixel.
+pub fn glossy_pixel_seed(pixel: u32) -> u32 {
+    hash_combine(hash_u32(pixel), 0x910)
+}
+
+/// Lobe sample `k` of surface `s` seen from `wo`, as WGSL `glossy_bounce`: the closest
+/// hit's radiance (direct light, Lambertian, and emission not sampled as a light) times
+/// f cos / pdf; zero without a glossy lobe, below the surface or on a miss.
+pub fn glossy_bounce(r: &IndirectReference<'_>, s: &Surface, wo: Vec3, seed: u32, k: u32) -> Vec3 {
+    let Some(lobe) = r.direct.scene.materials[s.material as usize].glossy else {
+        return Vec3::ZERO;
+    };
+    let n = s.shading_normal;
+    let (wi, _) = lobe.sample(n, wo, sobol_2d(k, hash_combine(seed, GLOSSY_SEED)));
+    let cos_i = wi.dot(n);
+    if cos_i <= 0.0 || wi.dot(s.geometric_normal) <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let pdf = lobe.pdf(n, wo, wi);
+    if pdf <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let origin = offset_ray_origin(s.position, s.geometric_normal);
+    let Some(hit) = r.direct.tracer.closest_hit(origin, wi, 0.0, f32::INFINITY) else {
+        return Vec3::ZERO;
+    };
+    let h = r.direct.surface_at(&hit, wi);
+    let e = r
+        .direct
+        .direct_irradiance(&h, hash_combine(seed, k ^ GLOSSY_SEED));
+    let l = r.direct.albedo(&h) * (1.0 / PI) * e + r.indirect_emission(&h);
+    lobe.eval(n, wo, wi) * (cos_i / pdf) * l
+}
+
+/// The glossy indirect radiance of pixel `(x, y)` with `samples` lobe directions, as
+/// `glossy_indirect.wgsl`.
+pub fn glossy_indirect(
+    r: &IndirectReference<'_>,
+    camera: &GpuCamera,
+    x: u32,
+    y: u32,
+    samples: u32,
+) -> Vec3 {
+    let dir = camera.ray_dir(x, y);
+    let Some(hit) = r
+        .direct
+        .tracer
+        .closest_hit(camera.origin.into(), dir, 0.0, f32::INFINITY)
+    else {
+        return Vec3::ZERO;
+    };
+    let s = r.direct.surface_at(&hit, dir);
+    let seed = glossy_pixel_seed(y * camera.width + x);
+    let samples = samples.max(1);
+    let mut g = Vec3::ZERO;
+    for k in 0..samples {
+        g += glossy_bounce(r, &s, -dir, seed, k);
+    }
+    g / samples as f32
 }

@@ -53,20 +53,7 @@ use std::time::Instant;
 /// light samples (each sample-pixel costs one bounce ray and the hit's shadow rays).
 pub const DEFAULT_CHUNK_WORK: u64 = 1 << 18;
 
-/// Most rays one invocation traces in one dispatch (a bounce ray and its hit's shadow rays
-/// per sample). llvmpipe (lavapipe) stops running a loop once it has iterated 65,535 times
-/// in an invocation, summed over every time the loop is entered, and carries on past it:
-/// a reference pixel that traced ~900 rays through the Cornell box (~75 BVH steps each)
-/// then saw every later bounce miss, which made references of 64 spp x 16 light samples
-/// up to 40 % too dark in their indirect light, without any error. 64 rays stay far below
-/// the limit for BVHs up to ~1,000 steps per ray.
-pub const MAX_RAYS_PER_INVOCATION: u32 = 64;
-
-/// Bounce samples one invocation may take in one dispatch when each also casts
-/// `shadow_rays` shadow rays ([`MAX_RAYS_PER_INVOCATION`]; at least 1).
-pub fn max_samples_per_dispatch(shadow_rays: u64) -> u32 {
-    (u64::from(MAX_RAYS_PER_INVOCATION) / shadow_rays.saturating_add(1)).max(1) as u32
-}
+pub use crate::gpu::context::{MAX_RAYS_PER_INVOCATION, max_samples_per_dispatch};
 
 /// Rust mirror of WGSL `ReferenceParams`.
 #[repr(C)]
@@ -227,7 +214,13 @@ impl ReferencePass {
             pass: ComputePass::new(
                 ctx,
                 "reference_indirect.wgsl",
-                &[Uniform, StorageRead, Uniform, StorageReadWrite],
+                &[
+                    Uniform,
+                    StorageRead,
+                    Uniform,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
             )?,
         })
     }
@@ -257,9 +250,12 @@ impl ReferencePass {
         let vis = ctx.storage_buffer("reference visibility", &frame.visibility)?;
         let sums =
             ctx.storage_buffer_sized("radiance sums", u64::from(width) * u64::from(height) * 16)?;
-        // Shadow rays per bounce hit, at most.
+        let glossy_sums =
+            ctx.storage_buffer_sized("glossy sums", u64::from(width) * u64::from(height) * 16)?;
+        // Shadow rays per bounce hit, at most; glossy pixels trace a second bounce per sample.
         let info = &prepared.gpu.info;
-        let shadow_rays = info.max_shadow_rays(info.light_samples.max(1));
+        let bounces = if prepared.gpu.has_glossy { 2 } else { 1 };
+        let shadow_rays = bounces * info.max_shadow_rays(info.light_samples.max(1));
         let chunks = plan_chunks(
             width,
             height,
@@ -279,7 +275,9 @@ impl ReferencePass {
                     _pad: [0; 3],
                 },
             );
-            let bind = self.pass.bind(ctx, &[&camera_buffer, &vis, &params, &sums]);
+            let bind = self
+                .pass
+                .bind(ctx, &[&camera_buffer, &vis, &params, &sums, &glossy_sums]);
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             self.pass.record(
                 &mut encoder,
@@ -297,7 +295,9 @@ impl ReferencePass {
             progress(i + 1, chunks.len());
         }
         let sums: Vec<[f32; 4]> = ctx.read_buffer(&sums)?;
-        let indirect = finish_indirect(&frame.albedo, &sums, options.spp);
+        let glossy_sums: Vec<[f32; 4]> = ctx.read_buffer(&glossy_sums)?;
+        let mut indirect = finish_indirect(&frame.albedo, &sums, options.spp);
+        add_glossy_indirect(&mut indirect, &glossy_sums, options.spp);
         for (b, ind) in frame.beauty.iter_mut().zip(&indirect) {
             for (bc, ic) in b.iter_mut().zip(&ind[..3]) {
                 *bc += ic;
@@ -335,6 +335,17 @@ pub fn finish_indirect(albedo: &[[f32; 4]], sums: &[[f32; 4]], spp: u32) -> Vec<
             ]
         })
         .collect()
+}
+
+/// Adds the glossy lobes' indirect light, `1 / N * sum f cos / pdf L_k` (the sums are zero
+/// where a pixel has no glossy lobe).
+pub fn add_glossy_indirect(indirect: &mut [[f32; 4]], glossy_sums: &[[f32; 4]], spp: u32) {
+    let inv_n = 1.0 / spp.max(1) as f32;
+    for (i, g) in indirect.iter_mut().zip(glossy_sums) {
+        for c in 0..3 {
+            i[c] += g[c] * inv_n;
+        }
+    }
 }
 
 /// Renders a reference frame of a prepared scene with `spp` bounce directions per pixel

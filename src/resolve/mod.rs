@@ -1,5 +1,6 @@
-//! Resolve (`wgsl/resolve.wgsl`): normalises the splat sums into reflected indirect light
-//! and adds it to the direct image.
+//! Resolve (`wgsl/resolve.wgsl`): normalises the splat sums into reflected indirect light,
+//! adds the glossy lobes' indirect light ([`crate::glossy`]) and adds both to the direct
+//! image.
 
 use crate::Result;
 use crate::gpu::GpuContext;
@@ -34,12 +35,14 @@ impl ResolvePass {
                     StorageRead,
                     StorageReadWrite,
                     StorageReadWrite,
+                    StorageRead,
                 ],
             )?,
         })
     }
 
-    /// Adds `albedo / pi * E` to `beauty` in place and writes the indirect image.
+    /// Adds `albedo / pi * E + glossy` to `beauty` in place and writes the indirect image;
+    /// `glossy` is the glossy indirect pass's output (None: no glossy materials).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -49,8 +52,21 @@ impl ResolvePass {
         splat: &SplatBuffer,
         albedo: &wgpu::Buffer,
         beauty: &wgpu::Buffer,
+        glossy: Option<&wgpu::Buffer>,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<wgpu::Buffer> {
+        let none;
+        let glossy = match glossy {
+            Some(g) => g,
+            None => {
+                // Zero-initialised, as wgpu creates every buffer.
+                none = ctx.storage_buffer_sized(
+                    "no glossy indirect",
+                    u64::from(splat.width) * u64::from(splat.height) * 16,
+                )?;
+                &none
+            }
+        };
         let indirect = ctx.storage_buffer_sized(
             "indirect",
             u64::from(splat.width) * u64::from(splat.height) * 16,
@@ -63,9 +79,10 @@ impl ResolvePass {
                 _pad: [0; 2],
             },
         );
-        let bind = self
-            .pass
-            .bind(ctx, &[&params, &splat.sums, albedo, beauty, &indirect]);
+        let bind = self.pass.bind(
+            ctx,
+            &[&params, &splat.sums, albedo, beauty, &indirect, glossy],
+        );
         self.pass.record(
             encoder,
             &scene.bind_group,

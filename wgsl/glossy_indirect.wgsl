@@ -1,0 +1,64 @@
+// Glossy indirect light by importance-sampled Monte Carlo through each glossy pixel's lobe
+// (algorithms.md 2.6: what the seeds do for lobes too sharp for the radiance cache; here
+// every glossy lobe, until radiance records cache the low-frequency ones): `samples` lobe
+// directions per pixel, each hit shaded with direct light (shared/glossy_bounce.wgsl, as
+// the reference's glossy estimate), averaged. Pixels without a glossy lobe get 0.
+// CPU mirror: glossy::reference::glossy_indirect.
+//!include shared/glossy_bounce.wgsl
+//!include shared/camera.wgsl
+
+// One dispatch takes lobe samples [sample_begin, sample_end) of `samples` and adds them to
+// the pixel's running sum (llvmpipe stops an invocation's loops after 65,535 iterations,
+// so the host bounds the rays per dispatch as for the reference); the last one divides.
+struct GlossyParams {
+    sample_begin: u32,
+    sample_end: u32,
+    samples: u32,
+    _pad: u32,
+}
+
+@group(1) @binding(0) var<uniform> camera: Camera;
+@group(1) @binding(1) var<storage, read> vis: array<VisSample>;
+@group(1) @binding(2) var<uniform> params: GlossyParams;
+@group(1) @binding(3) var<storage, read_write> glossy_out: array<vec4f>;
+
+// Every shadow ray is traced (no light maps).
+fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32 {
+    return -1.0;
+}
+
+// Scrambles a pixel's lobe directions (not the reference's: an independent estimate).
+fn glossy_pixel_seed(pixel: u32) -> u32 {
+    return hash_combine(hash_u32(pixel), 0x910u);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    bvh_stack_init(lane);
+    if id.x >= camera.width || id.y >= camera.height {
+        return;
+    }
+    let pixel = id.y * camera.width + id.x;
+    let v = vis[pixel];
+    var g = vec3f(0.0);
+    if v.instance != NO_HIT {
+        let dir = camera_ray_dir(camera, id.xy);
+        let s = surface_at(Hit(v.t, v.instance, v.triangle, v.bary.x, v.bary.y), dir);
+        if has_phong(s) {
+            if params.sample_begin > 0u {
+                g = glossy_out[pixel].xyz;
+            }
+            let seed = glossy_pixel_seed(pixel);
+            for (var k = params.sample_begin; k < params.sample_end; k++) {
+                g += glossy_bounce(s, -dir, seed, k);
+            }
+            if params.sample_end == params.samples {
+                g = g / f32(params.samples);
+            }
+        }
+    }
+    glossy_out[pixel] = vec4f(g, 1.0);
+}
