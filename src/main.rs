@@ -97,6 +97,21 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// BRDF projection (thesis eqs. 3.32-3.36): how much of each glossy material's lobe
+    /// hemispherical harmonics of each order hold, over a paraboloid map of outgoing
+    /// directions (CPU).
+    BrdfProjection {
+        scene: PathBuf,
+        /// HSH orders, comma-separated (order n: n^2 coefficients per channel; at most 10).
+        #[arg(long, value_delimiter = ',', default_value = "3,4,5,6,7,8,9,10")]
+        orders: Vec<u32>,
+        /// Outgoing directions per side of the paraboloid map (the thesis: 32).
+        #[arg(long, default_value_t = 32)]
+        resolution: u32,
+        /// Write the table as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// Print the adapter, driver, limits and features radsplat would use.
     Info,
     /// Benchmark BVH build and ray kernels on a scene; prints a table of medians.
@@ -654,6 +669,12 @@ fn main() -> ExitCode {
             json.as_deref(),
         ),
         Command::Info => commands::info::info(),
+        Command::BrdfProjection {
+            scene,
+            orders,
+            resolution,
+            json,
+        } => commands::brdf_projection::brdf_projection(&scene, &orders, resolution, json),
         Command::PlaneError {
             scene,
             points,

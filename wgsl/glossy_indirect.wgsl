@@ -1,7 +1,7 @@
 // Glossy indirect light by importance-sampled Monte Carlo through each glossy pixel's lobe
 // (algorithms.md 2.6: what the seeds do for lobes too sharp for the radiance cache; here
-// every glossy lobe, until radiance records cache the low-frequency ones): `samples` lobe
-// directions per pixel, each hit shaded with direct light (shared/glossy_bounce.wgsl, as
+// every glossy lobe, until radiance records cache the low-frequency ones): up to `samples`
+// lobe directions per pixel (`glossy_sample_count`), each hit shaded with direct light (shared/glossy_bounce.wgsl, as
 // the reference's glossy estimate), averaged. Pixels without a glossy lobe get 0.
 // CPU mirror: glossy::reference::glossy_indirect.
 //!include shared/glossy_bounce.wgsl
@@ -25,6 +25,18 @@ struct GlossyParams {
 // Every shadow ray is traced (no light maps).
 fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32 {
     return -1.0;
+}
+
+// Lobe samples of a pixel: `samples` times the lobe's share of the material's reflectance
+// (channel sums), at least 1. The lobe's noise in the pixel scales with its share, so a
+// faint lobe (Sponza's vaults: Ks 0.03 beside Kd 0.85) needs few samples for the same
+// relative noise as a strong one. Rust: reference::cpu::glossy_sample_count.
+fn glossy_sample_count(s: Surface) -> u32 {
+    let ks = materials[s.material].specular;
+    let kd = surface_albedo(s);
+    let g = (ks.x + ks.y) + ks.z;
+    let share = g / max((kd.x + kd.y) + kd.z + g, 1.0e-6);
+    return clamp(u32(ceil(f32(params.samples) * share)), 1u, params.samples);
 }
 
 // Scrambles a pixel's lobe directions (not the reference's: an independent estimate).
@@ -51,12 +63,13 @@ fn main(
             if params.sample_begin > 0u {
                 g = glossy_out[pixel].xyz;
             }
+            let count = glossy_sample_count(s);
             let seed = glossy_pixel_seed(pixel);
-            for (var k = params.sample_begin; k < params.sample_end; k++) {
+            for (var k = params.sample_begin; k < min(params.sample_end, count); k++) {
                 g += glossy_bounce(s, -dir, seed, k);
             }
             if params.sample_end == params.samples {
-                g = g / f32(params.samples);
+                g = g / f32(count);
             }
         }
     }

@@ -3,6 +3,7 @@
 //! unless quiet, and commits its outputs together ([`crate::output::OutputSet`]).
 
 pub mod animate;
+pub mod brdf_projection;
 pub mod compare;
 pub mod export_rad;
 pub mod info;

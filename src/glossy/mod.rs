@@ -58,10 +58,26 @@ impl GlossyIndirectPass {
         // Samples per dispatch: each traces a lobe ray and its hit's shadow rays.
         let per_dispatch =
             max_samples_per_dispatch(scene.info.max_shadow_rays(scene.info.light_samples.max(1)));
-        let mut timestamps = timestamps;
         let mut begin = 0;
         while begin < samples {
             let end = (begin + per_dispatch).min(samples);
+            // The timer spans every dispatch: its start on the first, its end on the last.
+            let first_or_last = begin == 0 || end == samples;
+            let stamps = timestamps.as_ref().filter(|_| first_or_last).map(|t| {
+                wgpu::ComputePassTimestampWrites {
+                    query_set: t.query_set,
+                    beginning_of_pass_write_index: if begin == 0 {
+                        t.beginning_of_pass_write_index
+                    } else {
+                        None
+                    },
+                    end_of_pass_write_index: if end == samples {
+                        t.end_of_pass_write_index
+                    } else {
+                        None
+                    },
+                }
+            });
             let params = ctx.uniform_buffer(
                 "glossy params",
                 &GlossyParams {
@@ -74,13 +90,12 @@ impl GlossyIndirectPass {
             let bind = self
                 .pass
                 .bind(ctx, &[&vis.camera_buffer, &vis.samples, &params, &out]);
-            // The timer spans the first dispatch only (its slots are per pass).
             self.pass.record(
                 encoder,
                 &scene.bind_group,
                 &bind,
                 image_groups(vis.width, vis.height),
-                timestamps.take(),
+                stamps,
             );
             begin = end;
         }

@@ -186,7 +186,8 @@ pub struct CacheSettings {
     /// Sub-samples per axis of a refined pixel (`split x split` strata).
     pub plane_refine_split: u32,
     /// Lobe directions per glossy pixel for its glossy indirect light ([`crate::glossy`]:
-    /// importance-sampled Monte Carlo).
+    /// importance-sampled Monte Carlo), for a lobe that is all of the material's
+    /// reflectance; a pixel takes this times the lobe's share (at least 1).
     pub glossy_samples: u32,
 }
 
@@ -228,7 +229,7 @@ impl Default for CacheSettings {
             },
             plane_refine: 0.1,
             plane_refine_split: 2,
-            glossy_samples: 16,
+            glossy_samples: 32,
         }
     }
 }

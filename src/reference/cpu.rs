@@ -192,11 +192,26 @@ pub fn glossy_indirect(
         return Vec3::ZERO;
     };
     let s = r.direct.surface_at(&hit, dir);
+    let Some(count) = glossy_sample_count(r, &s, samples) else {
+        return Vec3::ZERO;
+    };
     let seed = glossy_pixel_seed(y * camera.width + x);
-    let samples = samples.max(1);
     let mut g = Vec3::ZERO;
-    for k in 0..samples {
+    for k in 0..count {
         g += glossy_bounce(r, &s, -dir, seed, k);
     }
-    g / samples as f32
+    g / count as f32
+}
+
+/// Lobe samples the glossy pass takes at surface `s` with `samples` per pixel, as WGSL
+/// `glossy_sample_count`: `samples` times the lobe's share of the reflectance (channel
+/// sums), at least 1; None without a glossy lobe.
+pub fn glossy_sample_count(r: &IndirectReference<'_>, s: &Surface, samples: u32) -> Option<u32> {
+    let lobe = r.direct.scene.materials[s.material as usize].glossy?;
+    let samples = samples.max(1);
+    let ks = lobe.specular();
+    let kd = r.direct.albedo(s);
+    let g = (ks.x + ks.y) + ks.z;
+    let share = g / ((kd.x + kd.y) + kd.z + g).max(1e-6);
+    Some(((samples as f32 * share).ceil() as u32).clamp(1, samples))
 }
