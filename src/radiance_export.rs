@@ -47,6 +47,24 @@ pub fn scene_rad(scene: &Scene) -> String {
         "# Exported by radsplat export-rad from {} (textures ignored)",
         scene.source.display()
     );
+    let glossy = scene
+        .materials
+        .iter()
+        .filter(|m| m.glossy.is_some())
+        .count();
+    if glossy > 0 {
+        // Radiance's `plastic` lobe is Ward's isotropic Gaussian, not normalised Phong: a
+        // translation would not be the same BRDF, so the comparison stays Lambertian.
+        log::warn!(
+            "{}: the glossy lobes of {glossy} material(s) are exported as Lambertian \
+             (plastic with specularity 0)",
+            scene.source.display()
+        );
+        let _ = writeln!(
+            out,
+            "# {glossy} glossy material(s): their Phong lobes are not exported (Lambertian)"
+        );
+    }
     for (i, m) in scene.materials.iter().enumerate() {
         let id = ident("m", i, &m.name);
         let e = m.emission;
@@ -197,8 +215,9 @@ pub fn view_options(scene: &Scene) -> String {
 }
 
 /// A copy of the scene file `scene_path` whose `[[mesh]]` files are absolute paths and which
-/// removes every albedo texture (`[[material]] texture = ""`, docs/scene-format.md), for
-/// texture-less comparisons. `scene` is the same file, loaded.
+/// removes every albedo texture (`[[material]] texture = ""`, docs/scene-format.md) and
+/// every glossy lobe (`specular = [0, 0, 0]`), for texture-less, Lambertian comparisons
+/// with Radiance. `scene` is the same file, loaded.
 pub fn notex_scene_toml(scene_path: &Path, scene: &Scene) -> Result<String> {
     let text = std::fs::read_to_string(scene_path).map_err(|e| Error::io(scene_path, e))?;
     let mut table: toml::Table = text
@@ -223,15 +242,22 @@ pub fn notex_scene_toml(scene_path: &Path, scene: &Scene) -> Result<String> {
             }
         }
     }
-    let mut textured: Vec<&str> = scene
-        .materials
-        .iter()
-        .filter(|m| m.albedo_texture.is_some())
-        .map(|m| m.name.as_str())
-        .collect();
-    textured.sort_unstable();
-    textured.dedup();
-    if !textured.is_empty() {
+    let names = |keep: &dyn Fn(&crate::scene::Material) -> bool| {
+        let mut v: Vec<&str> = scene
+            .materials
+            .iter()
+            .filter(|m| keep(m))
+            .map(|m| m.name.as_str())
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    };
+    let textured = names(&|m| m.albedo_texture.is_some());
+    // Glossy lobes go too: the Radiance export is Lambertian (`scene_rad`), and both
+    // renderers must render the same scene.
+    let glossy = names(&|m| m.glossy.is_some());
+    if !textured.is_empty() || !glossy.is_empty() {
         let overrides = table
             .entry("material")
             .or_insert_with(|| toml::Value::Array(Vec::new()));
@@ -240,6 +266,16 @@ pub fn notex_scene_toml(scene_path: &Path, scene: &Scene) -> Result<String> {
                 let mut t = toml::Table::new();
                 t.insert("name".into(), toml::Value::String(name.into()));
                 t.insert("texture".into(), toml::Value::String(String::new()));
+                list.push(toml::Value::Table(t));
+            }
+            for name in glossy {
+                let mut t = toml::Table::new();
+                t.insert("name".into(), toml::Value::String(name.into()));
+                let zero = toml::Value::Float(0.0);
+                t.insert(
+                    "specular".into(),
+                    toml::Value::Array(vec![zero.clone(), zero.clone(), zero]),
+                );
                 list.push(toml::Value::Table(t));
             }
         }
