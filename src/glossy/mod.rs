@@ -4,8 +4,8 @@
 //! per pixel, each hit shaded with direct light. The resolve adds it to the Lambertian
 //! indirect light from the irradiance cache. The seeds shade lobes too sharp for the
 //! radiance cache this way; radiance records (HSH, [`crate::hsh`]) will take over the
-//! low-frequency ones. The CPU mirror is `reference::cpu::glossy_indirect` (the CPU references sit above the
-//! passes they mirror).
+//! low-frequency ones. The CPU mirror is `reference::cpu::glossy_indirect` (the CPU
+//! references sit above the passes they mirror).
 
 use crate::Result;
 use crate::gpu::context::max_samples_per_dispatch;
