@@ -662,7 +662,8 @@ impl Renderer {
         previous: Option<&PreparedScene>,
     ) -> Result<PreparedScene> {
         // Direct light casts `light_samples` shadow rays per light and for the environment.
-        let sampled = scene.lights.len() as u64 + u64::from(scene.environment != glam::Vec3::ZERO);
+        let sampled = scene.lights.len() as u64
+            + u64::from(scene.environment != glam::Vec3::ZERO || scene.environment_map.is_some());
         self.ctx.check_shadow_rays(
             sampled * u64::from(scene.settings.light_samples),
             "render.light_samples",

@@ -173,6 +173,12 @@ pub fn scene_rad(scene: &Scene) -> String {
             Light::Rect { .. } => {}
         }
     }
+    if scene.environment_map.is_some() {
+        log::warn!(
+            "{}: the environment map is not exported (Radiance needs a `colorpict` sky)",
+            scene.source.display()
+        );
+    }
     if scene.environment.max_element() > 0.0 {
         let _ = writeln!(out, "void glow sky_mat 0 0 4 {} 0", v3(scene.environment));
         let _ = writeln!(out, "sky_mat source sky 0 0 4 0 0 1 360");

@@ -21,13 +21,13 @@ fn main(
     }
     let pixel = id.y * camera.width + id.x;
     let v = vis[pixel];
+    let dir = camera_ray_dir(camera, id.xy);
     if v.instance == NO_HIT {
-        beauty[pixel] = vec4f(scene_info.environment, 1.0);
+        beauty[pixel] = vec4f(environment_radiance(dir), 1.0);
         albedo_out[pixel] = vec4f(0.0);
         direct_out[pixel] = vec4f(0.0);
         return;
     }
-    let dir = camera_ray_dir(camera, id.xy);
     let s = surface_at(Hit(v.t, v.instance, v.triangle, v.bary.x, v.bary.y), dir);
     let albedo = surface_albedo(s);
     // direct_irradiance's loop, with each visible sample also weighed by the glossy lobe:

@@ -215,7 +215,26 @@ impl<'a> DirectReference<'a> {
             }
         }
         let env = self.scene.environment;
-        if env != Vec3::ZERO {
+        if let Some(map) = &self.scene.environment_map {
+            // As WGSL: directions drawn from the map, E = mean of V L cos / pdf.
+            let env_seed = hash_combine(seed, 0xe17);
+            let mut sum = Vec3::ZERO;
+            for k in 0..count {
+                let Some((dir, pdf)) = map.sample(sobol_2d(first + k, env_seed)) else {
+                    continue;
+                };
+                let cos_s = n.dot(dir);
+                if pdf.is_nan() || pdf <= 0.0 || cos_s <= 0.0 || ng.dot(dir) <= 0.0 {
+                    continue;
+                }
+                if self.visible(s, dir, true) {
+                    let c = map.radiance(dir) * (cos_s / pdf);
+                    visible_sample(dir, c / count as f32);
+                    sum += c;
+                }
+            }
+            e += sum / count as f32;
+        } else if env != Vec3::ZERO {
             let frame = orthonormal_basis(n);
             let env_seed = hash_combine(seed, 0xe17);
             let unoccluded = (0..count)
@@ -241,7 +260,10 @@ impl<'a> DirectReference<'a> {
             .closest_hit(camera.origin.into(), dir, 0.0, f32::INFINITY)
         else {
             return ReferencePixel {
-                beauty: self.scene.environment,
+                beauty: match &self.scene.environment_map {
+                    Some(map) => map.radiance(dir),
+                    None => self.scene.environment,
+                },
                 ..Default::default()
             };
         };

@@ -162,8 +162,18 @@ pub struct GpuSceneInfo {
     pub instance_count: u32,
     /// Index of the TLAS root in the node array (see [`SceneBvh::gpu_nodes`]).
     pub tlas_root: u32,
-    pub _pad: u32,
+    /// Where the environment map starts in the texel table ([`NO_ENVIRONMENT_MAP`]: none):
+    /// `3 width height` RGB floats (as bits), then its row CDF (`height + 1`) and its
+    /// column CDFs (`height (width + 1)`), as `scene::EnvironmentMap` holds them.
+    pub env_map: u32,
+    pub env_width: u32,
+    pub env_height: u32,
+    /// cos and sin of the map's rotation about +y.
+    pub env_rotation: [f32; 2],
 }
+
+/// [`GpuSceneInfo::env_map`] of a scene without an environment map.
+pub const NO_ENVIRONMENT_MAP: u32 = u32::MAX;
 
 impl GpuSceneInfo {
     /// Most shadow rays one hit casts with `samples` samples per light: `samples` per
@@ -175,7 +185,8 @@ impl GpuSceneInfo {
 
 /// Materials, texture table and packed texels in GPU layout.
 pub fn material_tables(scene: &Scene) -> (Vec<GpuMaterial>, Vec<GpuTextureInfo>, Vec<u32>) {
-    let (infos, texels) = texture_tables(scene);
+    let (infos, mut texels) = texture_tables(scene);
+    append_environment_map(scene, &mut texels);
     (gpu_materials(scene), infos, texels)
 }
 
@@ -222,6 +233,21 @@ fn texture_tables(scene: &Scene) -> (Vec<GpuTextureInfo>, Vec<u32>) {
         texels.extend(t.texels.iter().map(|c| u32::from_le_bytes(*c)));
     }
     (infos, texels)
+}
+
+/// Appends the environment map (texels, then its CDFs, as f32 bits) to the texel table;
+/// returns where it starts ([`NO_ENVIRONMENT_MAP`] without one).
+fn append_environment_map(scene: &Scene, texels: &mut Vec<u32>) -> u32 {
+    let Some(map) = &scene.environment_map else {
+        return NO_ENVIRONMENT_MAP;
+    };
+    let start = texels.len() as u32;
+    for c in &map.texels {
+        texels.extend([c.x.to_bits(), c.y.to_bits(), c.z.to_bits()]);
+    }
+    texels.extend(map.row_cdf.iter().map(|v| v.to_bits()));
+    texels.extend(map.column_cdf.iter().map(|v| v.to_bits()));
+    start
 }
 
 /// Scene data resident on the GPU, with its bind group.
@@ -345,7 +371,8 @@ impl GpuScene {
                 b
             }
             _ => {
-                let (texture_infos, texels) = texture_tables(scene);
+                let (texture_infos, mut texels) = texture_tables(scene);
+                append_environment_map(scene, &mut texels);
                 vec![
                     ctx.storage_buffer("triangles", &bvh.triangles)?,
                     ctx.storage_buffer("triangle shading", &bvh.shading)?,
@@ -363,7 +390,17 @@ impl GpuScene {
             light_samples: light_samples.max(1),
             instance_count: scene.instances.len() as u32,
             tlas_root: bvh.tlas_root(),
-            _pad: 0,
+            env_map: match &scene.environment_map {
+                // Where `material_tables` put it: after every texture's texels.
+                Some(_) => scene.textures.iter().map(|t| t.texels.len() as u32).sum(),
+                None => NO_ENVIRONMENT_MAP,
+            },
+            env_width: scene.environment_map.as_ref().map_or(0, |m| m.width),
+            env_height: scene.environment_map.as_ref().map_or(0, |m| m.height),
+            env_rotation: scene
+                .environment_map
+                .as_ref()
+                .map_or([1.0, 0.0], |m| [m.rotation.cos(), m.rotation.sin()]),
         };
         let info_buffer = ctx.uniform_buffer("scene info", &info);
         let layout = scene_layout(&ctx.device);

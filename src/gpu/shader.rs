@@ -37,6 +37,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/shared/glossy.wgsl"),
     ),
     (
+        "shared/environment.wgsl",
+        include_str!("../../wgsl/shared/environment.wgsl"),
+    ),
+    (
         "shared/glossy_bounce.wgsl",
         include_str!("../../wgsl/shared/glossy_bounce.wgsl"),
     ),

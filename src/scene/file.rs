@@ -105,6 +105,10 @@ struct RenderDef {
 #[serde(deny_unknown_fields)]
 struct EnvironmentDef {
     radiance: Option<[f32; 3]>,
+    /// A latitude-longitude HDR map (Radiance .hdr or OpenEXR).
+    map: Option<String>,
+    /// The map's rotation about +y, degrees.
+    rotation: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -388,9 +392,39 @@ impl<'a> SceneBuilder<'a> {
         let camera = camera(ctx, &def.camera)?;
         let camera_track = camera_track(ctx, &def.camera)?;
         let settings = render_settings(ctx, def.render.as_ref())?;
-        let environment = match def.environment.and_then(|e| e.radiance) {
-            Some(radiance) => ctx.light3("environment.radiance", radiance)?,
-            None => Vec3::ZERO,
+        let (environment, environment_map) = match &def.environment {
+            Some(EnvironmentDef {
+                map: Some(name),
+                radiance,
+                rotation,
+            }) => {
+                // With a map, `radiance` scales it (a tint or exposure; default 1).
+                let scale = match radiance {
+                    Some(r) => ctx.light3("environment.radiance", *r)?,
+                    None => Vec3::ONE,
+                };
+                let rotation = rotation.unwrap_or(0.0);
+                if !rotation.is_finite() {
+                    return Err(ctx.field_error("environment.rotation", "must be finite"));
+                }
+                let path = resolve_asset(ctx.path, "environment.map", name)?;
+                let map = super::EnvironmentMap::load(&path, scale, rotation)?;
+                (Vec3::ZERO, Some(map))
+            }
+            Some(EnvironmentDef {
+                map: None,
+                rotation: Some(_),
+                ..
+            }) => {
+                return Err(ctx.field_error(
+                    "environment.rotation",
+                    "rotates an environment map: give `map` too",
+                ));
+            }
+            Some(EnvironmentDef {
+                radiance: Some(r), ..
+            }) => (ctx.light3("environment.radiance", *r)?, None),
+            _ => (Vec3::ZERO, None),
         };
         for (i, mesh) in def.mesh.iter().enumerate() {
             self.add_mesh_entry(i, mesh)?;
@@ -450,6 +484,7 @@ impl<'a> SceneBuilder<'a> {
             textures: textures.into_textures(),
             lights: self.lights,
             environment,
+            environment_map,
             camera,
             settings,
             animation,

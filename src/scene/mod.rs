@@ -9,12 +9,14 @@
 pub mod animation;
 pub mod asset_path;
 pub mod brdf;
+pub mod environment;
 pub mod file;
 pub mod limits;
 pub mod obj;
 pub mod texture;
 
 pub use brdf::GlossyLobe;
+pub use environment::EnvironmentMap;
 
 use glam::{Mat4, Vec2, Vec3};
 use std::path::PathBuf;
@@ -150,8 +152,11 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub lights: Vec<Light>,
-    /// Constant environment radiance seen by rays that leave the scene.
+    /// Constant environment radiance seen by rays that leave the scene (zero when there
+    /// is an environment map).
     pub environment: Vec3,
+    /// An HDR environment map instead of the constant (`[environment] map`).
+    pub environment_map: Option<EnvironmentMap>,
     pub camera: Camera,
     pub settings: RenderSettings,
     /// Keyframes and frame range; `None` for a scene file without `[animation]` and without

@@ -54,6 +54,9 @@ fn shadow_sample_irradiance(st: ShadowLoop) -> vec3f {
     if st.kind == LIGHT_RECT {
         let area = length(cross(st.light.b.xyz, st.light.c.xyz));
         return st.light.d.xyz * (smp.cos_s * smp.cos_l / smp.d2 * (area / f32(st.count)));
+    } else if st.kind == LIGHT_ENVIRONMENT && has_environment_map() {
+        // Importance-sampled map: L cos / pdf / count per sample.
+        return smp.intensity / f32(st.count);
     } else if st.kind == LIGHT_ENVIRONMENT {
         // Cosine-distributed directions: L cos dw = pi L / count per sample.
         return scene_info.environment * (PI / f32(st.count));

@@ -176,6 +176,10 @@ fn shadows_may_change(s: Surface, seed: u32, first: u32, count: u32) -> bool {
             }
         }
     }
+    // A map's importance-sampled directions are not mirrored here: assume a change.
+    if has_environment_map() {
+        return true;
+    }
     if any(scene_info.environment != vec3f(0.0)) {
         let frame = orthonormal_basis(s.shading_normal);
         let env_seed = hash_combine(seed, ENVIRONMENT_SEED);

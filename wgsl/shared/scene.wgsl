@@ -70,7 +70,9 @@ struct SceneInfo {
     light_samples: u32,
     instance_count: u32,
     tlas_root: u32,   // index of the TLAS root node in `bvh_nodes` (after every BLAS)
-    _pad0: u32,
+    env_map: u32,     // start of the environment map in `texels` (shared/environment.wgsl)
+    env_size: vec2u,  // its width and height
+    env_rotation: vec2f, // cos and sin of its rotation about +y
 }
 
 // BVH nodes: every BLAS (one per mesh), then the TLAS, so traversal loads never branch on

@@ -2,6 +2,7 @@
 // Used by the direct-light pass (camera hits) and by later passes that shade secondary hits.
 //!include shared/bvh.wgsl
 //!include shared/sampling.wgsl
+//!include shared/environment.wgsl
 
 struct Surface {
     position: vec3f,
@@ -132,8 +133,8 @@ fn visible(s: Surface, target_point: vec3f, to_infinity: bool) -> bool {
     return !occluded(shadow_ray(s, target_point, to_infinity));
 }
 
-// Direct irradiance at a surface from every light and the constant environment, with
-// visibility. Area lights and the environment use `scene_info.light_samples` points of an
+// Direct irradiance at a surface from every light and the environment (constant, or a map
+// sampled by importance), with visibility. Area lights and the environment use `scene_info.light_samples` points of an
 // Owen-scrambled Sobol sequence whose scramble is seeded by `seed` (e.g. the pixel).
 fn direct_irradiance(s: Surface, seed: u32) -> vec3f {
     return direct_irradiance_samples(s, seed, scene_info.light_samples);
@@ -200,7 +201,7 @@ fn shadow_loop_start(s: Surface, seed: u32, count: u32) -> ShadowLoop {
 fn shadow_loop_start_at(s: Surface, seed: u32, first: u32, count: u32) -> ShadowLoop {
     var st: ShadowLoop;
     let env = scene_info.environment;
-    st.slots = scene_info.light_count + select(0u, 1u, any(env != vec3f(0.0)));
+    st.slots = scene_info.light_count + select(0u, 1u, any(env != vec3f(0.0)) || has_environment_map());
     st.count = count;
     st.slot = 0u;
     st.k = 0u;
@@ -259,6 +260,16 @@ fn shadow_sample(st: ShadowLoop, s: Surface, light: Light, kind: u32) -> ShadowS
         out.cos_l = -dot(nl, l);
         out.target_point = q;
         out.lit = !(out.cos_s <= 0.0 || out.cos_l <= 0.0 || dot(ng, l) <= 0.0);
+    } else if kind == LIGHT_ENVIRONMENT && has_environment_map() {
+        // Drawn from the map by importance: `intensity` carries L cos / pdf.
+        let es = environment_sample(sobol_2d(st.first + st.k, st.env_seed));
+        out.target_point = es.dir;
+        out.to_infinity = true;
+        out.cos_s = dot(n, es.dir);
+        out.lit = es.pdf > 0.0 && !(out.cos_s <= 0.0 || dot(ng, es.dir) <= 0.0);
+        if out.lit {
+            out.intensity = es.radiance * (out.cos_s / es.pdf);
+        }
     } else if kind == LIGHT_ENVIRONMENT {
         let dir = st.env_frame * cosine_hemisphere(sobol_2d(st.first + st.k, st.env_seed));
         out.target_point = dir;
@@ -288,6 +299,9 @@ fn shadow_loop_next(st: ptr<function, ShadowLoop>, s: Surface) -> bool {
             if kind == LIGHT_RECT {
                 let area = length(cross(light.b.xyz, light.c.xyz));
                 (*st).e += light.d.xyz * (*st).sum * (area / f32((*st).count));
+            } else if kind == LIGHT_ENVIRONMENT && has_environment_map() {
+                // Importance-sampled map: E = mean of V L cos / pdf.
+                (*st).e += (*st).sum / f32((*st).count);
             } else if kind == LIGHT_ENVIRONMENT {
                 // Constant environment: E = L_env * integral of V cos = pi L_env * mean
                 // visibility over cosine-distributed directions.
@@ -318,6 +332,8 @@ fn shadow_loop_add(st: ptr<function, ShadowLoop>) {
     let smp = (*st).sample;
     if kind == LIGHT_RECT {
         (*st).sum += vec3f(smp.cos_s * smp.cos_l / smp.d2);
+    } else if kind == LIGHT_ENVIRONMENT && has_environment_map() {
+        (*st).sum += smp.intensity;
     } else if kind == LIGHT_ENVIRONMENT {
         (*st).unoccluded += 1u;
     } else if kind == LIGHT_SUN {
