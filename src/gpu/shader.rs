@@ -57,6 +57,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/glossy_indirect.wgsl"),
     ),
     (
+        "radiance_project.wgsl",
+        include_str!("../../wgsl/radiance_project.wgsl"),
+    ),
+    (
         "shared/records.wgsl",
         include_str!("../../wgsl/shared/records.wgsl"),
     ),

@@ -6,6 +6,7 @@
 
 pub mod plane;
 pub mod plane_error;
+pub mod radiance_projection;
 pub mod reference;
 pub mod refine;
 pub mod stage;

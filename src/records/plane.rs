@@ -117,6 +117,11 @@ fn cos_integral(x: f64, y: f64) -> f64 {
     }
 }
 
+/// Solid angle of the plane rectangle [x0,x1] x [y0,y1] (edges may be infinite).
+pub fn rect_solid_angle(x0: f64, x1: f64, y0: f64, y1: f64) -> f64 {
+    rect(solid_angle_integral, x0, x1, y0, y1)
+}
+
 /// Solid angle of [0,x] x [0,y] (algorithms.md 3.2, `S`).
 fn solid_angle_integral(x: f64, y: f64) -> f64 {
     match (x.is_infinite(), y.is_infinite()) {
@@ -232,11 +237,37 @@ impl HemispherePlane {
     pub fn refine_samples(&self, split: u32) -> Vec<RefineSample> {
         let p = self.resolution as usize;
         let m = split.max(1) as usize;
+        let axes: Vec<_> = (0..p).map(|i| self.sub_intervals(i, m)).collect();
+        let share = (m * m) as f64 / (1.0 + (m * m) as f64);
+        let mut out = Vec::with_capacity(p * p * m * m);
+        for (ye, yc) in &axes {
+            for (xe, xc) in &axes {
+                let cell = rect(cos_integral, xe[0], xe[m], ye[0], ye[m]);
+                for qy in 0..m {
+                    for qx in 0..m {
+                        let w = rect(cos_integral, xe[qx], xe[qx + 1], ye[qy], ye[qy + 1]);
+                        out.push(RefineSample {
+                            center: [xc[qx] as f32, yc[qy] as f32],
+                            weight: (share * w / cell) as f32,
+                            _pad: 0.0,
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The edges (`m + 1`) and centres (`m`) of `m` sub-intervals of pixel interval `i`
+    /// along one axis, in plane coordinates: a finite interval split evenly in the plane's
+    /// spacing, an interval stretched to infinity (the border of [`PlaneMode::Stretched`])
+    /// split evenly in angle, its outer edge infinite.
+    pub fn sub_intervals(&self, i: usize, m: usize) -> (Vec<f64>, Vec<f64>) {
+        let p = self.resolution as usize;
         let s = (f64::from(self.fov_degrees).to_radians() * 0.5).tan();
         let spacing = self.spacing;
         let stretched = self.mode == PlaneMode::Stretched;
-        // Sub-interval edges and centres of pixel interval i along one axis.
-        let axis = |i: usize| -> (Vec<f64>, Vec<f64>) {
+        {
             let edge = |t: f64| spacing.at(s, (i as f64 + t) / p as f64);
             let (lo, hi) = (edge(0.0), edge(1.0));
             let to_lo = stretched && i == 0;
@@ -265,26 +296,7 @@ impl HemispherePlane {
             }
             let centres = (0..m).map(|q| at((q as f64 + 0.5) / m as f64)).collect();
             (edges, centres)
-        };
-        let axes: Vec<_> = (0..p).map(axis).collect();
-        let share = (m * m) as f64 / (1.0 + (m * m) as f64);
-        let mut out = Vec::with_capacity(p * p * m * m);
-        for (ye, yc) in &axes {
-            for (xe, xc) in &axes {
-                let cell = rect(cos_integral, xe[0], xe[m], ye[0], ye[m]);
-                for qy in 0..m {
-                    for qx in 0..m {
-                        let w = rect(cos_integral, xe[qx], xe[qx + 1], ye[qy], ye[qy + 1]);
-                        out.push(RefineSample {
-                            center: [xc[qx] as f32, yc[qy] as f32],
-                            weight: (share * w / cell) as f32,
-                            _pad: 0.0,
-                        });
-                    }
-                }
-            }
         }
-        out
     }
 
     /// Fraction of the cosine-weighted hemisphere the unstretched plane covers

@@ -1,0 +1,128 @@
+//! Projection of hemisphere planes onto hemispherical harmonics (issue 18: the incoming
+//! radiance of radiance records): the GPU pass against its CPU mirror, the basis integrals
+//! against the hemisphere's, and the projected radiance reproducing the plane's irradiance
+//! through the exactly represented cosine lobe.
+
+mod common;
+
+use glam::DVec3;
+use radsplat::Renderer;
+use radsplat::hsh::{HemisphereQuadrature, coefficient_count};
+use radsplat::records::radiance_projection::{PlaneBasis, RadianceProjectionPass, project};
+use radsplat::records::reference::RecordReference;
+use radsplat::records::{CacheSettings, PlaneSample, RecordPass};
+use radsplat::visibility::GpuCamera;
+
+const ORDER: u32 = 6;
+
+#[test]
+fn the_plane_basis_integrates_the_basis_over_the_whole_hemisphere() {
+    let settings = CacheSettings::default();
+    let plane = settings.plane(settings.plane_resolution);
+    let n = coefficient_count(ORDER);
+    let q = HemisphereQuadrature::new(32);
+    let exact = q.project(ORDER, |_| 1.0);
+    // The stretched plane covers the hemisphere: sum_p W_pk = integral of H_k, up to the
+    // quadrature of the border pixels (each stands for a wide band down to the horizon),
+    // which converges as their cells shrink.
+    let worst = |sub: u32| {
+        let basis = PlaneBasis::new(&plane, ORDER, sub);
+        (0..n)
+            .map(|k| {
+                let sum: f64 = (0..plane.pixels.len())
+                    .map(|p| f64::from(basis.weights[p * n + k]))
+                    .sum();
+                (sum - exact[k]).abs()
+            })
+            .fold(0.0, f64::max)
+    };
+    let (w8, w16) = (worst(8), worst(16));
+    eprintln!("largest error of sum_p W_pk: {w8:.2e} with 8x8 cells, {w16:.2e} with 16x16");
+    assert!(w16 < 2e-3, "16x16 cells: {w16} (W_00 is about 2.5)");
+    assert!(w16 < 0.5 * w8, "the quadrature converges: {w16} vs {w8}");
+    // H_0^0 = 1 / sqrt(2 pi): its integral is sqrt(2 pi).
+    assert!((exact[0] - (2.0 * std::f64::consts::PI).sqrt()).abs() < 1e-9);
+}
+
+// Tolerance: the GPU sums the same products in the same order, in f32; fused multiply-adds
+// round differently, so coefficients agree to about 1e-6 of the largest.
+#[test]
+fn gpu_projection_matches_the_cpu_and_keeps_the_irradiance() {
+    let scene = common::load("cornell-box.toml", Some((24, 24)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let settings = CacheSettings {
+        plane_refine: 0.0,
+        ..CacheSettings::default()
+    };
+    let frame = renderer
+        .render_frame(&prepared, &scene.camera)
+        .expect("frame");
+    let cam = GpuCamera::new(&scene.camera);
+    let hits: Vec<_> = frame.visibility.iter().filter(|v| v.is_hit()).collect();
+    let sites: Vec<_> = (0..10)
+        .map(|k| {
+            RecordReference::site_from_pixel(
+                &settings,
+                &cam,
+                hits[(k * 53 + 7) % hits.len()],
+                k as u32,
+            )
+        })
+        .collect();
+    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    let samples = pass
+        .trace_planes(&renderer.ctx, &prepared.gpu, &sites)
+        .expect("planes");
+    let plane = settings.plane(settings.plane_resolution);
+    let projection =
+        RadianceProjectionPass::new(&renderer.ctx, &plane, ORDER, 16).expect("projection pass");
+    let n = coefficient_count(ORDER);
+    let ctx = &renderer.ctx;
+    let samples_buf = ctx.storage_buffer("samples", &samples).expect("upload");
+    let out = ctx
+        .storage_buffer_sized("coefficients", (sites.len() * 3 * n * 4) as u64)
+        .expect("out");
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    projection.record(
+        ctx,
+        &mut enc,
+        &prepared.gpu,
+        &samples_buf,
+        &out,
+        sites.len() as u32,
+    );
+    ctx.queue.submit([enc.finish()]);
+    let gpu: Vec<f32> = ctx.read_buffer(&out).expect("read");
+    ctx.check().expect("no wgpu errors");
+
+    // The cosine lobe in 4 coefficients (exact, hsh tests), padded to ORDER.
+    let q = HemisphereQuadrature::new(16);
+    let cosine = q.project(ORDER, |w: DVec3| w.z);
+    let per = plane.pixels.len();
+    for (r, site) in sites.iter().enumerate() {
+        let plane_samples: &[PlaneSample] = &samples[r * per..(r + 1) * per];
+        let cpu = project(&projection.basis, plane_samples);
+        let g = &gpu[r * 3 * n..(r + 1) * 3 * n];
+        let largest = cpu.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        for (a, b) in g.iter().zip(&cpu) {
+            assert!(
+                (a - b).abs() <= 1e-5 * largest.max(1e-6),
+                "record {r}: {a} vs {b}"
+            );
+        }
+        // E from the coefficients (lambda . cos) equals E from the plane (sum L cos_weight).
+        for c in 0..3 {
+            let from_hsh: f64 = (0..n).map(|k| f64::from(cpu[c * n + k]) * cosine[k]).sum();
+            let from_plane: f64 = plane_samples
+                .iter()
+                .zip(&plane.pixels)
+                .map(|(s, p)| f64::from(s.radiance[c]) * f64::from(p.cos_weight))
+                .sum();
+            assert!(
+                (from_hsh - from_plane).abs() <= 2e-3 * from_plane.abs().max(1e-3),
+                "record {r} ({site:?}) channel {c}: E {from_hsh} from HSH, {from_plane} from the plane"
+            );
+        }
+    }
+}
