@@ -107,7 +107,7 @@ impl Default for TemporalSettings {
             accuracy: 0.05,
             max_lifespan: 20,
             gradients: TemporalGradients::Interpolated,
-            anchor: RecordAnchor::World,
+            anchor: RecordAnchor::Instance,
             plane_refresh: RefreshMode::Auto,
             plane_budget_bytes: 512 << 20,
             replacement: Replacement::Visible,

@@ -15,9 +15,12 @@ use glam::{Mat3, Mat4, Vec3};
 /// Where temporal records stay while the scene moves (CLI `--record-anchor`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum RecordAnchor {
-    /// At their world position, as in the thesis (decision 9). The default.
+    /// At their world position, as in the thesis (decision 9). Records on a moving object
+    /// are left behind, and a replacement at their place may lie inside it (cube in a box,
+    /// 48x48, dt_max 1: 68 pixels of zero indirect light from such records).
     World,
-    /// On the instance they lie on: records move rigidly with it.
+    /// On the instance they lie on: records move rigidly with it. The default (cube in a
+    /// box 48x48, frames 0..23: indirect error 4.9-6.9 % against 5-12 % world-anchored).
     Instance,
 }
 
