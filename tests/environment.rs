@@ -85,7 +85,38 @@ fn bad_environment_settings_name_the_field() {
 // graze an edge, so the bound is on the 99th percentile.
 #[test]
 fn direct_light_from_the_map_matches_the_cpu_reference() {
-    let scene = env_scene(32, 24);
+    check_direct_against_cpu(env_scene(32, 24));
+}
+
+/// The same with the map turned about +y (the GPU's rotation against the CPU's): the sun
+/// moves, so the shadows move too.
+#[test]
+fn a_rotated_map_matches_the_cpu_reference_and_moves_the_light() {
+    let mut turned = env_scene(32, 24);
+    let map = turned.environment_map.take().expect("map");
+    turned.environment_map = Some(EnvironmentMap::new(
+        map.width,
+        map.height,
+        map.texels.clone(),
+        Vec3::ONE,
+        70.0,
+    ));
+    let a = check_direct_against_cpu(env_scene(32, 24));
+    let b = check_direct_against_cpu(turned);
+    let moved = a
+        .iter()
+        .zip(&b)
+        .filter(|(x, y)| (**x - **y).abs() > 0.1 * x.max(**y))
+        .count();
+    assert!(
+        moved > 50,
+        "only {moved} pixels changed when the sky turned by 70 degrees"
+    );
+}
+
+/// Compares the GPU's direct light with the CPU reference; returns the GPU's direct
+/// luminance-like sums per pixel.
+fn check_direct_against_cpu(scene: radsplat::scene::Scene) -> Vec<f32> {
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let prepared = renderer.prepare(&scene).expect("prepare");
     let frame = renderer
@@ -133,4 +164,5 @@ fn direct_light_from_the_map_matches_the_cpu_reference() {
             .fold(f32::INFINITY, f32::min),
     );
     assert!(lit > 10.0 * shade, "lit {lit} vs shaded {shade}");
+    direct
 }

@@ -361,3 +361,29 @@ fn export_rad_writes_radiance_scene_and_textureless_variant() {
         assert!(rad.contains("source sun0 0 0 4") && rad.contains("sky_mat source sky"));
     }
 }
+
+/// The peer comparison renders the same scene on both sides: Radiance gets Lambertian
+/// `plastic`, so `notex.toml` removes glossy lobes as it removes textures, and the export
+/// says so.
+#[test]
+fn export_rad_strips_glossy_lobes_from_the_comparison_scene() {
+    let dir = tmp_dir("export-glossy");
+    let scene = common::bundled("cornell-box-glossy.toml");
+    let (code, err) = radsplat(&[
+        "export-rad",
+        scene.to_str().unwrap_or_default(),
+        dir.to_str().unwrap_or_default(),
+        "--size",
+        "16x16",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("glossy lobes of 1 material"), "{err}");
+    let notex = radsplat::scene::load_scene(&dir.join("notex.toml")).expect("notex.toml");
+    assert!(
+        notex.materials.iter().all(|m| m.glossy.is_none()),
+        "notex.toml keeps a glossy lobe"
+    );
+    let original = radsplat::scene::load_scene(&scene).expect("scene");
+    assert!(original.materials.iter().any(|m| m.glossy.is_some()));
+    let _ = std::fs::remove_dir_all(&dir);
+}
