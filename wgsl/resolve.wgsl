@@ -6,7 +6,7 @@
 struct ResolveParams {
     width: u32,
     height: u32,
-    _pad0: u32,
+    has_glossy: u32,  // 1: add `glossy` (the scene has glossy lobes); 0: it is not bound
     _pad1: u32,
 }
 
@@ -28,7 +28,9 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     if s.w > 0.0 {
         l = albedo[pixel].xyz * (1.0 / PI) * (s.xyz / s.w);
     }
-    l = l + glossy[pixel].xyz;
+    if params.has_glossy != 0u {
+        l = l + glossy[pixel].xyz;
+    }
     indirect[pixel] = vec4f(l, 1.0);
     beauty[pixel] = vec4f(beauty[pixel].xyz + l, 1.0);
 }

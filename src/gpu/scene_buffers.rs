@@ -235,19 +235,27 @@ fn texture_tables(scene: &Scene) -> (Vec<GpuTextureInfo>, Vec<u32>) {
     (infos, texels)
 }
 
-/// Appends the environment map (texels, then its CDFs, as f32 bits) to the texel table;
-/// returns where it starts ([`NO_ENVIRONMENT_MAP`] without one).
-fn append_environment_map(scene: &Scene, texels: &mut Vec<u32>) -> u32 {
+/// Where the environment map starts in the texel table: after every texture's texels
+/// ([`NO_ENVIRONMENT_MAP`] without one).
+fn environment_map_offset(scene: &Scene) -> u32 {
+    match &scene.environment_map {
+        Some(_) => scene.textures.iter().map(|t| t.texels.len() as u32).sum(),
+        None => NO_ENVIRONMENT_MAP,
+    }
+}
+
+/// Appends the environment map (texels, then its CDFs, as f32 bits) to the texel table of
+/// [`texture_tables`], at [`environment_map_offset`].
+fn append_environment_map(scene: &Scene, texels: &mut Vec<u32>) {
     let Some(map) = &scene.environment_map else {
-        return NO_ENVIRONMENT_MAP;
+        return;
     };
-    let start = texels.len() as u32;
+    debug_assert_eq!(texels.len() as u32, environment_map_offset(scene));
     for c in &map.texels {
         texels.extend([c.x.to_bits(), c.y.to_bits(), c.z.to_bits()]);
     }
     texels.extend(map.row_cdf.iter().map(|v| v.to_bits()));
     texels.extend(map.column_cdf.iter().map(|v| v.to_bits()));
-    start
 }
 
 /// Scene data resident on the GPU, with its bind group.
@@ -390,11 +398,7 @@ impl GpuScene {
             light_samples: light_samples.max(1),
             instance_count: scene.instances.len() as u32,
             tlas_root: bvh.tlas_root(),
-            env_map: match &scene.environment_map {
-                // Where `material_tables` put it: after every texture's texels.
-                Some(_) => scene.textures.iter().map(|t| t.texels.len() as u32).sum(),
-                None => NO_ENVIRONMENT_MAP,
-            },
+            env_map: environment_map_offset(scene),
             env_width: scene.environment_map.as_ref().map_or(0, |m| m.width),
             env_height: scene.environment_map.as_ref().map_or(0, |m| m.height),
             env_rotation: scene

@@ -250,8 +250,13 @@ impl ReferencePass {
         let vis = ctx.storage_buffer("reference visibility", &frame.visibility)?;
         let sums =
             ctx.storage_buffer_sized("radiance sums", u64::from(width) * u64::from(height) * 16)?;
-        let glossy_sums =
-            ctx.storage_buffer_sized("glossy sums", u64::from(width) * u64::from(height) * 16)?;
+        // Written only at glossy pixels: a placeholder when the scene has none.
+        let glossy_bytes = if prepared.gpu.has_glossy {
+            u64::from(width) * u64::from(height) * 16
+        } else {
+            16
+        };
+        let glossy_sums = ctx.storage_buffer_sized("glossy sums", glossy_bytes)?;
         // Shadow rays per bounce hit, at most; glossy pixels trace a second bounce per sample.
         let info = &prepared.gpu.info;
         let bounces = if prepared.gpu.has_glossy { 2 } else { 1 };
@@ -295,9 +300,11 @@ impl ReferencePass {
             progress(i + 1, chunks.len());
         }
         let sums: Vec<[f32; 4]> = ctx.read_buffer(&sums)?;
-        let glossy_sums: Vec<[f32; 4]> = ctx.read_buffer(&glossy_sums)?;
         let mut indirect = finish_indirect(&frame.albedo, &sums, options.spp);
-        add_glossy_indirect(&mut indirect, &glossy_sums, options.spp);
+        if prepared.gpu.has_glossy {
+            let glossy_sums: Vec<[f32; 4]> = ctx.read_buffer(&glossy_sums)?;
+            add_glossy_indirect(&mut indirect, &glossy_sums, options.spp);
+        }
         for (b, ind) in frame.beauty.iter_mut().zip(&indirect) {
             for (bc, ic) in b.iter_mut().zip(&ind[..3]) {
                 *bc += ic;

@@ -14,12 +14,15 @@ use bytemuck::{Pod, Zeroable};
 struct ResolveParams {
     width: u32,
     height: u32,
-    _pad: [u32; 2],
+    has_glossy: u32,
+    _pad: u32,
 }
 
 /// The resolve pass.
 pub struct ResolvePass {
     pass: ComputePass,
+    /// Bound as the glossy input when a frame has none (the shader does not read it).
+    no_glossy: wgpu::Buffer,
 }
 
 impl ResolvePass {
@@ -38,6 +41,7 @@ impl ResolvePass {
                     StorageRead,
                 ],
             )?,
+            no_glossy: ctx.storage_buffer_sized("no glossy indirect", 16)?,
         })
     }
 
@@ -55,18 +59,8 @@ impl ResolvePass {
         glossy: Option<&wgpu::Buffer>,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<wgpu::Buffer> {
-        let none;
-        let glossy = match glossy {
-            Some(g) => g,
-            None => {
-                // Zero-initialised, as wgpu creates every buffer.
-                none = ctx.storage_buffer_sized(
-                    "no glossy indirect",
-                    u64::from(splat.width) * u64::from(splat.height) * 16,
-                )?;
-                &none
-            }
-        };
+        let has_glossy = u32::from(glossy.is_some());
+        let glossy = glossy.unwrap_or(&self.no_glossy);
         let indirect = ctx.storage_buffer_sized(
             "indirect",
             u64::from(splat.width) * u64::from(splat.height) * 16,
@@ -76,7 +70,8 @@ impl ResolvePass {
             &ResolveParams {
                 width: splat.width,
                 height: splat.height,
-                _pad: [0; 2],
+                has_glossy,
+                _pad: 0,
             },
         );
         let bind = self.pass.bind(

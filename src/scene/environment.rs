@@ -33,7 +33,7 @@ pub struct EnvironmentMap {
 }
 
 /// The sampling weight of a texel: its channel sum (as the GPU sums) times sin(theta) at
-/// its row's centre (its solid angle), plus a floor so that every direction can be drawn.
+/// its row's centre (its solid angle). Black texels are never drawn: they add nothing.
 fn texel_weight(c: Vec3, sin_theta: f32) -> f32 {
     ((c.x + c.y) + c.z) * sin_theta
 }
