@@ -13,6 +13,7 @@ use crate::placement::{PlacementPass, PlacementStats};
 use crate::records::{CacheSettings, PlaneShadows, Record, RecordCache, RecordPass};
 use crate::resolve::ResolvePass;
 use crate::scene::{Camera, Scene};
+use crate::splat::radiance::{NO_LOBE_SLOT, RadianceSplatPass, RadianceTables};
 use crate::splat::{CoverageMask, SplatBuffer, SplatPass, SplatSource};
 use crate::visibility::{VisSample, VisibilityBuffer, VisibilityPass};
 use crate::{Error, Result};
@@ -65,6 +66,9 @@ pub struct CachedFrameOptions<'a, 'b> {
     /// The frame's visibility buffer when already traced (temporal replacement decides
     /// with it); None: traced here.
     pub visibility: Option<VisibilityBuffer>,
+    /// Radiance records for the glossy pixels they shade (placed, then splatted); None:
+    /// every glossy lobe by Monte Carlo.
+    pub radiance: Option<&'a mut RadianceCache>,
 }
 
 /// Statistics of one frame.
@@ -100,6 +104,9 @@ pub struct CacheFrameStats {
     pub plane_rays: u64,
     /// Visible pixels no record covers after placement.
     pub uncovered_pixels: u64,
+    /// Radiance records in their cache after the frame, and those added this frame.
+    pub radiance_records: u32,
+    pub new_radiance_records: u32,
 }
 
 /// The images of one frame, row-major, top row first.
@@ -181,6 +188,53 @@ impl<T> OnFirstUse<T> {
 pub struct IrradianceCache {
     pub records: RecordCache,
     pub pass: RecordPass,
+    /// The radiance records beside the irradiance ones, built at the first frame of a
+    /// scene with lobes they shade (`settings.radiance`; None before, or when off).
+    pub radiance: Option<RadianceCache>,
+}
+
+/// Radiance records (issue 18): a cache of [`crate::records::RecordKind::Radiance`]
+/// records, the pass that computes them (planes projected onto HSH) and the splat with its
+/// scene's tables.
+/// Placed on their own, at their own accuracy, where visible pixels have a lobe they
+/// shade; splatted onto those pixels only.
+pub struct RadianceCache {
+    pub records: RecordCache,
+    pub pass: RecordPass,
+    pub splat: RadianceSplatPass,
+}
+
+impl RadianceCache {
+    /// The radiance cache for `scene` with `settings` (their `radiance` part), or None
+    /// when radiance records are off or no material's lobe qualifies.
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        settings: &CacheSettings,
+    ) -> Result<Option<Self>> {
+        let r = settings.radiance;
+        if r.order == 0 || !scene.has_glossy {
+            return Ok(None);
+        }
+        let tables = RadianceTables::new(&scene.glossy_lobes, r);
+        if !tables.any_slot() {
+            return Ok(None);
+        }
+        let record_settings = CacheSettings {
+            accuracy: r.accuracy,
+            plane_resolution: if r.plane_resolution > 0 {
+                r.plane_resolution
+            } else {
+                settings.plane_resolution
+            },
+            ..settings.clone()
+        };
+        Ok(Some(Self {
+            records: RecordCache::with_kind(ctx, r.kind())?,
+            pass: RecordPass::with_kind(ctx, &record_settings, r.kind())?,
+            splat: RadianceSplatPass::new(ctx, tables)?,
+        }))
+    }
 }
 
 impl IrradianceCache {
@@ -275,6 +329,7 @@ impl Renderer {
         Ok(IrradianceCache {
             records: RecordCache::new(&self.ctx)?,
             pass: RecordPass::new(&self.ctx, settings)?,
+            radiance: None,
         })
     }
 
@@ -314,6 +369,34 @@ impl Renderer {
         };
         splat_pass.splat(ctx, src, &splat, false, &mut times)?;
         let sums = ctx.read_buffer(&splat.sums)?;
+        let visibility = vis.read(ctx)?;
+        ctx.check()?;
+        Ok((visibility, sums))
+    }
+
+    /// The visibility buffer of `camera` and the radiance splat sums
+    /// `(specular * sum w L, sum w)` of every record of `cache` (no placement): for tests.
+    pub fn splat_radiance_cache(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        cache: &RadianceCache,
+    ) -> Result<(Vec<VisSample>, Vec<[f32; 4]>)> {
+        let ctx = &self.ctx;
+        let mut times = Vec::new();
+        let vis = self.visibility(scene, camera, &mut times)?;
+        let splat_pass = self.splat_pass()?;
+        let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
+        let src = SplatSource {
+            scene: &scene.gpu,
+            vis: &vis,
+            bounds: &bounds,
+            records: &cache.records,
+            first: 0,
+            accuracy: cache.pass.settings.accuracy,
+        };
+        let sums = cache.splat.gather(ctx, splat_pass, src, &mut times)?;
+        let sums = ctx.read_buffer(&sums)?;
         let visibility = vis.read(ctx)?;
         ctx.check()?;
         Ok((visibility, sums))
@@ -395,6 +478,9 @@ impl Renderer {
         max_new_records: Option<u32>,
         progress: impl FnMut(u32),
     ) -> Result<Frame> {
+        if cache.radiance.is_none() {
+            cache.radiance = RadianceCache::new(&self.ctx, &scene.gpu, &cache.pass.settings)?;
+        }
         let (frame, _) = self.render_cached_frame(
             scene,
             camera,
@@ -402,6 +488,7 @@ impl Renderer {
             &cache.pass,
             CachedFrameOptions {
                 max_new_records,
+                radiance: cache.radiance.as_mut(),
                 ..Default::default()
             },
             progress,
@@ -429,6 +516,7 @@ impl Renderer {
             count_coverage,
             placement_only,
             visibility,
+            radiance,
         } = options;
         let ctx = &self.ctx;
         // Shadow rays of each plane hit (its re-shading and plane refresh cast the same).
@@ -508,6 +596,68 @@ impl Renderer {
             splat_pass.splat(ctx, all, &splat, false, &mut times)?;
         }
 
+        // Radiance records: their own placement over the pixels with lobes they shade, at
+        // their own accuracy, then their gather.
+        let mut radiance_stats = (0, 0);
+        let mut radiance_covers_all = false;
+        let radiance_sums = match radiance {
+            Some(rc) if !placement_only => {
+                let first_time = times.len();
+                let need = CoverageMask::new(ctx, camera.width, camera.height)?;
+                rc.splat.need_mask(ctx, &scene.gpu, &vis, &need);
+                let accuracy = rc.pass.settings.accuracy;
+                let held = SplatSource {
+                    scene: &scene.gpu,
+                    vis: &vis,
+                    bounds: &bounds,
+                    records: &rc.records,
+                    first: 0,
+                    accuracy,
+                };
+                splat_pass.cover(ctx, held, &need, &mut times)?;
+                let placed = self.placement_pass()?.place(
+                    ctx,
+                    &scene.gpu,
+                    &vis,
+                    &mut rc.records,
+                    &rc.pass,
+                    splat_pass,
+                    &bounds,
+                    &need,
+                    light_maps.as_deref(),
+                    None,
+                    None,
+                    &mut times,
+                    |_| {},
+                )?;
+                radiance_stats = (rc.records.count, placed.new_records);
+                // Placement covered every pixel with a radiance lobe: if every glossy
+                // lobe has one, no pixel needs Monte Carlo lobe rays.
+                radiance_covers_all = !placed.limit_reached
+                    && scene
+                        .gpu
+                        .glossy_lobes
+                        .iter()
+                        .zip(&rc.splat.tables.slots)
+                        .all(|(lobe, slot)| lobe.is_none() || *slot != NO_LOBE_SLOT);
+                let all = SplatSource {
+                    scene: &scene.gpu,
+                    vis: &vis,
+                    bounds: &bounds,
+                    records: &rc.records,
+                    first: 0,
+                    accuracy,
+                };
+                let sums = rc.splat.gather(ctx, splat_pass, all, &mut times)?;
+                // The radiance cache's passes under their own names.
+                for (name, _) in &mut times[first_time..] {
+                    *name = radiance_pass_name(name);
+                }
+                Some(sums)
+            }
+            _ => None,
+        };
+
         let rays_per_record = pass.settings.plane_rays_per_record();
         let (width, height) = (camera.width, camera.height);
         let stats = |times: &[(&'static str, f64)], uncovered_pixels| FrameStats {
@@ -520,9 +670,11 @@ impl Renderer {
             cache: Some(CacheFrameStats {
                 records: records.count,
                 reused_records,
-                plane_rays: u64::from(placement.new_records) * rays_per_record,
+                plane_rays: u64::from(placement.new_records + radiance_stats.1) * rays_per_record,
                 placement,
                 uncovered_pixels,
+                radiance_records: radiance_stats.0,
+                new_radiance_records: radiance_stats.1,
             }),
         };
         let mut coverage = if count_coverage {
@@ -557,6 +709,8 @@ impl Renderer {
                 &scene.gpu,
                 &vis,
                 pass.settings.glossy_samples,
+                radiance_sums.as_ref(),
+                radiance_covers_all,
                 timer.next("glossy indirect"),
             )?)
         } else {
@@ -786,6 +940,21 @@ impl Renderer {
 }
 
 /// Total GPU time per pass name, in first-seen order (passes run once per round).
+/// A pass of the radiance cache under its own name in frame statistics.
+fn radiance_pass_name(name: &str) -> &'static str {
+    match name {
+        "hemisphere planes" => "radiance: hemisphere planes",
+        "plane refinement select" => "radiance: plane refinement select",
+        "plane refinement" => "radiance: plane refinement",
+        "record reduction" => "radiance: record reduction",
+        "radiance projection" => "radiance: projection",
+        "splat: radiance gather" => "radiance: gather",
+        "splat: cover" => "radiance: cover",
+        n if n.starts_with("splat: bin") => "radiance: binning",
+        _ => "radiance: other",
+    }
+}
+
 fn sum_by_pass(times: &[(&'static str, f64)]) -> Vec<(String, f64)> {
     let owned: Vec<(String, f64)> = times.iter().map(|(n, ms)| (n.to_string(), *ms)).collect();
     sum_by_pass_owned(&owned)

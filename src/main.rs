@@ -2,7 +2,9 @@
 
 use clap::{Parser, Subcommand};
 use radsplat::commands;
+use radsplat::hsh::rotation::RotationMethod;
 use radsplat::records::CacheSettings;
+use radsplat::splat::radiance::RadianceSettings;
 use radsplat::temporal::{
     RecordAnchor, RefreshMode, Replacement, TemporalGradients, TemporalSettings,
 };
@@ -386,6 +388,24 @@ struct CacheArgs {
     /// through the lobe, each hit shaded with direct light).
     #[arg(long, default_value_t = CacheSettings::default().glossy_samples, value_parser = parse_at_least_one)]
     glossy_samples: u32,
+    /// HSH order of radiance records (n^2 coefficients per channel, at most 10), which
+    /// cache the indirect light of low-frequency glossy lobes; 0: every glossy lobe by
+    /// Monte Carlo.
+    #[arg(long, default_value_t = RadianceSettings::default().order)]
+    radiance_order: u32,
+    /// Ward's accuracy a of radiance records (their own, beside -a for irradiance ones).
+    #[arg(long, default_value_t = RadianceSettings::default().accuracy)]
+    radiance_accuracy: f32,
+    /// Lobes whose HSH projection holds less of their energy than this (thesis eq. 3.32,
+    /// mean over view directions) are too sharp for radiance records: Monte Carlo.
+    #[arg(long, default_value_t = RadianceSettings::default().min_lobe_accuracy)]
+    radiance_lobe_accuracy: f32,
+    /// How radiance records are tilted into a pixel's frame (thesis section 3.4).
+    #[arg(long, value_enum, default_value = "tabulated")]
+    radiance_rotation: RotationMethod,
+    /// Plane resolution P of radiance records (0: the irradiance records' --plane-resolution).
+    #[arg(long, default_value_t = RadianceSettings::default().plane_resolution)]
+    radiance_plane_resolution: u32,
     /// Do not compute or use irradiance gradients.
     #[arg(long)]
     no_gradients: bool,
@@ -539,6 +559,13 @@ impl CacheArgs {
             plane_refine: self.plane_refine,
             plane_refine_split: self.plane_refine_split,
             glossy_samples: self.glossy_samples,
+            radiance: RadianceSettings {
+                order: self.radiance_order,
+                accuracy: self.radiance_accuracy,
+                min_lobe_accuracy: self.radiance_lobe_accuracy,
+                rotation: self.radiance_rotation,
+                plane_resolution: self.radiance_plane_resolution,
+            },
             ..CacheSettings::default()
         }
     }

@@ -224,7 +224,16 @@ fn the_reference_and_the_glossy_pass_match_their_cpu_mirrors() {
         .device
         .create_command_encoder(&Default::default());
     let out = glossy
-        .record(&renderer.ctx, &mut enc, &prepared.gpu, &vis, samples, None)
+        .record(
+            &renderer.ctx,
+            &mut enc,
+            &prepared.gpu,
+            &vis,
+            samples,
+            None,
+            false,
+            None,
+        )
         .expect("record");
     renderer.ctx.queue.submit([enc.finish()]);
     let pass_out: Vec<[f32; 4]> = renderer.ctx.read_buffer(&out).expect("read");

@@ -8,9 +8,12 @@ mod common;
 use glam::DVec3;
 use radsplat::Renderer;
 use radsplat::hsh::{HemisphereQuadrature, coefficient_count};
-use radsplat::records::radiance_projection::{PlaneBasis, RadianceProjectionPass, project};
+use radsplat::records::kind::FRAME_FLOATS;
+use radsplat::records::radiance_projection::{
+    PlaneBasis, RadianceProjectionPass, project, project_with_gradients,
+};
 use radsplat::records::reference::RecordReference;
-use radsplat::records::{CacheSettings, PlaneSample, RecordPass};
+use radsplat::records::{CacheSettings, PlaneSample, RecordKind, RecordPass};
 use radsplat::visibility::GpuCamera;
 
 const ORDER: u32 = 6;
@@ -79,18 +82,23 @@ fn gpu_projection_matches_the_cpu_and_keeps_the_irradiance() {
         RadianceProjectionPass::new(&renderer.ctx, &plane, ORDER, 16).expect("projection pass");
     let n = coefficient_count(ORDER);
     let ctx = &renderer.ctx;
+    let stride = RecordKind::Radiance { order: ORDER }.coefficient_floats();
     let samples_buf = ctx.storage_buffer("samples", &samples).expect("upload");
+    let sites_buf = ctx.storage_buffer("sites", &sites).expect("upload");
     let out = ctx
-        .storage_buffer_sized("coefficients", (sites.len() * 3 * n * 4) as u64)
+        .storage_buffer_sized("coefficients", (sites.len() * stride * 4) as u64)
         .expect("out");
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     projection.record(
         ctx,
         &mut enc,
         &prepared.gpu,
+        &sites_buf,
         &samples_buf,
         &out,
+        0,
         sites.len() as u32,
+        None,
     );
     ctx.queue.submit([enc.finish()]);
     let gpu: Vec<f32> = ctx.read_buffer(&out).expect("read");
@@ -102,14 +110,32 @@ fn gpu_projection_matches_the_cpu_and_keeps_the_irradiance() {
     let per = plane.pixels.len();
     for (r, site) in sites.iter().enumerate() {
         let plane_samples: &[PlaneSample] = &samples[r * per..(r + 1) * per];
+        let full = project_with_gradients(&projection.basis, plane_samples);
         let cpu = project(&projection.basis, plane_samples);
-        let g = &gpu[r * 3 * n..(r + 1) * 3 * n];
-        let largest = cpu.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-        for (a, b) in g.iter().zip(&cpu) {
-            assert!(
-                (a - b).abs() <= 1e-5 * largest.max(1e-6),
-                "record {r}: {a} vs {b}"
+        let block = &gpu[r * stride..(r + 1) * stride];
+        // The frame header is the site's turned plane frame: unit, orthogonal, about n.
+        let t = glam::Vec3::new(block[0], block[1], block[2]);
+        let b = glam::Vec3::new(block[4], block[5], block[6]);
+        let nrm = glam::Vec3::from(site.normal);
+        assert!((t.length() - 1.0).abs() < 1e-5 && (b.length() - 1.0).abs() < 1e-5);
+        assert!(t.dot(b).abs() < 1e-5 && t.dot(nrm).abs() < 1e-5);
+        assert!(
+            (t.cross(b) - nrm).length() < 1e-4,
+            "right-handed about the normal"
+        );
+        let g = &block[FRAME_FLOATS..];
+        for part in 0..3 {
+            let (gp, cp) = (
+                &g[part * 3 * n..(part + 1) * 3 * n],
+                &full[part * 3 * n..(part + 1) * 3 * n],
             );
+            let largest = cp.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+            for (a, b) in gp.iter().zip(cp) {
+                assert!(
+                    (a - b).abs() <= 1e-5 * largest.max(1e-6),
+                    "record {r} part {part}: {a} vs {b}"
+                );
+            }
         }
         // E from the coefficients (lambda . cos) equals E from the plane (sum L cos_weight).
         for c in 0..3 {
@@ -125,4 +151,28 @@ fn gpu_projection_matches_the_cpu_and_keeps_the_irradiance() {
             );
         }
     }
+}
+
+/// The coefficients' edge weights reduce to the irradiance's: the cosine is
+/// `(H_0^0 + H_1^0 / sqrt3) sqrt(2 pi) / 2` (l <= 1 span it, algorithms.md 2.2), and the
+/// same combination of the HSH edge weights must give the plane's own `edge_x`, `edge_y`
+/// (`1 / (1 + x^2 + y^2)^2 = cos / (1 + x^2 + y^2)^(3/2)`), stretched border edges included.
+#[test]
+fn coefficient_edge_weights_reduce_to_the_irradiance_edge_weights() {
+    let settings = CacheSettings::default();
+    let plane = settings.plane(settings.plane_resolution);
+    let basis = PlaneBasis::new(&plane, 2, 16);
+    let q = HemisphereQuadrature::new(8);
+    let cosine = q.project(2, |w: DVec3| w.z);
+    let mut worst: f64 = 0.0;
+    for (p, px) in plane.pixels.iter().enumerate() {
+        for (weights, exact) in [(&basis.edge_x, px.edge_x), (&basis.edge_y, px.edge_y)] {
+            let from_hsh: f64 = (0..4)
+                .map(|k| f64::from(weights[p * 4 + k]) * cosine[k])
+                .sum();
+            worst =
+                worst.max((from_hsh - f64::from(exact)).abs() / f64::from(exact).abs().max(1e-3));
+        }
+    }
+    assert!(worst < 1e-3, "relative error {worst}");
 }

@@ -1,6 +1,7 @@
 // Glossy indirect light by importance-sampled Monte Carlo through each glossy pixel's lobe
-// (algorithms.md 2.6: what the seeds do for lobes too sharp for the radiance cache; here
-// every glossy lobe, until radiance records cache the low-frequency ones): up to `samples`
+// (algorithms.md 2.6: what the seeds do for lobes too sharp for the radiance cache, and
+// here for glossy pixels no radiance record covers; covered pixels take the radiance
+// splat's weighted mean, divided here): up to `samples`
 // lobe directions per pixel (`glossy_sample_count`), each hit shaded with direct light (shared/glossy_bounce.wgsl, as
 // the reference's glossy estimate), averaged. Pixels without a glossy lobe get 0.
 // CPU mirror: glossy::reference::glossy_indirect.
@@ -14,13 +15,19 @@ struct GlossyParams {
     sample_begin: u32,
     sample_end: u32,
     samples: u32,
-    _pad: u32,
+    use_radiance: u32,   // 1: pixels the radiance splat covered take its value instead
+    monte_carlo: u32,    // 0: no pixel needs lobe rays (radiance records cover them all)
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(1) @binding(0) var<uniform> camera: Camera;
 @group(1) @binding(1) var<storage, read> vis: array<VisSample>;
 @group(1) @binding(2) var<uniform> params: GlossyParams;
 @group(1) @binding(3) var<storage, read_write> glossy_out: array<vec4f>;
+// (specular * sum w L, sum w) of the radiance records (splat/radiance.rs), when used.
+@group(1) @binding(4) var<storage, read> radiance: array<vec4f>;
 
 // Every shadow ray is traced (no light maps).
 fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32 {
@@ -56,10 +63,21 @@ fn main(
     let pixel = id.y * camera.width + id.x;
     let v = vis[pixel];
     var g = vec3f(0.0);
+    var cached = vec4f(0.0);
+    if params.use_radiance != 0u {
+        cached = radiance[pixel];
+    }
+    if cached.w > 0.0 {
+        // Radiance records cover the pixel: their interpolated reflection, written once.
+        if params.sample_end == params.samples {
+            glossy_out[pixel] = vec4f(cached.xyz / cached.w, 1.0);
+        }
+        return;
+    }
     if v.instance != NO_HIT {
         let dir = camera_ray_dir(camera, id.xy);
         let s = surface_at(Hit(v.t, v.instance, v.triangle, v.bary.x, v.bary.y), dir);
-        if has_phong(s) {
+        if params.monte_carlo != 0u && has_phong(s) {
             if params.sample_begin > 0u {
                 g = glossy_out[pixel].xyz;
             }

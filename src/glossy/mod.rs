@@ -3,9 +3,9 @@
 //! Monte Carlo (`wgsl/glossy_indirect.wgsl`, algorithms.md 2.6): `samples` lobe directions
 //! per pixel, each hit shaded with direct light. The resolve adds it to the Lambertian
 //! indirect light from the irradiance cache. The seeds shade lobes too sharp for the
-//! radiance cache this way; radiance records (HSH, [`crate::hsh`]) will take over the
-//! low-frequency ones. The CPU mirror is `reference::cpu::glossy_indirect` (the CPU
-//! references sit above the passes they mirror).
+//! radiance cache this way; pixels that radiance records cover (`splat/radiance.rs`) take
+//! the records' value instead. The CPU mirror is `reference::cpu::glossy_indirect` (the
+//! CPU references sit above the passes they mirror).
 
 use crate::Result;
 use crate::gpu::context::max_samples_per_dispatch;
@@ -20,7 +20,9 @@ struct GlossyParams {
     sample_begin: u32,
     sample_end: u32,
     samples: u32,
-    _pad: u32,
+    use_radiance: u32,
+    monte_carlo: u32,
+    _pad: [u32; 3],
 }
 
 /// The glossy indirect pass.
@@ -35,13 +37,17 @@ impl GlossyIndirectPass {
             pass: ComputePass::new(
                 ctx,
                 "glossy_indirect.wgsl",
-                &[Uniform, StorageRead, Uniform, StorageReadWrite],
+                &[Uniform, StorageRead, Uniform, StorageReadWrite, StorageRead],
             )?,
         })
     }
 
     /// Records the pass for a visibility buffer: a buffer of RGBA f32 per pixel, the glossy
-    /// indirect radiance (zero where a pixel has no glossy lobe).
+    /// indirect radiance (zero where a pixel has no glossy lobe). With `radiance` (the
+    /// radiance splat's `(sum w L, sum w)` per pixel), pixels it covers take its mean and
+    /// trace nothing; with `radiance_covers_all` no pixel traces lobe rays (the radiance
+    /// records cover every glossy pixel: one dispatch copies their values).
+    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         ctx: &GpuContext,
@@ -49,16 +55,30 @@ impl GlossyIndirectPass {
         scene: &GpuScene,
         vis: &VisibilityBuffer,
         samples: u32,
+        radiance: Option<&wgpu::Buffer>,
+        radiance_covers_all: bool,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<wgpu::Buffer> {
+        let placeholder;
+        let radiance_buf = match radiance {
+            Some(b) => b,
+            None => {
+                placeholder = ctx.storage_buffer_sized("no radiance splat", 16)?;
+                &placeholder
+            }
+        };
         let out = ctx.storage_buffer_sized(
             "glossy indirect",
             u64::from(vis.width) * u64::from(vis.height) * 16,
         )?;
         let samples = samples.max(1);
         // Samples per dispatch: each traces a lobe ray and its hit's shadow rays.
-        let per_dispatch =
-            max_samples_per_dispatch(scene.info.max_shadow_rays(scene.info.light_samples.max(1)));
+        let monte_carlo = !(radiance.is_some() && radiance_covers_all);
+        let per_dispatch = if monte_carlo {
+            max_samples_per_dispatch(scene.info.max_shadow_rays(scene.info.light_samples.max(1)))
+        } else {
+            samples
+        };
         let mut begin = 0;
         while begin < samples {
             let end = (begin + per_dispatch).min(samples);
@@ -85,12 +105,21 @@ impl GlossyIndirectPass {
                     sample_begin: begin,
                     sample_end: end,
                     samples,
-                    _pad: 0,
+                    use_radiance: u32::from(radiance.is_some()),
+                    monte_carlo: u32::from(monte_carlo),
+                    _pad: [0; 3],
                 },
             );
-            let bind = self
-                .pass
-                .bind(ctx, &[&vis.camera_buffer, &vis.samples, &params, &out]);
+            let bind = self.pass.bind(
+                ctx,
+                &[
+                    &vis.camera_buffer,
+                    &vis.samples,
+                    &params,
+                    &out,
+                    radiance_buf,
+                ],
+            );
             self.pass.record(
                 encoder,
                 &scene.bind_group,

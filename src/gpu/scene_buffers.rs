@@ -274,6 +274,9 @@ pub struct GpuScene {
     pub diagonal: f32,
     /// Whether any material has a glossy lobe (passes for glossy pixels run only then).
     pub has_glossy: bool,
+    /// Each material's glossy lobe (index: material), for the tables radiance records
+    /// are splatted with.
+    pub glossy_lobes: Vec<Option<crate::scene::GlossyLobe>>,
 }
 
 /// Group 0: the BVH node texture at binding 0, storage buffers at bindings
@@ -445,6 +448,7 @@ impl GpuScene {
                 (hi - lo).length()
             },
             has_glossy: scene.materials.iter().any(|m| m.glossy.is_some()),
+            glossy_lobes: scene.materials.iter().map(|m| m.glossy).collect(),
         })
     }
 

@@ -61,6 +61,18 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/radiance_project.wgsl"),
     ),
     (
+        "radiance_need.wgsl",
+        include_str!("../../wgsl/radiance_need.wgsl"),
+    ),
+    (
+        "radiance_gather.wgsl",
+        include_str!("../../wgsl/radiance_gather.wgsl"),
+    ),
+    (
+        "shared/radiance_records.wgsl",
+        include_str!("../../wgsl/shared/radiance_records.wgsl"),
+    ),
+    (
         "shared/records.wgsl",
         include_str!("../../wgsl/shared/records.wgsl"),
     ),

@@ -132,6 +132,97 @@ impl ProjectedLobe {
     }
 }
 
+/// The projected lobe of an isotropic BRDF as the splat reads it: coefficients for
+/// outgoing directions in the xz half-plane (`phi_o = 0`) at `steps` even angles
+/// `theta_o` in `[0, pi/2]`. A lobe that is the same all around the normal (Phong is) has
+/// at `(theta_o, phi_o)` the coefficients at `(theta_o, 0)` turned about the normal by
+/// `phi_o` ([`crate::hsh::rotate_z`], exact), so a 1-D table and one exact turn replace
+/// the paraboloid map's 2-D interpolation, which blurs the lobe in azimuth.
+#[derive(Clone, Debug)]
+pub struct LobeTable {
+    pub order: u32,
+    pub steps: u32,
+    /// `steps x order^2` f32 coefficients of the lobe's shape (specular 1).
+    pub coefficients: Vec<f32>,
+    /// The accuracy metric (eq. 3.32) at each angle.
+    pub accuracy: Vec<f64>,
+}
+
+impl LobeTable {
+    pub fn new(lobe: &GlossyLobe, order: u32, steps: u32, quadrature: &Quadrature) -> Self {
+        let n = coefficient_count(order);
+        let shape = unit_shape(lobe);
+        let steps = steps.max(2);
+        let mut coefficients = Vec::with_capacity(steps as usize * n);
+        let mut accuracy = Vec::with_capacity(steps as usize);
+        let stride = quadrature.basis_stride;
+        for s in 0..steps {
+            // Grazing outgoing directions sit just above the horizon.
+            let t = (f64::from(s) / f64::from(steps - 1)).min(0.999) * std::f64::consts::FRAC_PI_2;
+            let wo = DVec3::new(t.sin(), 0.0, t.cos());
+            let mut c = vec![0.0f64; n];
+            let mut energy = 0.0;
+            for (q, (wi, dw)) in quadrature
+                .rule
+                .directions
+                .iter()
+                .zip(&quadrature.rule.weights)
+                .enumerate()
+            {
+                let g = f64::from(shape.eval(Vec3::Z, wo.as_vec3(), wi.as_vec3()).x) * wi.z;
+                if g == 0.0 {
+                    continue;
+                }
+                energy += g * g * dw;
+                let h = &quadrature.basis[q * stride..q * stride + n];
+                for (ck, hk) in c.iter_mut().zip(h) {
+                    *ck += g * dw * hk;
+                }
+            }
+            let captured: f64 = c.iter().map(|x| x * x).sum();
+            accuracy.push(if energy > 0.0 { captured / energy } else { 1.0 });
+            coefficients.extend(c.iter().map(|&x| x as f32));
+        }
+        Self {
+            order,
+            steps,
+            coefficients,
+            accuracy,
+        }
+    }
+
+    /// The coefficients for `wo` (local frame), interpolated in theta and turned to its
+    /// azimuth, as the GPU splat computes them.
+    pub fn at(&self, wo: DVec3) -> Vec<f64> {
+        let n = coefficient_count(self.order);
+        let theta = wo.z.clamp(0.0, 1.0).acos();
+        let t = (theta / std::f64::consts::FRAC_PI_2 * f64::from(self.steps - 1))
+            .clamp(0.0, f64::from(self.steps - 1));
+        let i = (t.floor() as u32).min(self.steps - 2) as usize;
+        let f = t - i as f64;
+        let c: Vec<f64> = (0..n)
+            .map(|k| {
+                f64::from(self.coefficients[i * n + k]) * (1.0 - f)
+                    + f64::from(self.coefficients[(i + 1) * n + k]) * f
+            })
+            .collect();
+        crate::hsh::rotate_z(&c, self.order, wo.y.atan2(wo.x))
+    }
+
+    /// The accuracy (eq. 3.32) averaged over outgoing directions by solid angle.
+    pub fn mean_accuracy(&self) -> f64 {
+        let mut sum = 0.0;
+        let mut weight = 0.0;
+        for (s, a) in self.accuracy.iter().enumerate() {
+            let t = f64::from(s as u32) / f64::from(self.steps - 1) * std::f64::consts::FRAC_PI_2;
+            let w = t.sin().max(1e-3);
+            sum += a * w;
+            weight += w;
+        }
+        sum / weight
+    }
+}
+
 /// A quadrature rule with the basis precomputed at its directions.
 pub struct Quadrature {
     pub rule: HemisphereQuadrature,

@@ -14,6 +14,7 @@
 //! from +x towards +y). Everything is f64: projections and tests compare to 1e-9.
 
 pub mod brdf_projection;
+pub mod rotation;
 
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -33,7 +34,7 @@ pub fn index(l: u32, m: i32) -> usize {
 
 /// Every associated Legendre polynomial `P_l^m(x)`, `0 <= m <= l < order`, with the
 /// Condon-Shortley phase, by the stable recurrences of eqs. 3.4-3.6; `out[l][m]`.
-fn legendre(order: u32, x: f64) -> Vec<Vec<f64>> {
+pub(crate) fn legendre(order: u32, x: f64) -> Vec<Vec<f64>> {
     let n = order as usize;
     let mut p = vec![vec![0.0; n]; n];
     let s = (1.0 - x * x).max(0.0).sqrt();
@@ -56,7 +57,7 @@ fn legendre(order: u32, x: f64) -> Vec<Vec<f64>> {
 }
 
 /// `K_l^m` of the hemispherical basis.
-fn normalisation(l: u32, m: u32) -> f64 {
+pub(crate) fn normalisation(l: u32, m: u32) -> f64 {
     // (l - m)! / (l + m)! as a product, without overflowing factorials.
     let mut ratio = 1.0;
     for k in (l - m + 1)..=(l + m) {
@@ -168,7 +169,7 @@ pub fn rotate_z(c: &[f64], order: u32, alpha: f64) -> Vec<f64> {
 }
 
 /// Gauss-Legendre nodes and weights on [-1, 1] (Newton iteration on `P_n`).
-fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
     let mut x = vec![0.0; n];
     let mut w = vec![0.0; n];
     for i in 0..n {

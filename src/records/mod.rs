@@ -4,6 +4,7 @@
 //! holds them across frames ([`RecordCache`]). [`reference`] mirrors the computation on
 //! the CPU.
 
+pub mod kind;
 pub mod plane;
 pub mod plane_error;
 pub mod radiance_projection;
@@ -19,6 +20,7 @@ use crate::visibility::VisibilityBuffer;
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
+pub use kind::RecordKind;
 pub use plane::{HemispherePlane, PlaneMode, PlanePixel, PlaneSpacing, RefineSample};
 pub use stage::{PlaneBatch, RecordStage};
 
@@ -190,6 +192,9 @@ pub struct CacheSettings {
     /// importance-sampled Monte Carlo), for a lobe that is all of the material's
     /// reflectance; a pixel takes this times the lobe's share (at least 1).
     pub glossy_samples: u32,
+    /// Radiance records for low-frequency glossy lobes (issue 18): order, their own
+    /// accuracy, which lobes they shade, how their frames are rotated.
+    pub radiance: crate::splat::radiance::RadianceSettings,
 }
 
 /// How hemisphere-plane hits are shadowed (thesis section 4.4 uses shadow maps).
@@ -231,6 +236,7 @@ impl Default for CacheSettings {
             plane_refine: 0.1,
             plane_refine_split: 2,
             glossy_samples: 32,
+            radiance: Default::default(),
         }
     }
 }
@@ -283,6 +289,31 @@ impl CacheSettings {
                 "-a/--accuracy",
                 self.accuracy.to_string(),
                 "must be in (0, 1]",
+            );
+        }
+        let r = &self.radiance;
+        if r.order > crate::hsh::MAX_ORDER {
+            return bad(
+                "radiance order",
+                "--radiance-order",
+                r.order.to_string(),
+                "must be at most 10 (100 coefficients per channel); 0 turns radiance records off",
+            );
+        }
+        if !(r.accuracy > 0.0 && r.accuracy <= 1.0) {
+            return bad(
+                "radiance accuracy",
+                "--radiance-accuracy",
+                r.accuracy.to_string(),
+                "must be in (0, 1]",
+            );
+        }
+        if !(0.0..=1.0).contains(&r.min_lobe_accuracy) {
+            return bad(
+                "radiance lobe accuracy",
+                "--radiance-lobe-accuracy",
+                r.min_lobe_accuracy.to_string(),
+                "must be in [0, 1]",
             );
         }
         if !(2..=512).contains(&self.plane_resolution) {
@@ -379,9 +410,15 @@ impl CacheSettings {
 }
 
 /// The records of a scene, resident on the GPU, with room to grow (view-independent: a
-/// new camera reuses them, thesis section 4.7.2).
+/// new camera reuses them, thesis section 4.7.2). A cache holds records of one
+/// [`RecordKind`]; radiance records keep their coefficients in `coefficients`, one block
+/// per record at the record's index.
 pub struct RecordCache {
     pub buffer: wgpu::Buffer,
+    /// The kind's per-record blocks beside `buffer` ([`RecordKind::coefficient_floats`]
+    /// f32 each); a 16-byte placeholder for irradiance records.
+    pub coefficients: wgpu::Buffer,
+    pub kind: RecordKind,
     /// Records in use (the first `count` of the buffer).
     pub count: u32,
     capacity: u32,
@@ -396,39 +433,70 @@ impl RecordCache {
     pub fn prefix(&self, count: u32) -> RecordCache {
         RecordCache {
             buffer: self.buffer.clone(),
+            coefficients: self.coefficients.clone(),
+            kind: self.kind,
             count: count.min(self.count),
             capacity: self.capacity,
         }
     }
 
+    /// An empty cache of irradiance records.
     pub fn new(ctx: &GpuContext) -> Result<Self> {
+        Self::with_kind(ctx, RecordKind::Irradiance)
+    }
+
+    /// An empty cache of `kind` records.
+    pub fn with_kind(ctx: &GpuContext, kind: RecordKind) -> Result<Self> {
         let capacity = 1024;
         Ok(Self {
             buffer: ctx.storage_buffer_sized("records", u64::from(capacity) * RECORD_BYTES)?,
+            coefficients: ctx.storage_buffer_sized(
+                "record coefficients",
+                (u64::from(capacity) * kind.coefficient_bytes()).max(16),
+            )?,
+            kind,
             count: 0,
             capacity,
         })
     }
 
-    /// Makes room for `extra` more records, growing the buffer (copying the records) or
+    /// Most records of this cache's kind one binding holds on `ctx`'s device.
+    pub fn max_records(&self, ctx: &GpuContext) -> u64 {
+        let per = RECORD_BYTES.max(self.kind.coefficient_bytes());
+        ctx.max_binding_size() / per
+    }
+
+    /// Makes room for `extra` more records, growing the buffers (copying the records) or
     /// failing with a device-limit error naming the record count.
     pub fn reserve(&mut self, ctx: &GpuContext, extra: u32) -> Result<()> {
         let needed = u64::from(self.count) + u64::from(extra);
         if needed <= u64::from(self.capacity) {
             return Ok(());
         }
-        let max_records = ctx.max_binding_size() / RECORD_BYTES;
+        let max_records = self.max_records(ctx);
         if needed > max_records {
+            let per = RECORD_BYTES.max(self.kind.coefficient_bytes());
+            let hint = match self.kind {
+                RecordKind::Irradiance => String::new(),
+                RecordKind::Radiance { .. } => {
+                    "; a lower --radiance-order or a larger --radiance-accuracy needs fewer bytes"
+                        .into()
+                }
+            };
             return Err(Error::DeviceLimit(format!(
-                "{needed} irradiance records need {} MiB in one buffer; this device allows {} \
-                 records ({} MiB per binding)",
-                (needed * RECORD_BYTES).div_ceil(1 << 20),
+                "{needed} {} need {} MiB in one buffer; this device allows {} \
+                 records ({} MiB per binding){hint}",
+                self.kind.describe(),
+                (needed * per).div_ceil(1 << 20),
                 max_records,
                 ctx.max_binding_size() >> 20
             )));
         }
         let capacity = (needed.max(u64::from(self.capacity) * 2)).min(max_records) as u32;
         let buffer = ctx.storage_buffer_sized("records", u64::from(capacity) * RECORD_BYTES)?;
+        let block = self.kind.coefficient_bytes();
+        let coefficients =
+            ctx.storage_buffer_sized("record coefficients", (u64::from(capacity) * block).max(16))?;
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         enc.copy_buffer_to_buffer(
             &self.buffer,
@@ -437,8 +505,18 @@ impl RecordCache {
             0,
             u64::from(self.count) * RECORD_BYTES,
         );
+        if block > 0 && self.count > 0 {
+            enc.copy_buffer_to_buffer(
+                &self.coefficients,
+                0,
+                &coefficients,
+                0,
+                u64::from(self.count) * block,
+            );
+        }
         ctx.queue.submit([enc.finish()]);
         self.buffer = buffer;
+        self.coefficients = coefficients;
         self.capacity = capacity;
         Ok(())
     }
@@ -450,13 +528,25 @@ impl RecordCache {
         Ok(all)
     }
 
+    /// Reads the coefficient blocks back (`count x coefficient_floats` f32; empty for
+    /// irradiance records).
+    pub fn read_coefficients(&self, ctx: &GpuContext) -> Result<Vec<f32>> {
+        if self.kind.coefficient_floats() == 0 {
+            return Ok(Vec::new());
+        }
+        let mut all: Vec<f32> = ctx.read_buffer(&self.coefficients)?;
+        all.truncate(self.count as usize * self.kind.coefficient_floats());
+        Ok(all)
+    }
+
     /// The byte range of records `first..first + count`, for
     /// [`GpuContext::read_buffer_ranges`].
     pub fn byte_range(first: u32, count: u32) -> std::ops::Range<u64> {
         u64::from(first) * RECORD_BYTES..u64::from(first + count) * RECORD_BYTES
     }
 
-    /// Replaces the contents with `records` (tests, cache files).
+    /// Replaces the contents with `records` (tests, cache files); radiance records keep
+    /// whatever coefficients their blocks held.
     pub fn upload(&mut self, ctx: &GpuContext, records: &[Record]) -> Result<()> {
         self.count = 0;
         self.reserve(ctx, records.len() as u32)?;
@@ -563,12 +653,31 @@ pub struct RecordPass {
     pub batch: u32,
     /// What plane passes bind when a frame has no light maps.
     no_light_maps: LightMaps,
+    /// The kind of records computed; radiance records also project their planes.
+    pub kind: RecordKind,
+    projection: Option<radiance_projection::RadianceProjectionPass>,
 }
 
 impl RecordPass {
+    /// A pass computing irradiance records.
     pub fn new(ctx: &GpuContext, settings: &CacheSettings) -> Result<Self> {
+        Self::with_kind(ctx, settings, RecordKind::Irradiance)
+    }
+
+    /// A pass computing `kind` records: radiance records are irradiance records whose
+    /// planes are also projected onto HSH (`radiance_project.wgsl`).
+    pub fn with_kind(ctx: &GpuContext, settings: &CacheSettings, kind: RecordKind) -> Result<Self> {
         use Binding::*;
         settings.validate()?;
+        let projection = match kind {
+            RecordKind::Irradiance => None,
+            RecordKind::Radiance { order } => {
+                let plane = settings.plane(settings.plane_resolution);
+                Some(radiance_projection::RadianceProjectionPass::new(
+                    ctx, &plane, order, 16,
+                )?)
+            }
+        };
         let plane_bytes = u64::from(settings.plane_resolution).pow(2) * 16;
         // As many records per dispatch as fit one binding, at most 256 (a few seconds of
         // rays on a CPU device, so progress stays visible).
@@ -609,6 +718,8 @@ impl RecordPass {
             settings: settings.clone(),
             batch,
             no_light_maps: LightMaps::none(ctx)?,
+            kind,
+            projection,
         })
     }
 
@@ -686,6 +797,13 @@ impl RecordPass {
                  or --temporal off"
                     .into(),
             ));
+        }
+        if cache.kind != self.kind {
+            return Err(Error::Usage(format!(
+                "internal: a pass for {} appends to a cache of {}",
+                self.kind.describe(),
+                cache.kind.describe()
+            )));
         }
         cache.reserve(ctx, count)?;
         let res = self.settings.plane_resolution;
@@ -771,6 +889,19 @@ impl RecordPass {
             }
             if let Some(st) = stage.as_deref_mut() {
                 st.planes_ready(ctx, &mut enc, &batch, res)?;
+            }
+            if let Some(projection) = &self.projection {
+                projection.record(
+                    ctx,
+                    &mut enc,
+                    scene,
+                    &batch_sites,
+                    &samples,
+                    &cache.coefficients,
+                    cache.count,
+                    n,
+                    timer.next("radiance projection"),
+                );
             }
             let reduction = ReductionBatch {
                 sites: &batch_sites,

@@ -9,9 +9,11 @@
 //! [`PlaneBasis`] computes `W` once per plane on the CPU (f64 quadrature, stored f32);
 //! [`RadianceProjectionPass`] (`wgsl/radiance_project.wgsl`) projects planes on the GPU,
 //! one invocation per (record, coefficient) summing the pixels in order, so the result is
-//! deterministic; [`project`] is its CPU mirror.
+//! deterministic; [`project_with_gradients`] is its CPU mirror. The translational gradient
+//! of every coefficient comes from the same plane (algorithms.md 3.3: each pixel edge
+//! sweeps the radiance difference across it, weighted by `H_k` at the edge).
 
-use super::{HemispherePlane, PlaneSample, plane::rect_solid_angle};
+use super::{HemispherePlane, PlaneSample, RecordKind, plane::rect_solid_angle};
 use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
@@ -20,26 +22,60 @@ use crate::hsh::{basis, coefficient_count};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
-/// The basis integrated over every pixel of a plane.
+/// The basis integrated over every pixel of a plane, and over every pixel edge for the
+/// coefficients' translational gradients.
 #[derive(Clone, Debug)]
 pub struct PlaneBasis {
     pub order: u32,
     pub resolution: u32,
-    /// `resolution^2` pixels, `order^2` values each.
+    /// `resolution^2` pixels, `order^2` values each: `W_pk`.
     pub weights: Vec<f32>,
+    /// Per pixel, `order^2` weights of the edge to its right neighbour (x + 1) in the
+    /// translational gradient (0 on the last column): algorithms.md 3.3 with `H_k` in place
+    /// of the cosine, `integral along the edge of H_k(w_b) / (1 + x_b^2 + y^2)^(3/2) dy`.
+    pub edge_x: Vec<f32>,
+    /// The same for the edge to the neighbour above (y + 1).
+    pub edge_y: Vec<f32>,
+}
+
+/// `integral over [t0, t1] of H(dir(x_b, c tan t)) cos(t) / c^2 dt` (`c^2 = 1 + x_b^2`),
+/// the edge integral of algorithms.md 3.3 after `y = c tan t` (finite for infinite edges),
+/// by the midpoint rule with `steps` steps; `swap` puts the edge's coordinate on y.
+fn edge_weights(order: u32, x_b: f64, y0: f64, y1: f64, steps: usize, swap: bool) -> Vec<f64> {
+    let c2 = 1.0 + x_b * x_b;
+    let c = c2.sqrt();
+    let (t0, t1) = ((y0 / c).atan(), (y1 / c).atan());
+    let mut w = vec![0.0f64; coefficient_count(order)];
+    for q in 0..steps {
+        let t = t0 + (t1 - t0) * (q as f64 + 0.5) / steps as f64;
+        let y = c * t.tan();
+        let dir = if swap {
+            DVec3::new(y, x_b, 1.0)
+        } else {
+            DVec3::new(x_b, y, 1.0)
+        }
+        .normalize();
+        let dt = (t1 - t0) / steps as f64 * t.cos() / c2;
+        for (wk, hk) in w.iter_mut().zip(basis(order, dir)) {
+            *wk += dt * hk;
+        }
+    }
+    w
 }
 
 impl PlaneBasis {
     /// `W` of `plane` at `order`, each pixel split into `sub x sub` cells whose exact solid
-    /// angles weigh the basis at their centres.
+    /// angles weigh the basis at their centres; the edge weights with `4 sub` steps.
     pub fn new(plane: &HemispherePlane, order: u32, sub: u32) -> Self {
         let p = plane.resolution as usize;
         let m = sub.max(1) as usize;
         let n = coefficient_count(order);
         let axes: Vec<_> = (0..p).map(|i| plane.sub_intervals(i, m)).collect();
         let mut weights = Vec::with_capacity(p * p * n);
-        for (ye, yc) in &axes {
-            for (xe, xc) in &axes {
+        let mut edge_x = Vec::with_capacity(p * p * n);
+        let mut edge_y = Vec::with_capacity(p * p * n);
+        for (j, (ye, yc)) in axes.iter().enumerate() {
+            for (i, (xe, xc)) in axes.iter().enumerate() {
                 let mut w = vec![0.0f64; n];
                 for qy in 0..m {
                     for qx in 0..m {
@@ -51,28 +87,90 @@ impl PlaneBasis {
                     }
                 }
                 weights.extend(w.iter().map(|&x| x as f32));
+                let ex = if i + 1 < p {
+                    edge_weights(order, xe[m], ye[0], ye[m], 4 * m, false)
+                } else {
+                    vec![0.0; n]
+                };
+                let ey = if j + 1 < p {
+                    edge_weights(order, ye[m], xe[0], xe[m], 4 * m, true)
+                } else {
+                    vec![0.0; n]
+                };
+                edge_x.extend(ex.iter().map(|&x| x as f32));
+                edge_y.extend(ey.iter().map(|&x| x as f32));
             }
         }
         Self {
             order,
             resolution: plane.resolution,
             weights,
+            edge_x,
+            edge_y,
         }
+    }
+
+    /// The GPU table: per pixel `W`, edge-x and edge-y weights (`3 order^2` f32).
+    pub fn gpu_table(&self) -> Vec<f32> {
+        let n = coefficient_count(self.order);
+        let mut out = Vec::with_capacity(self.weights.len() * 3);
+        for p in 0..self.weights.len() / n {
+            out.extend_from_slice(&self.weights[p * n..(p + 1) * n]);
+            out.extend_from_slice(&self.edge_x[p * n..(p + 1) * n]);
+            out.extend_from_slice(&self.edge_y[p * n..(p + 1) * n]);
+        }
+        out
     }
 }
 
 /// The coefficients of one plane (`P^2` samples): `order^2` per channel, channel-major
 /// (all red coefficients, then green, then blue), summed over pixels in order as the GPU.
 pub fn project(basis: &PlaneBasis, samples: &[PlaneSample]) -> Vec<f32> {
+    project_with_gradients(basis, samples)[..3 * coefficient_count(basis.order)].to_vec()
+}
+
+/// Depth of the nearer of two samples (Ward's min rule); <= 0 when both are misses.
+fn nearer_depth(a: f32, b: f32) -> f32 {
+    if a <= 0.0 {
+        b
+    } else if b <= 0.0 {
+        a
+    } else {
+        a.min(b)
+    }
+}
+
+/// The coefficients and their translational gradients along the plane's x and y axes
+/// (`9 order^2`, laid out as [`super::RecordKind::coefficient_floats`] after the frame):
+/// each pixel edge sweeps the radiance difference across it with the nearer depth
+/// (algorithms.md 3.3), summed in pixel order as the GPU.
+pub fn project_with_gradients(basis: &PlaneBasis, samples: &[PlaneSample]) -> Vec<f32> {
     let n = coefficient_count(basis.order);
-    let mut out = vec![0.0f32; 3 * n];
+    let res = basis.resolution as usize;
+    let mut out = vec![0.0f32; 9 * n];
     for c in 0..3 {
         for k in 0..n {
-            let mut sum = 0.0f32;
+            let (mut v, mut gx, mut gy) = (0.0f32, 0.0f32, 0.0f32);
             for (p, s) in samples.iter().enumerate() {
-                sum += s.radiance[c] * basis.weights[p * n + k];
+                v += s.radiance[c] * basis.weights[p * n + k];
+                if p % res + 1 < res {
+                    let right = &samples[p + 1];
+                    let z = nearer_depth(s.depth, right.depth);
+                    if z > 0.0 {
+                        gx += (right.radiance[c] - s.radiance[c]) * (basis.edge_x[p * n + k] / z);
+                    }
+                }
+                if p + res < samples.len() {
+                    let up = &samples[p + res];
+                    let z = nearer_depth(s.depth, up.depth);
+                    if z > 0.0 {
+                        gy += (up.radiance[c] - s.radiance[c]) * (basis.edge_y[p * n + k] / z);
+                    }
+                }
             }
-            out[c * n + k] = sum;
+            out[c * n + k] = v;
+            out[3 * n + c * n + k] = gx;
+            out[6 * n + c * n + k] = gy;
         }
     }
     out
@@ -82,16 +180,19 @@ pub fn project(basis: &PlaneBasis, samples: &[PlaneSample]) -> Vec<f32> {
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct ProjectParams {
     pixels: u32,
+    resolution: u32,
     coefficients: u32,
     count: u32,
-    _pad: u32,
+    first_record: u32,
+    stride: u32,
+    _pad: [u32; 2],
 }
 
 /// The GPU projection pass with its plane basis.
 pub struct RadianceProjectionPass {
     pass: ComputePass,
     pub basis: PlaneBasis,
-    weights: wgpu::Buffer,
+    table: wgpu::Buffer,
 }
 
 impl RadianceProjectionPass {
@@ -104,41 +205,61 @@ impl RadianceProjectionPass {
             pass: ComputePass::new(
                 ctx,
                 "radiance_project.wgsl",
-                &[Uniform, StorageRead, StorageRead, StorageReadWrite],
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                ],
             )?,
-            weights: ctx.storage_buffer("plane basis integrals", &basis.weights)?,
+            table: ctx.storage_buffer("plane basis integrals", &basis.gpu_table())?,
             basis,
         })
     }
 
-    /// Projects `count` planes (`samples`: `P^2` [`PlaneSample`]s each) into `out`
-    /// (`3 order^2` f32 per plane, as [`project`]).
+    /// Projects the `count` planes of `sites` (`samples`: `P^2` [`PlaneSample`]s each)
+    /// into the radiance records `first_record..` of `out` (a coefficient buffer laid out
+    /// as [`RecordKind::coefficient_floats`]): each record's frame, coefficients and their
+    /// gradients.
+    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         ctx: &GpuContext,
         enc: &mut wgpu::CommandEncoder,
         scene: &GpuScene,
+        sites: &wgpu::Buffer,
         samples: &wgpu::Buffer,
         out: &wgpu::Buffer,
+        first_record: u32,
         count: u32,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let n = coefficient_count(self.basis.order) as u32;
+        let kind = RecordKind::Radiance {
+            order: self.basis.order,
+        };
         let params = ctx.uniform_buffer(
             "projection params",
             &ProjectParams {
                 pixels: self.basis.resolution * self.basis.resolution,
+                resolution: self.basis.resolution,
                 coefficients: n,
                 count,
-                _pad: 0,
+                first_record,
+                stride: kind.coefficient_floats() as u32,
+                _pad: [0; 2],
             },
         );
-        let bind = self.pass.bind(ctx, &[&params, &self.weights, samples, out]);
+        let bind = self
+            .pass
+            .bind(ctx, &[&params, &self.table, sites, samples, out]);
         self.pass.record(
             enc,
             &scene.bind_group,
             &bind,
-            [(3 * n).div_ceil(64), count, 1],
-            None,
+            [n.div_ceil(64), count, 1],
+            timestamps,
         );
     }
 }

@@ -8,6 +8,7 @@
 //! record after placement.
 
 pub mod cover;
+pub mod radiance;
 pub mod reference;
 pub mod tile_bounds;
 

@@ -801,6 +801,9 @@ impl TemporalCache {
                 count_coverage: self.settings.replacement == Replacement::Covering,
                 placement_only,
                 visibility,
+                // Radiance records are not yet cached over time: glossy lobes by Monte
+                // Carlo in animations.
+                radiance: None,
             },
             progress,
         )?;

@@ -15,6 +15,10 @@ struct Record {
     translation_gradient: array<vec4f, 3>,  // per channel: grad_t (xyz)
 }
 
+// A radiance record's coefficient block (records/kind.rs) starts with its plane frame:
+// tangent and bitangent, each padded to a vec4.
+const FRAME_FLOATS: u32 = 8u;
+
 // Rust: records::plane::PlanePixel.
 struct PlanePixel {
     weights: vec4f,   // cos_weight, solid_angle, edge_x, edge_y

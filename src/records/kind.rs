@@ -1,0 +1,52 @@
+//! What a record of each kind stores and how it is splatted: the one place that says it
+//! (issue 18). Both kinds share the [`super::Record`] (p, n, R and the irradiance fields
+//! the reduction writes), placement, binning and the temporal machinery; a radiance record
+//! adds a block of HSH coefficients in a buffer beside the records
+//! ([`super::RecordCache::coefficients`]), one block per record at the same index.
+//!
+//! - [`RecordKind::Irradiance`]: E and its gradients, splatted on Lambertian lobes
+//!   (`wgsl/splat_gather.wgsl`, thesis eq. 4.1).
+//! - [`RecordKind::Radiance`]: incoming radiance in hemispherical harmonics of `order`
+//!   (thesis chapter 3, algorithms.md 2.1), with the 2-D translational gradient of every
+//!   coefficient, splatted on glossy lobes (`wgsl/radiance_gather.wgsl`: rotated into the
+//!   pixel's frame, dotted with the lobe's coefficients).
+
+use crate::hsh::coefficient_count;
+
+/// The kind of a record cache.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum RecordKind {
+    Irradiance,
+    Radiance { order: u32 },
+}
+
+/// f32s of a radiance record's frame header: its plane's tangent and bitangent (the
+/// turned frame its coefficients are in, `record_frame` in `wgsl/shared/records.wgsl`),
+/// each padded to a vec4.
+pub const FRAME_FLOATS: usize = 8;
+
+impl RecordKind {
+    /// f32s per record in the coefficient buffer: the frame, then per channel `order^2`
+    /// coefficients, then their gradients along the frame's x and y axes (channel-major:
+    /// values r, g, b; x-gradients r, g, b; y-gradients r, g, b). The thesis's 900 values
+    /// at order 10 plus the frame; 0 for irradiance records.
+    pub fn coefficient_floats(self) -> usize {
+        match self {
+            RecordKind::Irradiance => 0,
+            RecordKind::Radiance { order } => FRAME_FLOATS + 9 * coefficient_count(order),
+        }
+    }
+
+    /// Bytes per record in the coefficient buffer.
+    pub fn coefficient_bytes(self) -> u64 {
+        self.coefficient_floats() as u64 * 4
+    }
+
+    /// What the kind is called in messages.
+    pub fn describe(self) -> String {
+        match self {
+            RecordKind::Irradiance => "irradiance records".into(),
+            RecordKind::Radiance { order } => format!("radiance records of HSH order {order}"),
+        }
+    }
+}

@@ -1,0 +1,420 @@
+//! Splatting radiance records onto glossy pixels (issue 18; thesis section 4.4 with the
+//! records of chapter 3): the tables the splat reads, built once per scene, the pass
+//! that marks which pixels need radiance records (placement of the radiance cache), and
+//! the weighted gather (`wgsl/radiance_gather.wgsl`), with its CPU mirror
+//! [`reference_gather`].
+//!
+//! Which lobes radiance records shade (algorithms.md 2.6: "low-frequency, moderately
+//! glossy BRDFs"; sharper ones by importance-sampled Monte Carlo): a material's lobe gets
+//! a slot when the order in use captures at least `min_lobe_accuracy` of its energy
+//! (thesis eq. 3.32, averaged over outgoing directions by solid angle). With the defaults
+//! (order 8, 0.9) Phong exponents up to about 35 qualify (Phong 20: 0.98, Phong 30:
+//! 0.94, Phong 40: 0.89 by `radsplat brdf-projection`).
+
+use super::{SplatPass, SplatSource};
+use crate::Result;
+use crate::gpu::GpuContext;
+use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
+use crate::gpu::scene_buffers::GpuScene;
+use crate::gpu::timer::PassTimer;
+use crate::hsh::brdf_projection::{LobeTable, quadrature_for};
+use crate::hsh::coefficient_count;
+use crate::hsh::rotation::{RotationMethod, RotationTable};
+use crate::records::kind::FRAME_FLOATS;
+use crate::records::{Record, RecordKind};
+use crate::scene::GlossyLobe;
+use crate::visibility::{GpuCamera, VisSample};
+use bytemuck::{Pod, Zeroable};
+use glam::{DVec3, Vec3};
+
+/// `NO_LOBE_SLOT` in `wgsl/shared/radiance_records.wgsl`.
+pub const NO_LOBE_SLOT: u32 = u32::MAX;
+/// Outgoing angles per lobe table.
+pub const LOBE_STEPS: u32 = 64;
+/// Tilt matrices per rotation table.
+pub const BETA_STEPS: u32 = 16;
+
+/// What the radiance cache is set to (`CacheSettings::radiance`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct RadianceSettings {
+    /// HSH order n (n^2 coefficients per channel); 0 turns radiance records off (every
+    /// glossy lobe by Monte Carlo).
+    pub order: u32,
+    /// The radiance records' own accuracy a (thesis: 0.25 on the Cornell box).
+    pub accuracy: f32,
+    /// Lobes whose projection at `order` holds less of their energy (eq. 3.32) are shaded
+    /// by Monte Carlo.
+    pub min_lobe_accuracy: f32,
+    /// How record frames are tilted into pixels' frames.
+    pub rotation: RotationMethod,
+    /// Plane resolution P of radiance records (0: the irradiance records' P).
+    pub plane_resolution: u32,
+}
+
+impl Default for RadianceSettings {
+    fn default() -> Self {
+        Self {
+            order: 8,
+            accuracy: 0.25,
+            min_lobe_accuracy: 0.9,
+            rotation: RotationMethod::Tabulated,
+            plane_resolution: 0,
+        }
+    }
+}
+
+impl RadianceSettings {
+    /// The record kind these settings cache.
+    pub fn kind(&self) -> RecordKind {
+        RecordKind::Radiance { order: self.order }
+    }
+
+    /// The largest tilt between a record's normal and a pixel's that Ward's weight admits
+    /// at this accuracy: `sqrt(1 - n.n_k) <= a`.
+    pub fn beta_max(&self) -> f64 {
+        let a = f64::from(self.accuracy);
+        (1.0 - a * a).clamp(-1.0, 1.0).acos().max(1e-3)
+    }
+}
+
+/// Mirror of WGSL `RadianceParams`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct RadianceParams {
+    order: u32,
+    coefficients: u32,
+    stride: u32,
+    materials: u32,
+    lobe_steps: u32,
+    beta_steps: u32,
+    beta_max: f32,
+    _pad: u32,
+}
+
+/// The tables of one scene at one setting: each material's lobe slot and specular, each
+/// slot's lobe table, and the tilt matrices.
+#[derive(Clone, Debug)]
+pub struct RadianceTables {
+    pub settings: RadianceSettings,
+    /// Per material: its slot in `lobes`, or [`NO_LOBE_SLOT`].
+    pub slots: Vec<u32>,
+    pub specular: Vec<Vec3>,
+    pub lobes: Vec<LobeTable>,
+    /// Per material with a glossy lobe: the lobe's accuracy at the order (eq. 3.32).
+    pub lobe_accuracy: Vec<Option<f64>>,
+    pub rotation: RotationTable,
+}
+
+impl RadianceTables {
+    /// The tables for materials whose glossy lobes are `lobes` (index: material).
+    pub fn new(lobes: &[Option<GlossyLobe>], settings: RadianceSettings) -> Self {
+        let order = settings.order.max(1);
+        let mut slots = Vec::with_capacity(lobes.len());
+        let mut specular = Vec::with_capacity(lobes.len());
+        let mut tables: Vec<(f32, LobeTable)> = Vec::new();
+        let mut lobe_accuracy = Vec::with_capacity(lobes.len());
+        for lobe in lobes {
+            let Some(lobe) = lobe else {
+                slots.push(NO_LOBE_SLOT);
+                specular.push(Vec3::ZERO);
+                lobe_accuracy.push(None);
+                continue;
+            };
+            specular.push(lobe.specular());
+            let exponent = lobe.exponent();
+            // Lobes of one shape share a table.
+            let slot = match tables.iter().position(|(e, _)| *e == exponent) {
+                Some(s) => s,
+                None => {
+                    let q = quadrature_for(lobe, order);
+                    tables.push((exponent, LobeTable::new(lobe, order, LOBE_STEPS, &q)));
+                    tables.len() - 1
+                }
+            };
+            let accuracy = tables[slot].1.mean_accuracy();
+            lobe_accuracy.push(Some(accuracy));
+            let usable = settings.order > 0 && accuracy >= f64::from(settings.min_lobe_accuracy);
+            slots.push(if usable { slot as u32 } else { NO_LOBE_SLOT });
+        }
+        Self {
+            rotation: RotationTable::new(settings.rotation, order, settings.beta_max(), BETA_STEPS),
+            settings,
+            slots,
+            specular,
+            lobes: tables.into_iter().map(|(_, t)| t).collect(),
+            lobe_accuracy,
+        }
+    }
+
+    /// Whether any material is shaded by radiance records.
+    pub fn any_slot(&self) -> bool {
+        self.slots.iter().any(|&s| s != NO_LOBE_SLOT)
+    }
+
+    /// The GPU lobe table: per material (slot, specular rgb bits), then the slots' tables.
+    fn gpu_lobe_table(&self) -> Vec<u32> {
+        let mut out = Vec::new();
+        for (slot, ks) in self.slots.iter().zip(&self.specular) {
+            out.extend([*slot, ks.x.to_bits(), ks.y.to_bits(), ks.z.to_bits()]);
+        }
+        for t in &self.lobes {
+            out.extend(t.coefficients.iter().map(|c| c.to_bits()));
+        }
+        if out.is_empty() {
+            out.push(NO_LOBE_SLOT);
+        }
+        out
+    }
+}
+
+/// The radiance splat passes with one scene's tables on the GPU.
+pub struct RadianceSplatPass {
+    need: ComputePass,
+    gather: ComputePass,
+    pub tables: RadianceTables,
+    lobe_table: wgpu::Buffer,
+    rotations: wgpu::Buffer,
+    params: wgpu::Buffer,
+}
+
+impl RadianceSplatPass {
+    pub fn new(ctx: &GpuContext, tables: RadianceTables) -> Result<Self> {
+        use Binding::*;
+        let n = coefficient_count(tables.settings.order.max(1)) as u32;
+        let params = ctx.uniform_buffer(
+            "radiance params",
+            &RadianceParams {
+                order: tables.settings.order.max(1),
+                coefficients: n,
+                stride: tables.settings.kind().coefficient_floats() as u32,
+                materials: tables.slots.len() as u32,
+                lobe_steps: LOBE_STEPS,
+                beta_steps: tables.rotation.steps,
+                beta_max: tables.rotation.beta_max as f32,
+                _pad: 0,
+            },
+        );
+        Ok(Self {
+            need: ComputePass::new(
+                ctx,
+                "radiance_need.wgsl",
+                &[Uniform, StorageRead, StorageRead, StorageReadWrite],
+            )?,
+            gather: ComputePass::new(
+                ctx,
+                "radiance_gather.wgsl",
+                &[
+                    Uniform,
+                    Uniform,
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                ],
+            )?,
+            lobe_table: ctx.storage_buffer("radiance lobe table", &tables.gpu_lobe_table())?,
+            rotations: ctx.storage_buffer("radiance tilt matrices", &tables.rotation.matrices)?,
+            params,
+            tables,
+        })
+    }
+
+    /// Starts `mask` as the radiance cache's placement needs it: every pixel covered except
+    /// the visible ones with a radiance lobe.
+    pub fn need_mask(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        vis: &crate::visibility::VisibilityBuffer,
+        mask: &super::CoverageMask,
+    ) {
+        let bind = self.need.bind(
+            ctx,
+            &[
+                &vis.camera_buffer,
+                &vis.samples,
+                &self.lobe_table,
+                &mask.covered,
+            ],
+        );
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        self.need.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            image_groups(vis.width, vis.height),
+            None,
+        );
+        ctx.queue.submit([enc.finish()]);
+    }
+
+    /// Gathers `src`'s radiance records into a new buffer of per-pixel
+    /// `(specular * sum w L, sum w)` (RGBA f32).
+    pub fn gather(
+        &self,
+        ctx: &GpuContext,
+        splat: &SplatPass,
+        src: SplatSource,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<wgpu::Buffer> {
+        let vis = src.vis;
+        let out = ctx.storage_buffer_sized(
+            "radiance splat",
+            u64::from(vis.width) * u64::from(vis.height) * 16,
+        )?;
+        let bins = splat.bin(ctx, src, (false, 0), true, times)?;
+        let mut timer = PassTimer::new(ctx, 1);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let bind = self.gather.bind(
+            ctx,
+            &[
+                &bins.params,
+                &self.params,
+                &vis.camera_buffer,
+                &vis.samples,
+                &src.records.buffer,
+                &src.records.coefficients,
+                &bins.tile_offsets,
+                &bins.sorted,
+                &self.lobe_table,
+                &self.rotations,
+                &out,
+            ],
+        );
+        self.gather.record(
+            &mut enc,
+            &src.scene.bind_group,
+            &bind,
+            image_groups(vis.width, vis.height),
+            timer.next("splat: radiance gather"),
+        );
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        Ok(out)
+    }
+}
+
+/// One radiance record as the CPU reads it from the cache: the record and its block.
+pub struct RadianceRecord<'a> {
+    pub record: &'a Record,
+    /// [`RecordKind::coefficient_floats`] f32: frame, values, x- and y-gradients.
+    pub block: &'a [f32],
+}
+
+/// What radiance record `r` reflects through `tables`' lobe `slot` at `p` (normal `n`)
+/// towards `wo`: the record's coefficients moved by their gradients, tilted into the
+/// pixel's frame and dotted with the lobe (unit specular), per channel, clamped at 0. The
+/// math of `wgsl/radiance_gather.wgsl` in f64.
+pub fn record_radiance_at(
+    tables: &RadianceTables,
+    slot: u32,
+    r: &RadianceRecord<'_>,
+    p: Vec3,
+    n: Vec3,
+    wo: Vec3,
+) -> Vec3 {
+    let order = tables.settings.order.max(1);
+    let n2 = coefficient_count(order);
+    let (p, np, wo) = (p.as_dvec3(), n.as_dvec3(), wo.as_dvec3());
+    let nk = Vec3::from(r.record.normal).as_dvec3();
+    let pk = Vec3::from(r.record.position).as_dvec3();
+    let b = r.block;
+    let tk = DVec3::new(b[0].into(), b[1].into(), b[2].into());
+    let bk = DVec3::new(b[4].into(), b[5].into(), b[6].into());
+    let axis = nk.cross(np);
+    let sin_b = axis.length();
+    let cos_b = nk.dot(np).clamp(-1.0, 1.0);
+    let tilt = sin_b > 1e-4;
+    let (u, xa) = if tilt {
+        let u = axis / sin_b;
+        (u, u.cross(nk))
+    } else {
+        (bk, tk)
+    };
+    let xb = xa * cos_b - nk * sin_b;
+    let lobe = &tables.lobes[slot as usize];
+    // c_B: the lobe for wo expressed in frame B = (x_B, u, n_p).
+    let wo_b = DVec3::new(wo.dot(xb), wo.dot(u), wo.dot(np));
+    let mut c = lobe.at(wo_b);
+    if tilt {
+        let m = tables.rotation.at(sin_b.atan2(cos_b));
+        // c_A = M^T c_B.
+        c = (0..n2)
+            .map(|j| (0..n2).map(|k| m[k * n2 + j] * c[k]).sum())
+            .collect();
+    }
+    let c = crate::hsh::rotate_z(&c, order, xa.dot(bk).atan2(xa.dot(tk)));
+    let d = p - pk;
+    let (dx, dy) = (d.dot(tk), d.dot(bk));
+    let values = &b[FRAME_FLOATS..];
+    let mut l = [0.0f64; 3];
+    for (ch, lc) in l.iter_mut().enumerate() {
+        *lc = (0..n2)
+            .map(|q| {
+                let base = ch * n2 + q;
+                let lambda = f64::from(values[base])
+                    + dx * f64::from(values[3 * n2 + base])
+                    + dy * f64::from(values[6 * n2 + base]);
+                c[q] * lambda
+            })
+            .sum::<f64>()
+            .max(0.0);
+    }
+    DVec3::from(l).as_vec3()
+}
+
+/// Plain-Rust radiance gather over every record (the GPU sums its tile's records in
+/// record order; a record outside a pixel's tile lists never contributes there): per
+/// pixel `(specular * sum w L, sum w)`.
+pub fn reference_gather(
+    tables: &RadianceTables,
+    records: &[Record],
+    coefficients: &[f32],
+    camera: &GpuCamera,
+    vis: &[VisSample],
+) -> Vec<[f32; 4]> {
+    let stride = tables.settings.kind().coefficient_floats();
+    let a = tables.settings.accuracy;
+    let mut out = vec![[0.0f32; 4]; vis.len()];
+    for (pixel, v) in vis.iter().enumerate() {
+        if !v.is_hit() {
+            continue;
+        }
+        let Some(&slot) = tables.slots.get(v.material as usize) else {
+            continue;
+        };
+        let p = Vec3::from(v.position);
+        let n = Vec3::from(v.shading_normal);
+        let x = pixel as u32 % camera.width;
+        let y = pixel as u32 / camera.width;
+        let wo = -camera.ray_dir(x, y);
+        if slot == NO_LOBE_SLOT || wo.dot(n) <= 0.0 {
+            continue;
+        }
+        let mut sum = [0.0f32; 4];
+        for (k, r) in records.iter().enumerate() {
+            let err = r.error_at(p, n);
+            if err <= a && r.in_front_of(p, n, a) {
+                let w = super::reference::splat_weight(err, a);
+                let rr = RadianceRecord {
+                    record: r,
+                    block: &coefficients[k * stride..(k + 1) * stride],
+                };
+                let l = record_radiance_at(tables, slot, &rr, p, n, wo);
+                sum[0] += w * l.x;
+                sum[1] += w * l.y;
+                sum[2] += w * l.z;
+                sum[3] += w;
+            }
+        }
+        let ks = tables.specular[v.material as usize];
+        out[pixel] = [ks.x * sum[0], ks.y * sum[1], ks.z * sum[2], sum[3]];
+    }
+    out
+}

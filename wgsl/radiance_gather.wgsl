@@ -1,0 +1,168 @@
+// Radiance cache splatting (thesis section 4.4 with chapter 3's records, algorithms.md
+// 2.4-2.6): each glossy pixel sums its tile's radiance records in record order, with
+// Ward's weight at the radiance accuracy (the irradiance splat's test and weight). Per
+// record: the coefficients moved to the pixel by their translational gradients, the
+// record's frame rotated into the pixel's (Z-Y-Z: exact turns about the normals, the
+// tabulated tilt matrix M(beta), hsh/rotation.rs), dotted with the lobe's coefficients for
+// the pixel's view direction (thesis eq. 2.11). Rather than rotating three channels of
+// record coefficients, the pixel's lobe vector c is rotated the other way (transposes),
+// one vector instead of three, the same sum: (M lambda).c = lambda.(M^T c).
+// Output per pixel: (specular * sum w L_k, sum w); 0 where the material has no slot.
+// CPU mirror: splat::radiance::reference_gather.
+//!include shared/splat_weight.wgsl
+//!include shared/radiance_records.wgsl
+
+@group(1) @binding(0) var<uniform> params: SplatParams;
+@group(1) @binding(1) var<uniform> rparams: RadianceParams;
+@group(1) @binding(2) var<uniform> camera: Camera;
+@group(1) @binding(3) var<storage, read> vis: array<VisSample>;
+@group(1) @binding(4) var<storage, read> records: array<Record>;
+@group(1) @binding(5) var<storage, read> coefficients: array<f32>;
+@group(1) @binding(6) var<storage, read> tile_offsets: array<u32>;
+@group(1) @binding(7) var<storage, read> sorted: array<u32>;
+@group(1) @binding(8) var<storage, read> lobe_table: array<u32>;
+@group(1) @binding(9) var<storage, read> rotations: array<f32>;
+@group(1) @binding(10) var<storage, read_write> out: array<vec4f>;
+
+// The lobe at theta_o (phi_o = 0), the same lobe turned, and the working vector.
+var<private> lobe0: array<f32, MAX_COEFFICIENTS>;
+var<private> work: array<f32, MAX_COEFFICIENTS>;
+var<private> tilted: array<f32, MAX_COEFFICIENTS>;
+
+// Turns `work` about the normal by `alpha` (hsh::rotate_z: the coefficients of
+// f(theta, phi - alpha)): the m = 0 terms stay, each (m, -m) pair turns by m alpha.
+fn turn_work(alpha: f32) {
+    let n = rparams.order;
+    let c1 = cos(alpha);
+    let s1 = sin(alpha);
+    var cm = 1.0;
+    var sm = 0.0;
+    for (var m = 1u; m < n; m++) {
+        // cos, sin of m alpha by the angle-sum recurrence.
+        let c_next = cm * c1 - sm * s1;
+        sm = sm * c1 + cm * s1;
+        cm = c_next;
+        for (var l = m; l < n; l++) {
+            let centre = l * (l + 1u);
+            let p = work[centre + m];
+            let q = work[centre - m];
+            work[centre + m] = p * cm - q * sm;
+            work[centre - m] = p * sm + q * cm;
+        }
+    }
+}
+
+// work <- M(beta)^T work, M interpolated linearly between its tabulated angles.
+fn tilt_work(beta: f32) {
+    let n2 = rparams.coefficients;
+    let steps = rparams.beta_steps;
+    let t = clamp(beta / rparams.beta_max, 0.0, 1.0) * f32(steps - 1u);
+    let i = min(u32(floor(t)), steps - 2u);
+    let f = t - f32(i);
+    let a = i * n2 * n2;
+    let b = a + n2 * n2;
+    for (var j = 0u; j < n2; j++) {
+        var sum = 0.0;
+        for (var k = 0u; k < n2; k++) {
+            let m = mix(rotations[a + k * n2 + j], rotations[b + k * n2 + j], f);
+            sum += m * work[k];
+        }
+        tilted[j] = sum;
+    }
+    for (var j = 0u; j < n2; j++) {
+        work[j] = tilted[j];
+    }
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    if id.x >= params.width || id.y >= params.height {
+        return;
+    }
+    let pixel = id.y * params.width + id.x;
+    let v = vis[pixel];
+    var sum = vec4f(0.0);
+    if v.instance == NO_HIT {
+        out[pixel] = sum;
+        return;
+    }
+    let slot = material_lobe_slot(v.material);
+    let np = v.shading_normal;
+    let wo = -camera_ray_dir(camera, id.xy);
+    let cos_o = dot(wo, np);
+    if slot == NO_LOBE_SLOT || cos_o <= 0.0 {
+        out[pixel] = sum;
+        return;
+    }
+    let n2 = rparams.coefficients;
+    // The lobe at theta_o, interpolated (splat::radiance::LobeTable::at).
+    let steps = rparams.lobe_steps;
+    let t = clamp(acos(min(cos_o, 1.0)) / (0.5 * PI) * f32(steps - 1u), 0.0, f32(steps - 1u));
+    let i = min(u32(floor(t)), steps - 2u);
+    let f = t - f32(i);
+    let lobe_base = 4u * rparams.materials + (slot * steps + i) * n2;
+    for (var k = 0u; k < n2; k++) {
+        lobe0[k] = mix(
+            bitcast<f32>(lobe_table[lobe_base + k]),
+            bitcast<f32>(lobe_table[lobe_base + n2 + k]),
+            f,
+        );
+    }
+    let p = v.position;
+    let tile = (id.y / TILE_SIZE) * params.tiles_x + id.x / TILE_SIZE;
+    for (var j = tile_offsets[tile]; j < tile_offsets[tile + 1u]; j++) {
+        let k = sorted[j];
+        let err = contribution_error(k, p, np);
+        if err > params.accuracy {
+            continue;
+        }
+        let w = splat_weight(err, params.accuracy);
+        let nk = records[k].normal;
+        let pk = records[k].position;
+        let block = k * rparams.stride;
+        let tk = vec3f(coefficients[block], coefficients[block + 1u], coefficients[block + 2u]);
+        let bk = vec3f(coefficients[block + 4u], coefficients[block + 5u], coefficients[block + 6u]);
+        // Frame A: the record's normal with x_A = u x n_k, y_A = u the tilt axis; B = A
+        // turned by beta about u, whose normal is the pixel's (hsh/rotation.rs).
+        let axis = cross(nk, np);
+        let sin_b = length(axis);
+        let cos_b = clamp(dot(nk, np), -1.0, 1.0);
+        var u = bk;
+        var xa = tk;
+        let tilt = sin_b > 1.0e-4;
+        if tilt {
+            u = axis / sin_b;
+            xa = cross(u, nk);
+        }
+        let xb = xa * cos_b - nk * sin_b;
+        // c_B: the lobe turned to the view's azimuth in B.
+        for (var q = 0u; q < n2; q++) {
+            work[q] = lobe0[q];
+        }
+        turn_work(atan2(dot(wo, u), dot(wo, xb)));
+        if tilt {
+            tilt_work(atan2(sin_b, cos_b));
+        }
+        // c_K = Z(gamma) c_A, gamma the azimuth of x_A in the record's frame.
+        turn_work(atan2(dot(xa, bk), dot(xa, tk)));
+        // lambda_k + dx grad_x + dy grad_y (the record's tangent axes), dotted with c_K.
+        let d = p - pk;
+        let dx = dot(d, tk);
+        let dy = dot(d, bk);
+        var l = vec3f(0.0);
+        let values = block + FRAME_FLOATS;
+        for (var c = 0u; c < 3u; c++) {
+            var s = 0.0;
+            let base = values + c * n2;
+            for (var q = 0u; q < n2; q++) {
+                let lambda = coefficients[base + q]
+                    + dx * coefficients[base + 3u * n2 + q]
+                    + dy * coefficients[base + 6u * n2 + q];
+                s += work[q] * lambda;
+            }
+            l[c] = s;
+        }
+        sum += vec4f(w * max(l, vec3f(0.0)), w);
+    }
+    out[pixel] = vec4f(material_specular(v.material) * sum.xyz, sum.w);
+}
