@@ -194,7 +194,7 @@ pub struct CacheSettings {
     pub glossy_samples: u32,
     /// Radiance records for low-frequency glossy lobes (issue 18): order, their own
     /// accuracy, which lobes they shade, how their frames are rotated.
-    pub radiance: crate::splat::radiance::RadianceSettings,
+    pub radiance: kind::RadianceSettings,
 }
 
 /// How hemisphere-plane hits are shadowed (thesis section 4.4 uses shadow maps).

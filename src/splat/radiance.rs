@@ -19,9 +19,10 @@ use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
 use crate::hsh::brdf_projection::{LobeTable, quadrature_for};
 use crate::hsh::coefficient_count;
-use crate::hsh::rotation::{RotationMethod, RotationTable};
+use crate::hsh::rotation::RotationTable;
+use crate::records::Record;
 use crate::records::kind::FRAME_FLOATS;
-use crate::records::{Record, RecordKind};
+pub use crate::records::kind::RadianceSettings;
 use crate::scene::GlossyLobe;
 use crate::visibility::{GpuCamera, VisSample};
 use bytemuck::{Pod, Zeroable};
@@ -33,49 +34,6 @@ pub const NO_LOBE_SLOT: u32 = u32::MAX;
 pub const LOBE_STEPS: u32 = 64;
 /// Tilt matrices per rotation table.
 pub const BETA_STEPS: u32 = 16;
-
-/// What the radiance cache is set to (`CacheSettings::radiance`).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct RadianceSettings {
-    /// HSH order n (n^2 coefficients per channel); 0 turns radiance records off (every
-    /// glossy lobe by Monte Carlo).
-    pub order: u32,
-    /// The radiance records' own accuracy a (thesis: 0.25 on the Cornell box).
-    pub accuracy: f32,
-    /// Lobes whose projection at `order` holds less of their energy (eq. 3.32) are shaded
-    /// by Monte Carlo.
-    pub min_lobe_accuracy: f32,
-    /// How record frames are tilted into pixels' frames.
-    pub rotation: RotationMethod,
-    /// Plane resolution P of radiance records (0: the irradiance records' P).
-    pub plane_resolution: u32,
-}
-
-impl Default for RadianceSettings {
-    fn default() -> Self {
-        Self {
-            order: 8,
-            accuracy: 0.25,
-            min_lobe_accuracy: 0.9,
-            rotation: RotationMethod::Tabulated,
-            plane_resolution: 0,
-        }
-    }
-}
-
-impl RadianceSettings {
-    /// The record kind these settings cache.
-    pub fn kind(&self) -> RecordKind {
-        RecordKind::Radiance { order: self.order }
-    }
-
-    /// The largest tilt between a record's normal and a pixel's that Ward's weight admits
-    /// at this accuracy: `sqrt(1 - n.n_k) <= a`.
-    pub fn beta_max(&self) -> f64 {
-        let a = f64::from(self.accuracy);
-        (1.0 - a * a).clamp(-1.0, 1.0).acos().max(1e-3)
-    }
-}
 
 /// Mirror of WGSL `RadianceParams`.
 #[repr(C)]
@@ -303,7 +261,7 @@ impl RadianceSplatPass {
 /// One radiance record as the CPU reads it from the cache: the record and its block.
 pub struct RadianceRecord<'a> {
     pub record: &'a Record,
-    /// [`RecordKind::coefficient_floats`] f32: frame, values, x- and y-gradients.
+    /// [`crate::records::RecordKind::coefficient_floats`] f32: frame, values, x- and y-gradients.
     pub block: &'a [f32],
 }
 
