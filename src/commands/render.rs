@@ -134,6 +134,9 @@ pub fn render(args: RenderArgs) -> Result<()> {
                 c.uncovered_pixels,
                 frame.stats.wall_ms
             );
+            if c.radiance_records > 0 {
+                eprintln!("radiance records: {} for glossy lobes", c.radiance_records);
+            }
         }
         let compile: f64 = frame.stats.shader_compile_ms.iter().map(|(_, ms)| ms).sum();
         eprintln!(

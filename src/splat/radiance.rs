@@ -376,3 +376,36 @@ pub fn reference_gather(
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn phong(exponent: f32) -> Option<GlossyLobe> {
+        Some(GlossyLobe::Phong {
+            specular: Vec3::splat(0.3),
+            exponent,
+        })
+    }
+
+    #[test]
+    fn radiance_records_take_the_lobes_their_order_holds_and_leave_sharp_ones_to_monte_carlo() {
+        let lobes = [None, phong(20.0), phong(400.0), phong(20.0)];
+        let t = RadianceTables::new(&lobes, RadianceSettings::default());
+        // Phong 20 holds 98 % of its energy at order 8, Phong 400 far less than 0.9.
+        assert_eq!(t.slots, vec![NO_LOBE_SLOT, 0, NO_LOBE_SLOT, 0]);
+        assert_eq!(t.lobes.len(), 2, "one table per lobe shape");
+        assert!(t.lobe_accuracy[1].is_some_and(|a| a > 0.97));
+        assert!(t.lobe_accuracy[2].is_some_and(|a| a < 0.5));
+        assert!(t.any_slot());
+        // Order 0 turns radiance records off.
+        let off = RadianceTables::new(
+            &lobes,
+            RadianceSettings {
+                order: 0,
+                ..Default::default()
+            },
+        );
+        assert!(!off.any_slot());
+    }
+}
