@@ -222,11 +222,8 @@ impl RadianceCache {
         }
         let record_settings = CacheSettings {
             accuracy: r.accuracy,
-            plane_resolution: if r.plane_resolution > 0 {
-                r.plane_resolution
-            } else {
-                settings.plane_resolution
-            },
+            plane_resolution: r
+                .plane_resolution_for(settings.plane_resolution, tables.sharpest_exponent()),
             ..settings.clone()
         };
         Ok(Some(Self {

@@ -403,7 +403,8 @@ struct CacheArgs {
     /// How radiance records are tilted into a pixel's frame (thesis section 3.4).
     #[arg(long, value_enum, default_value = "tabulated")]
     radiance_rotation: RotationMethod,
-    /// Plane resolution P of radiance records (0: the irradiance records' --plane-resolution).
+    /// Plane resolution P of radiance records (0: from the sharpest lobe they shade,
+    /// --plane-resolution times sqrt(exponent / 5), at most twice it).
     #[arg(long, default_value_t = RadianceSettings::default().plane_resolution)]
     radiance_plane_resolution: u32,
     /// Do not compute or use irradiance gradients.

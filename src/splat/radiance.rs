@@ -60,6 +60,8 @@ pub struct RadianceTables {
     pub lobes: Vec<LobeTable>,
     /// Per material with a glossy lobe: the lobe's accuracy at the order (eq. 3.32).
     pub lobe_accuracy: Vec<Option<f64>>,
+    /// Each material's lobe, as given.
+    pub lobes_by_material: Vec<Option<GlossyLobe>>,
     pub rotation: RotationTable,
 }
 
@@ -101,7 +103,19 @@ impl RadianceTables {
             specular,
             lobes: tables.into_iter().map(|(_, t)| t).collect(),
             lobe_accuracy,
+            lobes_by_material: lobes.to_vec(),
         }
+    }
+
+    /// The largest Phong exponent among the lobes radiance records shade (0: none).
+    pub fn sharpest_exponent(&self) -> f32 {
+        let mut sharpest = 0.0f32;
+        for (slot, lobe) in self.slots.iter().zip(&self.lobes_by_material) {
+            if let (true, Some(lobe)) = (*slot != NO_LOBE_SLOT, lobe) {
+                sharpest = sharpest.max(lobe.exponent());
+            }
+        }
+        sharpest
     }
 
     /// Whether any material is shaded by radiance records.
