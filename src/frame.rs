@@ -220,14 +220,21 @@ impl RadianceCache {
         if !tables.any_slot() {
             return Ok(None);
         }
+        let records = RecordCache::with_kind(ctx, r.kind())?;
+        // Past what one binding holds, placement stops (its uncovered pixels take Monte
+        // Carlo) rather than the frame failing.
+        let record_budget = settings
+            .record_budget
+            .min(records.max_records(ctx).min(u64::from(u32::MAX)) as u32);
         let record_settings = CacheSettings {
             accuracy: r.accuracy,
+            record_budget,
             plane_resolution: r
                 .plane_resolution_for(settings.plane_resolution, tables.sharpest_exponent()),
             ..settings.clone()
         };
         Ok(Some(Self {
-            records: RecordCache::with_kind(ctx, r.kind())?,
+            records,
             pass: RecordPass::with_kind(ctx, &record_settings, r.kind())?,
             splat: RadianceSplatPass::new(ctx, tables)?,
         }))
