@@ -21,8 +21,20 @@
 @group(1) @binding(6) var<storage, read> tile_offsets: array<u32>;
 @group(1) @binding(7) var<storage, read> sorted: array<u32>;
 @group(1) @binding(8) var<storage, read> lobe_table: array<u32>;
-@group(1) @binding(9) var<storage, read> rotations: array<f32>;
+// Per tabulated angle, M^T row by row, each row padded to a multiple of 4 (vec4 loads).
+@group(1) @binding(9) var<storage, read> rotations: array<vec4f>;
 @group(1) @binding(10) var<storage, read_write> out: array<vec4f>;
+@group(1) @binding(11) var<uniform> chunk: GatherChunk;
+
+// One dispatch gathers entries [entry_begin, entry_end) of each tile's list onto the sums
+// the one before left (llvmpipe stops an invocation after 65,535 loop iterations in all,
+// and a tilted record costs order^4 / 4 of them: the host sizes the chunks).
+struct GatherChunk {
+    entry_begin: u32,
+    entry_end: u32,
+    first: u32,   // 1: start from zero
+    last: u32,    // 1: apply the specular and finish
+}
 
 // The lobe at theta_o (phi_o = 0), the same lobe turned, and the working vector.
 var<private> lobe0: array<f32, MAX_COEFFICIENTS>;
@@ -52,20 +64,23 @@ fn turn_work(alpha: f32) {
     }
 }
 
-// work <- M(beta)^T work, M interpolated linearly between its tabulated angles.
+// work <- M(beta)^T work, M interpolated linearly between its tabulated angles; four
+// terms per iteration (the entries of `work` past order^2 are 0, as the padding).
 fn tilt_work(beta: f32) {
     let n2 = rparams.coefficients;
+    let quads = (n2 + 3u) / 4u;
     let steps = rparams.beta_steps;
     let t = clamp(beta / rparams.beta_max, 0.0, 1.0) * f32(steps - 1u);
     let i = min(u32(floor(t)), steps - 2u);
     let f = t - f32(i);
-    let a = i * n2 * n2;
-    let b = a + n2 * n2;
+    let a = i * n2 * quads;
+    let b = a + n2 * quads;
     for (var j = 0u; j < n2; j++) {
         var sum = 0.0;
-        for (var k = 0u; k < n2; k++) {
-            let m = mix(rotations[a + k * n2 + j], rotations[b + k * n2 + j], f);
-            sum += m * work[k];
+        for (var q = 0u; q < quads; q++) {
+            let m = mix(rotations[a + j * quads + q], rotations[b + j * quads + q], f);
+            let k = 4u * q;
+            sum += dot(m, vec4f(work[k], work[k + 1u], work[k + 2u], work[k + 3u]));
         }
         tilted[j] = sum;
     }
@@ -82,6 +97,9 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let pixel = id.y * params.width + id.x;
     let v = vis[pixel];
     var sum = vec4f(0.0);
+    if chunk.first == 0u {
+        sum = out[pixel];
+    }
     if v.instance == NO_HIT {
         out[pixel] = sum;
         return;
@@ -91,6 +109,19 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let wo = -camera_ray_dir(camera, id.xy);
     let cos_o = dot(wo, np);
     if slot == NO_LOBE_SLOT || cos_o <= 0.0 {
+        out[pixel] = sum;
+        return;
+    }
+    let p = v.position;
+    let tile = (id.y / TILE_SIZE) * params.tiles_x + id.x / TILE_SIZE;
+    let list_end = tile_offsets[tile + 1u];
+    let begin = min(tile_offsets[tile] + chunk.entry_begin, list_end);
+    let end = min(tile_offsets[tile] + chunk.entry_end, list_end);
+    if begin >= end {
+        // No record of this tile's list in this dispatch.
+        if chunk.last != 0u {
+            sum = vec4f(material_specular(v.material) * sum.xyz, sum.w);
+        }
         out[pixel] = sum;
         return;
     }
@@ -108,9 +139,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             f,
         );
     }
-    let p = v.position;
-    let tile = (id.y / TILE_SIZE) * params.tiles_x + id.x / TILE_SIZE;
-    for (var j = tile_offsets[tile]; j < tile_offsets[tile + 1u]; j++) {
+    for (var j = begin; j < end; j++) {
         let k = sorted[j];
         let err = contribution_error(k, p, np);
         if err > params.accuracy {
@@ -151,18 +180,17 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         let dy = dot(d, bk);
         var l = vec3f(0.0);
         let values = block + FRAME_FLOATS;
-        for (var c = 0u; c < 3u; c++) {
-            var s = 0.0;
-            let base = values + c * n2;
-            for (var q = 0u; q < n2; q++) {
-                let lambda = coefficients[base + q]
-                    + dx * coefficients[base + 3u * n2 + q]
-                    + dy * coefficients[base + 6u * n2 + q];
-                s += work[q] * lambda;
-            }
-            l[c] = s;
+        for (var q = 0u; q < n2; q++) {
+            let r = values + q;
+            let lambda = vec3f(coefficients[r], coefficients[r + n2], coefficients[r + 2u * n2])
+                + dx * vec3f(coefficients[r + 3u * n2], coefficients[r + 4u * n2], coefficients[r + 5u * n2])
+                + dy * vec3f(coefficients[r + 6u * n2], coefficients[r + 7u * n2], coefficients[r + 8u * n2]);
+            l += work[q] * lambda;
         }
         sum += vec4f(w * max(l, vec3f(0.0)), w);
     }
-    out[pixel] = vec4f(material_specular(v.material) * sum.xyz, sum.w);
+    if chunk.last != 0u {
+        sum = vec4f(material_specular(v.material) * sum.xyz, sum.w);
+    }
+    out[pixel] = sum;
 }

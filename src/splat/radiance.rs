@@ -36,6 +36,20 @@ pub const LOBE_STEPS: u32 = 64;
 pub const BETA_STEPS: u32 = 16;
 
 /// Mirror of WGSL `RadianceParams`.
+/// Mirror of WGSL `GatherChunk`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GatherChunk {
+    entry_begin: u32,
+    entry_end: u32,
+    first: u32,
+    last: u32,
+}
+
+/// Loop iterations one gather invocation may spend (llvmpipe stops an invocation after
+/// 65,535 in all), leaving room for the per-pixel loops.
+const GATHER_ITERATION_BUDGET: u32 = 60_000;
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 struct RadianceParams {
@@ -123,6 +137,28 @@ impl RadianceTables {
         self.slots.iter().any(|&s| s != NO_LOBE_SLOT)
     }
 
+    /// The GPU tilt table: per tabulated angle, `M^T` row by row, each row padded with
+    /// zeros to a multiple of 4 (`radiance_gather.wgsl` reads it as vec4s).
+    fn gpu_rotations(&self) -> Vec<f32> {
+        let n2 = coefficient_count(self.rotation.order);
+        let padded = n2.div_ceil(4) * 4;
+        let mut out = Vec::with_capacity(self.rotation.steps as usize * n2 * padded);
+        for m in self.rotation.matrices.chunks(n2 * n2) {
+            for j in 0..n2 {
+                out.extend((0..padded).map(|k| if k < n2 { m[k * n2 + j] } else { 0.0 }));
+            }
+        }
+        out
+    }
+
+    /// Loop iterations of `radiance_gather.wgsl` per contributing record at most (a tilted
+    /// one): lobe copy, two turns, the tilt and its copy-back, the dot product.
+    pub fn iterations_per_record(&self) -> u32 {
+        let n = self.settings.order.max(1);
+        let n2 = n * n;
+        n2 + n * (n - 1) + n2 * n2.div_ceil(4) + n2 + n2 + 4
+    }
+
     /// The GPU lobe table: per material (slot, specular rgb bits), then the slots' tables.
     fn gpu_lobe_table(&self) -> Vec<u32> {
         let mut out = Vec::new();
@@ -187,10 +223,11 @@ impl RadianceSplatPass {
                     StorageRead,
                     StorageRead,
                     StorageReadWrite,
+                    Uniform,
                 ],
             )?,
             lobe_table: ctx.storage_buffer("radiance lobe table", &tables.gpu_lobe_table())?,
-            rotations: ctx.storage_buffer("radiance tilt matrices", &tables.rotation.matrices)?,
+            rotations: ctx.storage_buffer("radiance tilt matrices", &tables.gpu_rotations())?,
             params,
             tables,
         })
@@ -240,31 +277,75 @@ impl RadianceSplatPass {
             u64::from(vis.width) * u64::from(vis.height) * 16,
         )?;
         let bins = splat.bin(ctx, src, (false, 0), true, times)?;
+        // Entries per dispatch: as many records as fit the iteration budget when every
+        // one of them is tilted, over the longest tile list.
+        let offsets: Vec<u32> = ctx.read_buffer(&bins.tile_offsets)?;
+        let tiles = (bins.tiles[0] * bins.tiles[1]) as usize;
+        let longest = offsets
+            .windows(2)
+            .take(tiles)
+            .map(|w| w[1].saturating_sub(w[0]))
+            .max()
+            .unwrap_or(0);
+        let per_pixel = 2 * coefficient_count(self.tables.settings.order.max(1)) as u32;
+        let per_dispatch =
+            ((GATHER_ITERATION_BUDGET - per_pixel) / self.tables.iterations_per_record()).max(1);
+        let dispatches = longest.div_ceil(per_dispatch).max(1);
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let bind = self.gather.bind(
-            ctx,
-            &[
-                &bins.params,
-                &self.params,
-                &vis.camera_buffer,
-                &vis.samples,
-                &src.records.buffer,
-                &src.records.coefficients,
-                &bins.tile_offsets,
-                &bins.sorted,
-                &self.lobe_table,
-                &self.rotations,
-                &out,
-            ],
-        );
-        self.gather.record(
-            &mut enc,
-            &src.scene.bind_group,
-            &bind,
-            image_groups(vis.width, vis.height),
-            timer.next("splat: radiance gather"),
-        );
+        let stamps = timer.next("splat: radiance gather");
+        for d in 0..dispatches {
+            let chunk = ctx.uniform_buffer(
+                "radiance gather chunk",
+                &GatherChunk {
+                    entry_begin: d * per_dispatch,
+                    entry_end: (d + 1) * per_dispatch,
+                    first: u32::from(d == 0),
+                    last: u32::from(d + 1 == dispatches),
+                },
+            );
+            let bind = self.gather.bind(
+                ctx,
+                &[
+                    &bins.params,
+                    &self.params,
+                    &vis.camera_buffer,
+                    &vis.samples,
+                    &src.records.buffer,
+                    &src.records.coefficients,
+                    &bins.tile_offsets,
+                    &bins.sorted,
+                    &self.lobe_table,
+                    &self.rotations,
+                    &out,
+                    &chunk,
+                ],
+            );
+            // The timer spans every dispatch: its start on the first, its end on the last.
+            let first_or_last = d == 0 || d + 1 == dispatches;
+            let ts = stamps.as_ref().filter(|_| first_or_last).map(|t| {
+                wgpu::ComputePassTimestampWrites {
+                    query_set: t.query_set,
+                    beginning_of_pass_write_index: if d == 0 {
+                        t.beginning_of_pass_write_index
+                    } else {
+                        None
+                    },
+                    end_of_pass_write_index: if d + 1 == dispatches {
+                        t.end_of_pass_write_index
+                    } else {
+                        None
+                    },
+                }
+            });
+            self.gather.record(
+                &mut enc,
+                &src.scene.bind_group,
+                &bind,
+                image_groups(vis.width, vis.height),
+                ts,
+            );
+        }
         timer.resolve(&mut enc);
         ctx.queue.submit([enc.finish()]);
         times.extend(timer.read(ctx)?);
