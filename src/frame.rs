@@ -13,8 +13,8 @@ use crate::placement::{PlacementPass, PlacementStats};
 use crate::records::{CacheSettings, PlaneShadows, Record, RecordCache, RecordPass};
 use crate::resolve::ResolvePass;
 use crate::scene::{Camera, Scene};
-use crate::splat::radiance::{NO_LOBE_SLOT, RadianceSplatPass, RadianceTables};
-use crate::splat::{CoverageMask, SplatBuffer, SplatPass, SplatSource};
+use crate::splat::radiance::{RadianceSplatPass, RadianceTables};
+use crate::splat::{CoverageMask, SplatBuffer, SplatPass, SplatSource, TileBounds};
 use crate::visibility::{VisSample, VisibilityBuffer, VisibilityPass};
 use crate::{Error, Result};
 use std::time::Instant;
@@ -349,6 +349,21 @@ impl Renderer {
             .0)
     }
 
+    /// The visibility buffer of `camera` and its per-tile bounds: what the splat helpers
+    /// for tests start from.
+    fn visible_tiles(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<(VisibilityBuffer, TileBounds)> {
+        let vis = self.visibility(scene, camera, times)?;
+        let bounds = self
+            .splat_pass()?
+            .tile_bounds(&self.ctx, &scene.gpu, &vis, times)?;
+        Ok((vis, bounds))
+    }
+
     /// The visibility buffer of `camera` and the splat sums `(sum w E', sum w)` of every
     /// record in `cache` (no placement, no resolve): for tests and tools.
     pub fn splat_cache(
@@ -358,11 +373,10 @@ impl Renderer {
         cache: &IrradianceCache,
     ) -> Result<(Vec<VisSample>, Vec<[f32; 4]>)> {
         let ctx = &self.ctx;
-        let vis = self.visibility(scene, camera, &mut Vec::new())?;
-        let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
         let mut times = Vec::new();
+        let (vis, bounds) = self.visible_tiles(scene, camera, &mut times)?;
+        let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
         let splat_pass = self.splat_pass()?;
-        let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
         let src = SplatSource {
             scene: &scene.gpu,
             vis: &vis,
@@ -388,9 +402,8 @@ impl Renderer {
     ) -> Result<(Vec<VisSample>, Vec<[f32; 4]>)> {
         let ctx = &self.ctx;
         let mut times = Vec::new();
-        let vis = self.visibility(scene, camera, &mut times)?;
+        let (vis, bounds) = self.visible_tiles(scene, camera, &mut times)?;
         let splat_pass = self.splat_pass()?;
-        let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
         let src = SplatSource {
             scene: &scene.gpu,
             vis: &vis,
@@ -419,12 +432,11 @@ impl Renderer {
         splits: &[u32],
     ) -> Result<SplatRounds> {
         let ctx = &self.ctx;
-        let vis = self.visibility(scene, camera, &mut Vec::new())?;
+        let mut times = Vec::new();
+        let (vis, bounds) = self.visible_tiles(scene, camera, &mut times)?;
         let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
         let mask = CoverageMask::new(ctx, camera.width, camera.height)?;
-        let mut times = Vec::new();
         let splat_pass = self.splat_pass()?;
-        let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
         let accuracy = cache.settings().accuracy;
         let mut first = 0;
         for &end in splits.iter().chain([&cache.records.count]) {
@@ -637,13 +649,8 @@ impl Renderer {
                 radiance_stats = (rc.records.count, placed.new_records);
                 // Placement covered every pixel with a radiance lobe: if every glossy
                 // lobe has one, no pixel needs Monte Carlo lobe rays.
-                radiance_covers_all = !placed.limit_reached
-                    && scene
-                        .gpu
-                        .glossy_lobes
-                        .iter()
-                        .zip(&rc.splat.tables.slots)
-                        .all(|(lobe, slot)| lobe.is_none() || *slot != NO_LOBE_SLOT);
+                radiance_covers_all =
+                    !placed.limit_reached && rc.splat.tables.every_lobe_has_slot();
                 let all = SplatSource {
                     scene: &scene.gpu,
                     vis: &vis,

@@ -155,31 +155,17 @@ fn plane_irradiance_matches_full_hemisphere_monte_carlo() {
 /// A floor under a 1 x 1 emitting square (MTL `Ke`, not a sampled light) and nothing else:
 /// irradiance on the floor is a smooth form factor, free of shadows and light sampling.
 fn emitter_over_floor() -> Scene {
-    let dir = std::env::temp_dir().join(format!("radsplat-gradients-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    std::fs::write(
-        dir.join("scene.obj"),
+    common::scene_from_texts(
+        "gradients",
         "mtllib scene.mtl\n\
          v -20 0 -20\nv 20 0 -20\nv 20 0 20\nv -20 0 20\n\
          v 0.5 1 -0.5\nv 1.5 1 -0.5\nv 1.5 1 0.5\nv 0.5 1 0.5\n\
          usemtl floor\nf 1 4 3\nf 1 3 2\n\
          usemtl emitter\nf 5 6 7\nf 5 7 8\n",
-    )
-    .expect("obj");
-    std::fs::write(
-        dir.join("scene.mtl"),
         "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl emitter\nKd 0 0 0\nKe 1 2 3\n",
-    )
-    .expect("mtl");
-    std::fs::write(
-        dir.join("scene.toml"),
         "[camera]\nposition = [0, 3, 3]\ntarget = [0, 0, 0]\nfov_y = 60\nresolution = [16, 16]\n\
          [[mesh]]\nfile = \"scene.obj\"\n",
     )
-    .expect("toml");
-    let scene = radsplat::scene::load_scene(&dir.join("scene.toml")).expect("scene");
-    let _ = std::fs::remove_dir_all(&dir);
-    scene
 }
 
 /// Exact irradiance from the emitter of [`emitter_over_floor`] at (p, n) by Lambert's

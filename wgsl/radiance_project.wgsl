@@ -25,17 +25,6 @@ struct ProjectParams {
 @group(1) @binding(3) var<storage, read> samples: array<PlaneSample>;
 @group(1) @binding(4) var<storage, read_write> coefficients: array<f32>;
 
-// Depth of the nearer of two samples (Ward's min rule); <= 0 when both are misses.
-fn nearer_depth(a: f32, b: f32) -> f32 {
-    if a <= 0.0 {
-        return b;
-    }
-    if b <= 0.0 {
-        return a;
-    }
-    return min(a, b);
-}
-
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3u) {
     let n = params.coefficients;

@@ -47,17 +47,6 @@ fn add(a: Partial, b: Partial) -> Partial {
     );
 }
 
-// Depth of the nearer of two samples (Ward's min rule); <= 0 when both are misses.
-fn nearer_depth(a: f32, b: f32) -> f32 {
-    if a <= 0.0 {
-        return b;
-    }
-    if b <= 0.0 {
-        return a;
-    }
-    return min(a, b);
-}
-
 @compute @workgroup_size(128)
 fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) lane: u32) {
     let record = group.x;

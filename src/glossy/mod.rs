@@ -10,6 +10,7 @@
 use crate::Result;
 use crate::gpu::context::max_samples_per_dispatch;
 use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
+use crate::gpu::timer::spanning;
 use crate::gpu::{GpuContext, GpuScene};
 use crate::visibility::VisibilityBuffer;
 use bytemuck::{Pod, Zeroable};
@@ -82,23 +83,7 @@ impl GlossyIndirectPass {
         let mut begin = 0;
         while begin < samples {
             let end = (begin + per_dispatch).min(samples);
-            // The timer spans every dispatch: its start on the first, its end on the last.
-            let first_or_last = begin == 0 || end == samples;
-            let stamps = timestamps.as_ref().filter(|_| first_or_last).map(|t| {
-                wgpu::ComputePassTimestampWrites {
-                    query_set: t.query_set,
-                    beginning_of_pass_write_index: if begin == 0 {
-                        t.beginning_of_pass_write_index
-                    } else {
-                        None
-                    },
-                    end_of_pass_write_index: if end == samples {
-                        t.end_of_pass_write_index
-                    } else {
-                        None
-                    },
-                }
-            });
+            let stamps = spanning(timestamps.as_ref(), begin == 0, end == samples);
             let params = ctx.uniform_buffer(
                 "glossy params",
                 &GlossyParams {

@@ -3,6 +3,23 @@
 use super::GpuContext;
 use crate::Result;
 
+/// The part of one pass's timestamp writes that dispatch `first`/`last` of a pass split
+/// over several dispatches records: the start on the first, the end on the last, so the
+/// timer spans them all; None for the dispatches between.
+pub fn spanning<'a>(
+    stamps: Option<&wgpu::ComputePassTimestampWrites<'a>>,
+    first: bool,
+    last: bool,
+) -> Option<wgpu::ComputePassTimestampWrites<'a>> {
+    stamps
+        .filter(|_| first || last)
+        .map(|t| wgpu::ComputePassTimestampWrites {
+            query_set: t.query_set,
+            beginning_of_pass_write_index: t.beginning_of_pass_write_index.filter(|_| first),
+            end_of_pass_write_index: t.end_of_pass_write_index.filter(|_| last),
+        })
+}
+
 /// Collects begin/end timestamps for up to `capacity` passes of one submission.
 pub struct PassTimer {
     set: Option<wgpu::QuerySet>,

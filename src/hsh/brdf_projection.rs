@@ -58,34 +58,14 @@ impl ProjectedLobe {
         let cells = (resolution * resolution) as usize;
         let mut coefficients = Vec::with_capacity(cells * n);
         let mut accuracy = Vec::with_capacity(cells);
-        let stride = quadrature.basis_stride;
         for j in 0..resolution {
             for i in 0..resolution {
                 let wo = paraboloid_direction(
                     (f64::from(i) + 0.5) / f64::from(resolution),
                     (f64::from(j) + 0.5) / f64::from(resolution),
                 );
-                let mut c = vec![0.0f64; n];
-                let mut energy = 0.0;
-                for (q, (wi, dw)) in quadrature
-                    .rule
-                    .directions
-                    .iter()
-                    .zip(&quadrature.rule.weights)
-                    .enumerate()
-                {
-                    let g = f64::from(shape.eval(Vec3::Z, wo.as_vec3(), wi.as_vec3()).x) * wi.z;
-                    if g == 0.0 {
-                        continue;
-                    }
-                    energy += g * g * dw;
-                    let h = &quadrature.basis[q * stride..q * stride + n];
-                    for (ck, hk) in c.iter_mut().zip(h) {
-                        *ck += g * dw * hk;
-                    }
-                }
-                let captured: f64 = c.iter().map(|x| x * x).sum();
-                accuracy.push(if energy > 0.0 { captured / energy } else { 1.0 });
+                let (c, a) = project_for(&shape, wo, n, quadrature);
+                accuracy.push(a);
                 coefficients.extend(c.iter().map(|&x| x as f32));
             }
         }
@@ -155,32 +135,12 @@ impl LobeTable {
         let steps = steps.max(2);
         let mut coefficients = Vec::with_capacity(steps as usize * n);
         let mut accuracy = Vec::with_capacity(steps as usize);
-        let stride = quadrature.basis_stride;
         for s in 0..steps {
             // Grazing outgoing directions sit just above the horizon.
             let t = (f64::from(s) / f64::from(steps - 1)).min(0.999) * std::f64::consts::FRAC_PI_2;
             let wo = DVec3::new(t.sin(), 0.0, t.cos());
-            let mut c = vec![0.0f64; n];
-            let mut energy = 0.0;
-            for (q, (wi, dw)) in quadrature
-                .rule
-                .directions
-                .iter()
-                .zip(&quadrature.rule.weights)
-                .enumerate()
-            {
-                let g = f64::from(shape.eval(Vec3::Z, wo.as_vec3(), wi.as_vec3()).x) * wi.z;
-                if g == 0.0 {
-                    continue;
-                }
-                energy += g * g * dw;
-                let h = &quadrature.basis[q * stride..q * stride + n];
-                for (ck, hk) in c.iter_mut().zip(h) {
-                    *ck += g * dw * hk;
-                }
-            }
-            let captured: f64 = c.iter().map(|x| x * x).sum();
-            accuracy.push(if energy > 0.0 { captured / energy } else { 1.0 });
+            let (c, a) = project_for(&shape, wo, n, quadrature);
+            accuracy.push(a);
             coefficients.extend(c.iter().map(|&x| x as f32));
         }
         Self {
@@ -246,6 +206,38 @@ pub fn quadrature_for(lobe: &GlossyLobe, order: u32) -> Quadrature {
         basis: b,
         basis_stride: stride,
     }
+}
+
+/// The `n` coefficients of the cosine-weighted `shape` for the outgoing direction `wo`
+/// (local frame), and the share of its energy they hold (eq. 3.32).
+fn project_for(
+    shape: &GlossyLobe,
+    wo: DVec3,
+    n: usize,
+    quadrature: &Quadrature,
+) -> (Vec<f64>, f64) {
+    let stride = quadrature.basis_stride;
+    let mut c = vec![0.0f64; n];
+    let mut energy = 0.0;
+    for (q, (wi, dw)) in quadrature
+        .rule
+        .directions
+        .iter()
+        .zip(&quadrature.rule.weights)
+        .enumerate()
+    {
+        let g = f64::from(shape.eval(Vec3::Z, wo.as_vec3(), wi.as_vec3()).x) * wi.z;
+        if g == 0.0 {
+            continue;
+        }
+        energy += g * g * dw;
+        let h = &quadrature.basis[q * stride..q * stride + n];
+        for (ck, hk) in c.iter_mut().zip(h) {
+            *ck += g * dw * hk;
+        }
+    }
+    let captured: f64 = c.iter().map(|x| x * x).sum();
+    (c, if energy > 0.0 { captured / energy } else { 1.0 })
 }
 
 /// The lobe with unit reflectance (its shape).

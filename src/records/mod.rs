@@ -142,6 +142,18 @@ pub struct PlaneSample {
     pub depth: f32,
 }
 
+/// Depth of the nearer of two plane samples (Ward's min rule for the edges of the
+/// translational gradients); <= 0 when both are misses. WGSL: `nearer_depth`, records.wgsl.
+pub(crate) fn nearer_depth(a: f32, b: f32) -> f32 {
+    if a <= 0.0 {
+        b
+    } else if b <= 0.0 {
+        a
+    } else {
+        a.min(b)
+    }
+}
+
 /// Settings of the irradiance cache (scene file `[cache]`, CLI flags).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct CacheSettings {

@@ -13,7 +13,7 @@
 //! of every coefficient comes from the same plane (algorithms.md 3.3: each pixel edge
 //! sweeps the radiance difference across it, weighted by `H_k` at the edge).
 
-use super::{HemispherePlane, PlaneSample, RecordKind, plane::rect_solid_angle};
+use super::{HemispherePlane, PlaneSample, RecordKind, nearer_depth, plane::rect_solid_angle};
 use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
@@ -127,17 +127,6 @@ impl PlaneBasis {
 /// (all red coefficients, then green, then blue), summed over pixels in order as the GPU.
 pub fn project(basis: &PlaneBasis, samples: &[PlaneSample]) -> Vec<f32> {
     project_with_gradients(basis, samples)[..3 * coefficient_count(basis.order)].to_vec()
-}
-
-/// Depth of the nearer of two samples (Ward's min rule); <= 0 when both are misses.
-fn nearer_depth(a: f32, b: f32) -> f32 {
-    if a <= 0.0 {
-        b
-    } else if b <= 0.0 {
-        a
-    } else {
-        a.min(b)
-    }
 }
 
 /// The coefficients and their translational gradients along the plane's x and y axes

@@ -144,15 +144,7 @@ pub fn reduce_plane(
 ) -> Record {
     let res = plane.resolution as usize;
     let l = |s: &PlaneSample| DVec3::from(Vec3::from(s.radiance));
-    let nearer = |a: f32, b: f32| {
-        if a <= 0.0 {
-            b
-        } else if b <= 0.0 {
-            a
-        } else {
-            a.min(b)
-        }
-    };
+    let nearer = super::nearer_depth;
     let mut e = DVec3::ZERO;
     let mut inv_distance = 0.0f64;
     let mut weight_sum = 0.0f64;

@@ -16,7 +16,7 @@ use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
 use crate::gpu::scene_buffers::GpuScene;
-use crate::gpu::timer::PassTimer;
+use crate::gpu::timer::{PassTimer, spanning};
 use crate::hsh::brdf_projection::{LobeTable, quadrature_for};
 use crate::hsh::coefficient_count;
 use crate::hsh::rotation::RotationTable;
@@ -130,6 +130,15 @@ impl RadianceTables {
             }
         }
         sharpest
+    }
+
+    /// Whether radiance records shade every glossy lobe of the scene: once their placement
+    /// has covered every pixel it should, no glossy pixel needs Monte Carlo.
+    pub fn every_lobe_has_slot(&self) -> bool {
+        self.lobes_by_material
+            .iter()
+            .zip(&self.slots)
+            .all(|(lobe, slot)| lobe.is_none() || *slot != NO_LOBE_SLOT)
     }
 
     /// Whether any material is shaded by radiance records.
@@ -321,23 +330,7 @@ impl RadianceSplatPass {
                     &chunk,
                 ],
             );
-            // The timer spans every dispatch: its start on the first, its end on the last.
-            let first_or_last = d == 0 || d + 1 == dispatches;
-            let ts = stamps.as_ref().filter(|_| first_or_last).map(|t| {
-                wgpu::ComputePassTimestampWrites {
-                    query_set: t.query_set,
-                    beginning_of_pass_write_index: if d == 0 {
-                        t.beginning_of_pass_write_index
-                    } else {
-                        None
-                    },
-                    end_of_pass_write_index: if d + 1 == dispatches {
-                        t.end_of_pass_write_index
-                    } else {
-                        None
-                    },
-                }
-            });
+            let ts = spanning(stamps.as_ref(), d == 0, d + 1 == dispatches);
             self.gather.record(
                 &mut enc,
                 &src.scene.bind_group,

@@ -95,3 +95,16 @@ pub fn exact_hit(scene: &Scene, instance: u32, tri: u32, o: Vec3, d: Vec3) -> Op
     let v = d.dot(q) / det;
     Some((e2.dot(q) / det, u.min(v).min(1.0 - u - v)))
 }
+
+/// A scene written from its texts (`scene.obj`, `scene.mtl`, `scene.toml`) into a temporary
+/// directory named after `tag`, loaded, and the directory removed.
+pub fn scene_from_texts(tag: &str, obj: &str, mtl: &str, toml: &str) -> Scene {
+    let dir = std::env::temp_dir().join(format!("radsplat-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    std::fs::write(dir.join("scene.obj"), obj).expect("obj");
+    std::fs::write(dir.join("scene.mtl"), mtl).expect("mtl");
+    std::fs::write(dir.join("scene.toml"), toml).expect("toml");
+    let scene = load_scene(&dir.join("scene.toml")).expect("scene");
+    let _ = std::fs::remove_dir_all(&dir);
+    scene
+}

@@ -19,6 +19,18 @@ struct Record {
 // tangent and bitangent, each padded to a vec4.
 const FRAME_FLOATS: u32 = 8u;
 
+// Depth of the nearer of two plane samples (Ward's min rule for the translational
+// gradients' pixel edges); <= 0 when both are misses. Rust: records::nearer_depth.
+fn nearer_depth(a: f32, b: f32) -> f32 {
+    if a <= 0.0 {
+        return b;
+    }
+    if b <= 0.0 {
+        return a;
+    }
+    return min(a, b);
+}
+
 // Rust: records::plane::PlanePixel.
 struct PlanePixel {
     weights: vec4f,   // cos_weight, solid_angle, edge_x, edge_y
