@@ -68,7 +68,32 @@ pub struct CachedFrameOptions<'a, 'b> {
     pub visibility: Option<VisibilityBuffer>,
     /// Radiance records for the glossy pixels they shade (placed, then splatted); None:
     /// every glossy lobe by Monte Carlo.
-    pub radiance: Option<&'a mut RadianceCache>,
+    pub radiance: Option<RadianceFrame<'a, 'b>>,
+}
+
+/// The radiance records a frame splats and the pass that places more
+/// ([`CachedFrameOptions::radiance`]): a [`RadianceCache`]'s parts, or temporal caching's.
+pub struct RadianceFrame<'a, 'b> {
+    pub records: &'a mut RecordCache,
+    pub pass: &'a RecordPass,
+    pub splat: &'a RadianceSplatPass,
+    /// A stage run inside their computation (temporal caching: their estimate at t+1).
+    pub stage: Option<&'a mut (dyn crate::records::RecordStage + 'b)>,
+    /// At most this many new radiance records (None: every pixel they shade covered).
+    pub max_new_records: Option<u32>,
+}
+
+impl RadianceCache {
+    /// This cache as a frame's radiance records, placing as many as the frame needs.
+    pub fn frame(&mut self) -> RadianceFrame<'_, 'static> {
+        RadianceFrame {
+            records: &mut self.records,
+            pass: &self.pass,
+            splat: &self.splat,
+            stage: None,
+            max_new_records: None,
+        }
+    }
 }
 
 /// Statistics of one frame.
@@ -212,20 +237,39 @@ impl RadianceCache {
         scene: &GpuScene,
         settings: &CacheSettings,
     ) -> Result<Option<Self>> {
+        let Some((record_settings, tables)) = Self::record_settings(ctx, scene, settings) else {
+            return Ok(None);
+        };
+        let kind = settings.radiance.kind();
+        Ok(Some(Self {
+            records: RecordCache::with_kind(ctx, kind)?,
+            pass: RecordPass::with_kind(ctx, &record_settings, kind)?,
+            splat: RadianceSplatPass::new(ctx, tables)?,
+        }))
+    }
+
+    /// The settings radiance records of `scene` are computed with (their own accuracy,
+    /// plane resolution and a budget of what one binding holds) and the splat's tables;
+    /// None when radiance records are off or no material's lobe qualifies.
+    pub fn record_settings(
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        settings: &CacheSettings,
+    ) -> Option<(CacheSettings, RadianceTables)> {
         let r = settings.radiance;
         if r.order == 0 || !scene.has_glossy {
-            return Ok(None);
+            return None;
         }
         let tables = RadianceTables::new(&scene.glossy_lobes, r);
         if !tables.any_slot() {
-            return Ok(None);
+            return None;
         }
-        let records = RecordCache::with_kind(ctx, r.kind())?;
         // Past what one binding holds, placement stops (its uncovered pixels take Monte
         // Carlo) rather than the frame failing.
+        let per = crate::records::RECORD_BYTES.max(r.kind().coefficient_bytes());
         let record_budget = settings
             .record_budget
-            .min(records.max_records(ctx).min(u64::from(u32::MAX)) as u32);
+            .min((ctx.max_binding_size() / per).min(u64::from(u32::MAX)) as u32);
         let record_settings = CacheSettings {
             accuracy: r.accuracy,
             record_budget,
@@ -233,11 +277,7 @@ impl RadianceCache {
                 .plane_resolution_for(settings.plane_resolution, tables.sharpest_exponent()),
             ..settings.clone()
         };
-        Ok(Some(Self {
-            records,
-            pass: RecordPass::with_kind(ctx, &record_settings, r.kind())?,
-            splat: RadianceSplatPass::new(ctx, tables)?,
-        }))
+        Some((record_settings, tables))
     }
 }
 
@@ -504,7 +544,7 @@ impl Renderer {
             &cache.pass,
             CachedFrameOptions {
                 max_new_records,
-                radiance: cache.radiance.as_mut(),
+                radiance: cache.radiance.as_mut().map(RadianceCache::frame),
                 ..Default::default()
             },
             progress,
@@ -617,56 +657,62 @@ impl Renderer {
         let mut radiance_stats = (0, 0);
         let mut radiance_covers_all = false;
         let radiance_sums = match radiance {
-            Some(rc) if !placement_only => {
+            Some(rf) => {
                 let first_time = times.len();
                 let need = CoverageMask::new(ctx, camera.width, camera.height)?;
-                rc.splat.need_mask(ctx, &scene.gpu, &vis, &need);
-                let accuracy = rc.pass.settings.accuracy;
+                rf.splat.need_mask(ctx, &scene.gpu, &vis, &need);
+                let accuracy = rf.pass.settings.accuracy;
                 let held = SplatSource {
                     scene: &scene.gpu,
                     vis: &vis,
                     bounds: &bounds,
-                    records: &rc.records,
+                    records: rf.records,
                     first: 0,
                     accuracy,
                 };
                 splat_pass.cover(ctx, held, &need, &mut times)?;
+                // Placed in the placement-only pass too (the first pass of interpolated
+                // temporal gradients computes every frame's records).
                 let placed = self.placement_pass()?.place(
                     ctx,
                     &scene.gpu,
                     &vis,
-                    &mut rc.records,
-                    &rc.pass,
+                    rf.records,
+                    rf.pass,
                     splat_pass,
                     &bounds,
                     &need,
                     light_maps.as_deref(),
-                    None,
-                    None,
+                    rf.max_new_records,
+                    rf.stage,
                     &mut times,
                     |_| {},
                 )?;
-                radiance_stats = (rc.records.count, placed.new_records);
+                radiance_stats = (rf.records.count, placed.new_records);
                 // Placement covered every pixel with a radiance lobe: if every glossy
                 // lobe has one, no pixel needs Monte Carlo lobe rays.
                 radiance_covers_all =
-                    !placed.limit_reached && rc.splat.tables.every_lobe_has_slot();
-                let all = SplatSource {
-                    scene: &scene.gpu,
-                    vis: &vis,
-                    bounds: &bounds,
-                    records: &rc.records,
-                    first: 0,
-                    accuracy,
+                    !placed.limit_reached && rf.splat.tables.every_lobe_has_slot();
+                let sums = if placement_only {
+                    None
+                } else {
+                    let all = SplatSource {
+                        scene: &scene.gpu,
+                        vis: &vis,
+                        bounds: &bounds,
+                        records: rf.records,
+                        first: 0,
+                        accuracy,
+                    };
+                    Some(rf.splat.gather(ctx, splat_pass, all, &mut times)?)
                 };
-                let sums = rc.splat.gather(ctx, splat_pass, all, &mut times)?;
                 // The radiance cache's passes under their own names.
                 for (name, _) in &mut times[first_time..] {
                     *name = radiance_pass_name(name);
                 }
-                Some(sums)
+                sums
             }
-            _ => None,
+            None => None,
         };
 
         let rays_per_record = pass.settings.plane_rays_per_record();
@@ -950,9 +996,8 @@ impl Renderer {
     }
 }
 
-/// Total GPU time per pass name, in first-seen order (passes run once per round).
 /// A pass of the radiance cache under its own name in frame statistics.
-fn radiance_pass_name(name: &str) -> &'static str {
+pub fn radiance_pass_name(name: &str) -> &'static str {
     match name {
         "hemisphere planes" => "radiance: hemisphere planes",
         "plane refinement select" => "radiance: plane refinement select",
@@ -962,10 +1007,14 @@ fn radiance_pass_name(name: &str) -> &'static str {
         "splat: radiance gather" => "radiance: gather",
         "splat: cover" => "radiance: cover",
         n if n.starts_with("splat: bin") => "radiance: binning",
+        "temporal: reprojection" => "radiance: reprojection",
+        "temporal: re-shading" => "radiance: re-shading",
+        "temporal: hole filling" => "radiance: hole filling",
         _ => "radiance: other",
     }
 }
 
+/// Total GPU time per pass name, in first-seen order (passes run once per round).
 fn sum_by_pass(times: &[(&'static str, f64)]) -> Vec<(String, f64)> {
     let owned: Vec<(String, f64)> = times.iter().map(|(n, ms)| (n.to_string(), *ms)).collect();
     sum_by_pass_owned(&owned)

@@ -567,6 +567,36 @@ impl RecordCache {
         self.count = records.len() as u32;
         Ok(())
     }
+
+    /// Replaces the contents with `records` and their coefficient blocks (`coefficients`:
+    /// [`RecordKind::coefficient_floats`] per record, in order; empty for irradiance).
+    pub fn upload_with_coefficients(
+        &mut self,
+        ctx: &GpuContext,
+        records: &[Record],
+        coefficients: &[f32],
+    ) -> Result<()> {
+        if coefficients.len() != records.len() * self.kind.coefficient_floats() {
+            return Err(Error::Usage(format!(
+                "internal: {} coefficients for {} {}",
+                coefficients.len(),
+                records.len(),
+                self.kind.describe()
+            )));
+        }
+        self.upload(ctx, records)?;
+        if !coefficients.is_empty() {
+            ctx.queue
+                .write_buffer(&self.coefficients, 0, bytemuck::cast_slice(coefficients));
+        }
+        Ok(())
+    }
+
+    /// The byte range of the coefficient blocks of records `first..first + count`.
+    pub fn coefficient_range(&self, first: u32, count: u32) -> std::ops::Range<u64> {
+        let block = self.kind.coefficient_bytes();
+        u64::from(first) * block..u64::from(first + count) * block
+    }
 }
 
 #[repr(C)]
@@ -902,19 +932,17 @@ impl RecordPass {
             if let Some(st) = stage.as_deref_mut() {
                 st.planes_ready(ctx, &mut enc, &batch, res)?;
             }
-            if let Some(projection) = &self.projection {
-                projection.record(
-                    ctx,
-                    &mut enc,
-                    scene,
-                    &batch_sites,
-                    &samples,
-                    &cache.coefficients,
-                    cache.count,
-                    n,
-                    timer.next("radiance projection"),
-                );
-            }
+            self.record_projection(
+                ctx,
+                &mut enc,
+                scene,
+                &batch_sites,
+                &samples,
+                &cache.coefficients,
+                cache.count,
+                n,
+                &mut timer,
+            );
             let reduction = ReductionBatch {
                 sites: &batch_sites,
                 first_record: cache.count,
@@ -944,6 +972,38 @@ impl RecordPass {
             on_batch(done);
         }
         Ok(times)
+    }
+
+    /// Records the HSH projection (`radiance_project.wgsl`) of `count` planes of this
+    /// pass's resolution in `samples`, traced from `sites`, into the coefficient blocks of
+    /// records `first_record..` of `coefficients`; nothing for irradiance records. Stages
+    /// project their own planes with it (temporal caching: the planes estimated at t+1).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_projection(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        sites: &wgpu::Buffer,
+        samples: &wgpu::Buffer,
+        coefficients: &wgpu::Buffer,
+        first_record: u32,
+        count: u32,
+        timer: &mut crate::gpu::timer::PassTimer,
+    ) {
+        if let Some(projection) = &self.projection {
+            projection.record(
+                ctx,
+                enc,
+                scene,
+                sites,
+                samples,
+                coefficients,
+                first_record,
+                count,
+                timer.next("radiance projection"),
+            );
+        }
     }
 
     /// Records the plane pass (`hemisphere_plane.wgsl`) for `batch`: its samples, and with

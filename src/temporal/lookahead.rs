@@ -143,6 +143,26 @@ impl RecordStage for Lookahead<'_> {
             &self.next.buffer,
             timer,
         );
+        // Radiance records: the estimated plane projected onto HSH too, into the blocks at
+        // t+1 (stride 1 only: the projection's basis is the record plane's).
+        if self.next.kind.coefficient_floats() > 0 {
+            if self.reprojection.stride != 1 {
+                return Err(Error::Usage(
+                    "internal: radiance records are estimated at t+1 with stride 1".into(),
+                ));
+            }
+            pass.record_projection(
+                ctx,
+                enc,
+                self.next_frame.scene,
+                batch.sites,
+                estimate,
+                &self.next.coefficients,
+                batch.first_record,
+                batch.count,
+                timer,
+            );
+        }
         if self.reprojection.stride > 1 {
             pass.record_reduction(
                 ctx,

@@ -13,6 +13,7 @@ pub mod estimate_error;
 pub mod lookahead;
 pub mod motion;
 pub mod plane_refresh;
+pub mod radiance;
 pub mod reference;
 pub mod reprojection;
 
@@ -20,10 +21,15 @@ pub use lookahead::{Lookahead, PlanesAhead, RefreshStage, trace_planes_ahead};
 pub use motion::{InstanceMotion, RecordAnchor};
 pub use reprojection::{NextFrame, ReprojectionPass};
 
-use crate::frame::{CachedFrameOptions, Frame, PreparedScene, Renderer};
+use crate::frame::{
+    CachedFrameOptions, Frame, PreparedScene, RadianceCache, RadianceFrame, Renderer,
+};
 use crate::gpu::GpuContext;
-use crate::records::{CacheSettings, Record, RecordCache, RecordPass, RecordSite, RecordStage};
+use crate::records::{
+    CacheSettings, Record, RecordCache, RecordKind, RecordPass, RecordSite, RecordStage,
+};
 use crate::scene::{Camera, Scene};
+use crate::splat::radiance::RadianceSplatPass;
 use crate::visibility::VisibilityBuffer;
 use crate::{Error, Result};
 use glam::Mat4;
@@ -368,6 +374,9 @@ pub struct TemporalFrameStats {
     /// Records computed this frame by lifespan: entry i counts those used in i + 1 frames
     /// (the last entry: dt_max frames, or more when nothing in the scene changes).
     pub lifespans: Vec<u32>,
+    /// The same for the radiance records of the frame (their hemisphere rays are also in
+    /// `plane_rays`); None without radiance records.
+    pub radiance: Option<Box<TemporalFrameStats>>,
 }
 
 /// The scenes a temporal frame needs: frame t on the GPU and on the CPU (instance
@@ -399,10 +408,85 @@ struct ComputedRecords {
     records: Vec<Record>,
     /// Their estimates at t+1 (the records themselves without a next frame).
     nexts: Vec<Record>,
+    /// Radiance records: their coefficient blocks at t and t+1, one after another
+    /// (empty for irradiance records).
+    blocks: Vec<f32>,
+    next_blocks: Vec<f32>,
     /// Their sites, where plane capture kept them.
     sites: Vec<Option<RecordSite>>,
     /// Samples of refreshed planes traced again.
     retraced_samples: u64,
+}
+
+/// A radiance record's coefficient blocks ([`crate::records::RecordKind::coefficient_floats`]
+/// f32s each) at its first frame and estimated at the next: what [`TemporalRecord`] is to
+/// its [`Record`]. Empty for irradiance records.
+#[derive(Clone, Debug, Default)]
+pub struct RecordBlocks {
+    pub now: Vec<f32>,
+    pub next: Vec<f32>,
+}
+
+/// What the first half of a frame of a cache leaves for the second
+/// ([`TemporalCache::begin_frame`], [`TemporalCache::finish_frame`]).
+struct FramePlan {
+    transforms: Vec<Mat4>,
+    stats: TemporalFrameStats,
+    times: Vec<(&'static str, f64)>,
+    /// Ids of the records kept from the last frame, in frame order.
+    kept: Vec<u32>,
+    /// Ids of the records replaced, in order of birth (their successors come first
+    /// among the records computed).
+    replace: Vec<u32>,
+    capture: plane_refresh::PlaneCapture,
+    retraced_lists: Vec<wgpu::Buffer>,
+    lights: FrameLights,
+}
+
+/// Radiance records over an animation: a temporal cache of their own beside the
+/// irradiance records ([`radiance`]), and the splat that shades glossy lobes with them.
+struct RadianceTemporal {
+    records: TemporalCache,
+    splat: RadianceSplatPass,
+}
+
+impl RadianceTemporal {
+    /// The radiance records of `scene` under the user's `cache` settings, or None when
+    /// they are off or no lobe qualifies. They live by the same temporal settings, except
+    /// that their planes are traced, never refreshed (refresh retains planes of the
+    /// irradiance records' resolution), their estimate at t+1 reprojects the whole plane
+    /// (the projection's basis is the plane's) and replacement is decided on this frame
+    /// (their coverage is not counted).
+    fn new(
+        ctx: &GpuContext,
+        scene: &crate::gpu::scene_buffers::GpuScene,
+        cache: &CacheSettings,
+        settings: &TemporalSettings,
+    ) -> Result<Option<Self>> {
+        let Some((record_settings, tables)) = RadianceCache::record_settings(ctx, scene, cache)
+        else {
+            return Ok(None);
+        };
+        let settings = TemporalSettings {
+            plane_refresh: RefreshMode::Off,
+            estimate_stride: Some(1),
+            replacement: match settings.replacement {
+                Replacement::Covering => Replacement::Visible,
+                other => other,
+            },
+            max_new_records: None,
+            ..settings.clone()
+        };
+        Ok(Some(Self {
+            records: TemporalCache::with_kind(
+                ctx,
+                &record_settings,
+                &settings,
+                cache.radiance.kind(),
+            )?,
+            splat: RadianceSplatPass::new(ctx, tables)?,
+        }))
+    }
 }
 
 /// Replacements computed in one batch.
@@ -449,6 +533,14 @@ pub struct TemporalCache {
     /// Planes refreshed so far, their samples traced again, and records computed in frames
     /// with replacements ([`RefreshMode::Auto`]).
     refresh_totals: (u64, u64, u64),
+    /// Coefficient blocks of the records of `history`, in step with it.
+    blocks: VecDeque<RecordBlocks>,
+    /// The settings the user gave (radiance records derive theirs from them).
+    user_settings: CacheSettings,
+    /// The radiance records beside these, built at the first frame (None: the scene has
+    /// no lobe they shade, radiance records are off, or this cache holds them).
+    radiance: Option<Box<RadianceTemporal>>,
+    radiance_checked: bool,
 }
 
 impl TemporalCache {
@@ -485,12 +577,24 @@ impl TemporalCache {
         cache: &CacheSettings,
         settings: &TemporalSettings,
     ) -> Result<Self> {
+        Self::with_kind(ctx, cache, settings, RecordKind::Irradiance)
+    }
+
+    /// A temporal cache of `kind` records (radiance records: one beside the irradiance
+    /// cache, [`RadianceTemporal`]; they have none of their own).
+    fn with_kind(
+        ctx: &GpuContext,
+        cache: &CacheSettings,
+        settings: &TemporalSettings,
+        kind: RecordKind,
+    ) -> Result<Self> {
         settings.validate()?;
+        let user_settings = cache.clone();
         // Every pass (records, reprojection, plane store) with the same record settings.
         let cache = &Self::record_settings(cache);
         Ok(Self {
             settings: settings.clone(),
-            pass: RecordPass::new(ctx, cache)?,
+            pass: RecordPass::with_kind(ctx, cache, kind)?,
             reprojection: ReprojectionPass::new(
                 ctx,
                 cache,
@@ -507,12 +611,17 @@ impl TemporalCache {
             frames: Vec::new(),
             released_before: 0,
             coverage: Vec::new(),
-            frame_records: RecordCache::new(ctx)?,
-            next_records: RecordCache::new(ctx)?,
-            subset_records: RecordCache::new(ctx)?,
-            second_records: RecordCache::new(ctx)?,
+            frame_records: RecordCache::with_kind(ctx, kind)?,
+            next_records: RecordCache::with_kind(ctx, kind)?,
+            subset_records: RecordCache::with_kind(ctx, kind)?,
+            second_records: RecordCache::with_kind(ctx, kind)?,
             last_frame_rendered: None,
             refresh_totals: (0, 0, 0),
+            blocks: VecDeque::new(),
+            user_settings,
+            radiance: None,
+            // Only an irradiance cache holds radiance records beside it.
+            radiance_checked: kind != RecordKind::Irradiance,
         })
     }
 
@@ -546,6 +655,19 @@ impl TemporalCache {
     pub fn record(&self, id: u32) -> Option<&TemporalRecord> {
         id.checked_sub(self.history_base)
             .and_then(|i| self.history.get(i as usize))
+    }
+
+    /// The coefficient blocks of record `id` at its first frame and estimated at the next
+    /// (empty for irradiance records); None for an id not retained.
+    pub fn blocks(&self, id: u32) -> Option<&RecordBlocks> {
+        id.checked_sub(self.history_base)
+            .and_then(|i| self.blocks.get(i as usize))
+    }
+
+    /// The temporal cache of the radiance records beside these irradiance records (built
+    /// at the first frame; None before, or when the scene has no lobe they shade).
+    pub fn radiance_records(&self) -> Option<&TemporalCache> {
+        self.radiance.as_deref().map(|r| &r.records)
     }
 
     /// The records retained, with their ids, oldest first (all records ever created
@@ -595,13 +717,18 @@ impl TemporalCache {
         if t < self.released_before {
             return false;
         }
-        match self.frames.iter().find(|f| f.frame == t) {
+        let ready = match self.frames.iter().find(|f| f.frame == t) {
             Some(f) => f.ids.iter().all(|&id| {
                 let last = self.rec(id).last_frame;
                 last < rendered || last >= end
             }),
             None => false,
-        }
+        };
+        ready
+            && self
+                .radiance
+                .as_deref()
+                .is_none_or(|r| r.records.second_pass_ready(t, end))
     }
 
     /// Releases what only frames before `t` needed: their record lists and the records no
@@ -636,7 +763,11 @@ impl TemporalCache {
         let keep_from = needed.map_or(self.next_id(), u64::from);
         while u64::from(self.history_base) < keep_from && !self.history.is_empty() {
             self.history.pop_front();
+            self.blocks.pop_front();
             self.history_base += 1;
+        }
+        if let Some(r) = self.radiance.as_deref_mut() {
+            r.records.release_frames_before(t);
         }
     }
 
@@ -644,7 +775,9 @@ impl TemporalCache {
     /// anything that affects irradiance (instances, lights) is animated; when false,
     /// records never expire (dt_max is lifted: nothing can change later).
     /// `placement_only`: the first pass of interpolated gradients (records only: no direct
-    /// light, no images in the returned frame).
+    /// light, no images in the returned frame). Glossy lobes the scene's radiance records
+    /// shade get a radiance-record cache of their own, with the same lifecycle
+    /// ([`radiance`]).
     #[allow(clippy::too_many_arguments)]
     pub fn render_frame(
         &mut self,
@@ -656,6 +789,127 @@ impl TemporalCache {
         placement_only: bool,
         progress: impl FnMut(u32),
     ) -> Result<(Frame, TemporalFrameStats)> {
+        let ctx = &renderer.ctx;
+        if !self.radiance_checked {
+            self.radiance_checked = true;
+            self.radiance =
+                RadianceTemporal::new(ctx, &scenes.now.gpu, &self.user_settings, &self.settings)?
+                    .map(Box::new);
+        }
+        // The visibility buffer of frame t, traced once for the replacement decisions of
+        // both caches and the frame.
+        let mut vis = None;
+        let mut plan = self.begin_frame(renderer, &scenes, camera, t, &mut vis)?;
+        let mut radiance_plan = match self.radiance.as_deref_mut() {
+            Some(r) => Some(
+                r.records
+                    .begin_frame(renderer, &scenes, camera, t, &mut vis)?,
+            ),
+            None => None,
+        };
+        let anchored = self.settings.anchor == RecordAnchor::Instance;
+        let next_frame = |scene: &Scene| -> Result<Option<NextFrame<'_>>> {
+            match scenes.next {
+                Some((next, next_cpu)) => Ok(Some(NextFrame::new(
+                    ctx, &next.gpu, scene, next_cpu, anchored,
+                )?)),
+                None => Ok(None),
+            }
+        };
+        let mut lookahead = next_frame(scenes.scene)?.map(|next| {
+            Lookahead::new(
+                next,
+                &self.reprojection,
+                &mut self.next_records,
+                &mut self.subset_records,
+                Some(&mut plan.capture),
+            )
+        });
+        let mut radiance_lookahead = None;
+        let mut radiance_before = 0;
+        let radiance = match (self.radiance.as_deref_mut(), radiance_plan.as_mut()) {
+            (Some(r), Some(rp)) => {
+                let rc = &mut r.records;
+                radiance_before = rc.frame_records.count;
+                radiance_lookahead = next_frame(scenes.scene)?.map(|next| {
+                    Lookahead::new(
+                        next,
+                        &rc.reprojection,
+                        &mut rc.next_records,
+                        &mut rc.subset_records,
+                        Some(&mut rp.capture),
+                    )
+                });
+                Some(RadianceFrame {
+                    records: &mut rc.frame_records,
+                    pass: &rc.pass,
+                    splat: &r.splat,
+                    stage: radiance_lookahead
+                        .as_mut()
+                        .map(|la| la as &mut dyn RecordStage),
+                    max_new_records: None,
+                })
+            }
+            _ => None,
+        };
+        let before_new = self.frame_records.count;
+        let (mut frame, coverage) = renderer.render_cached_frame(
+            scenes.now,
+            camera,
+            &mut self.frame_records,
+            &self.pass,
+            CachedFrameOptions {
+                max_new_records: self.settings.max_new_records,
+                stage: lookahead.as_mut().map(|la| la as &mut dyn RecordStage),
+                count_coverage: self.settings.replacement == Replacement::Covering,
+                placement_only,
+                visibility: vis.take(),
+                radiance,
+            },
+            progress,
+        )?;
+        drop(lookahead);
+        drop(radiance_lookahead);
+        let new = self.frame_records.count - before_new;
+        let has_next = scenes.next.is_some();
+        let mut times = std::mem::take(&mut plan.times);
+        let mut stats = self.finish_frame(ctx, plan, t, has_next, dynamic, coverage, new)?;
+        if let (Some(r), Some(mut rp)) = (self.radiance.as_deref_mut(), radiance_plan) {
+            // Their replacements' passes under the radiance cache's names.
+            times.extend(
+                rp.times
+                    .drain(..)
+                    .map(|(name, ms)| (crate::frame::radiance_pass_name(name), ms)),
+            );
+            let new = r.records.frame_records.count - radiance_before;
+            let rs = r
+                .records
+                .finish_frame(ctx, rp, t, has_next, dynamic, Vec::new(), new)?;
+            stats.plane_rays += rs.plane_rays;
+            stats.radiance = Some(Box::new(rs));
+        }
+        if let Some(cache_stats) = frame.stats.cache.as_mut() {
+            cache_stats.plane_rays = stats.plane_rays;
+            cache_stats.reused_records = stats.kept;
+        }
+        let mut all = frame.stats.pass_ms.clone();
+        all.extend(times.iter().map(|(n, ms)| (n.to_string(), *ms)));
+        frame.stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
+        Ok((frame, stats))
+    }
+
+    /// The first half of a frame of this cache: expiry, the replacement decisions (on
+    /// frame t's visibility buffer `vis`, traced here if not yet), the kept records
+    /// uploaded at t and the replacements computed (each estimated at t+1 when there is a
+    /// next frame). Placement, in the frame, appends the new records.
+    fn begin_frame(
+        &mut self,
+        renderer: &Renderer,
+        scenes: &FrameScenes<'_>,
+        camera: &Camera,
+        t: u32,
+        vis: &mut Option<VisibilityBuffer>,
+    ) -> Result<FramePlan> {
         let ctx = &renderer.ctx;
         if let Some(prev) = self.last_frame_rendered {
             if t <= prev {
@@ -684,7 +938,7 @@ impl TemporalCache {
             .map(|&id| self.world_record(self.rec(id).at(t), id, &transforms))
             .collect();
         let mut times = Vec::new();
-        let (deciding, covering, visibility) = self.expired_coverage(
+        let (deciding, covering) = self.expired_coverage(
             renderer,
             scenes.now,
             camera,
@@ -692,6 +946,7 @@ impl TemporalCache {
             &kept_records,
             &expired,
             &transforms,
+            vis,
             &mut times,
         )?;
         let mut replace: Vec<u32> = Vec::new();
@@ -706,7 +961,12 @@ impl TemporalCache {
         }
         stats.kept = kept.len() as u32;
         stats.replaced = replace.len() as u32;
-        self.frame_records.upload(ctx, &kept_records)?;
+        let kept_blocks: Vec<f32> = kept
+            .iter()
+            .flat_map(|&id| self.block_at_with(id, t, &transforms))
+            .collect();
+        self.frame_records
+            .upload_with_coefficients(ctx, &kept_records, &kept_blocks)?;
         for records in [&mut self.next_records, &mut self.subset_records] {
             records.count = 0;
             records.reserve(ctx, self.frame_records.count)?;
@@ -786,35 +1046,51 @@ impl TemporalCache {
                 retraced_lists.extend(r.retraced.take());
             }
         }
+        drop(lookahead);
         for id in &replace {
             self.planes.planes.remove(id);
         }
-        let before_new = self.frame_records.count;
-        let (mut frame, coverage) = renderer.render_cached_frame(
-            scenes.now,
-            camera,
-            &mut self.frame_records,
-            &self.pass,
-            CachedFrameOptions {
-                max_new_records: self.settings.max_new_records,
-                stage: lookahead.as_mut().map(|la| la as &mut dyn RecordStage),
-                count_coverage: self.settings.replacement == Replacement::Covering,
-                placement_only,
-                visibility,
-                // Radiance records are not yet cached over time: glossy lobes by Monte
-                // Carlo in animations.
-                radiance: None,
-            },
-            progress,
-        )?;
-        stats.new = self.frame_records.count - before_new;
-        drop(lookahead);
+        Ok(FramePlan {
+            transforms,
+            stats,
+            times,
+            kept,
+            replace,
+            capture,
+            retraced_lists,
+            lights,
+        })
+    }
 
+    /// The second half of a frame of this cache, once the frame placed `new` records
+    /// (and counted each record's `coverage`, when it did): the records computed this
+    /// frame read back and added to the history, the frame's record list kept.
+    #[allow(clippy::too_many_arguments)]
+    fn finish_frame(
+        &mut self,
+        ctx: &GpuContext,
+        plan: FramePlan,
+        t: u32,
+        has_next: bool,
+        dynamic: bool,
+        coverage: Vec<u32>,
+        new: u32,
+    ) -> Result<TemporalFrameStats> {
+        let FramePlan {
+            transforms,
+            mut stats,
+            kept,
+            replace,
+            capture,
+            retraced_lists,
+            lights,
+            ..
+        } = plan;
+        stats.new = new;
         // The records computed this frame (replacements, then new ones) come back from
         // the GPU in one wait; kept records are on the CPU.
         let first = kept.len();
-        let computed =
-            self.read_computed(ctx, first, scenes.next.is_some(), &capture, &retraced_lists)?;
+        let computed = self.read_computed(ctx, first, has_next, &capture, &retraced_lists)?;
         stats.retraced_samples = computed.retraced_samples;
         let count = computed.records.len();
         let (new_ids, lifespans) = self.register_computed(
@@ -850,20 +1126,14 @@ impl TemporalCache {
         if !self.refreshing() {
             self.planes.planes.clear();
         }
-        if let Some(cache_stats) = frame.stats.cache.as_mut() {
-            cache_stats.plane_rays = stats.plane_rays;
-            cache_stats.reused_records = stats.kept;
-        }
-        let mut all = frame.stats.pass_ms.clone();
-        all.extend(times.iter().map(|(n, ms)| (n.to_string(), *ms)));
-        frame.stats.pass_ms = crate::frame::sum_by_pass_owned(&all);
-        Ok((frame, stats))
+        Ok(stats)
     }
 
     /// Reads back the records of the current frame from cache index `first` on (the
-    /// replacements and new records), their estimates at t+1 (`has_next`), the sites
-    /// `capture` kept (by cache index, for their successors) and the lengths of the
-    /// `retraced` sample lists of plane refresh, in one wait.
+    /// replacements and new records), their estimates at t+1 (`has_next`), their
+    /// coefficient blocks (radiance records), the sites `capture` kept (by cache index,
+    /// for their successors) and the lengths of the `retraced` sample lists of plane
+    /// refresh, in one wait.
     fn read_computed(
         &self,
         ctx: &GpuContext,
@@ -874,6 +1144,7 @@ impl TemporalCache {
     ) -> Result<ComputedRecords> {
         let computed = (self.frame_records.count as usize).saturating_sub(first);
         let site_bytes = std::mem::size_of::<RecordSite>() as u64;
+        let blocks = self.frame_records.kind.coefficient_floats() > 0;
         let mut ranges: Vec<(&wgpu::Buffer, std::ops::Range<u64>)> = Vec::new();
         if computed > 0 {
             let range = RecordCache::byte_range(first as u32, computed as u32);
@@ -886,6 +1157,16 @@ impl TemporalCache {
             }
         }
         let record_ranges = ranges.len();
+        if computed > 0 && blocks {
+            let range = self
+                .frame_records
+                .coefficient_range(first as u32, computed as u32);
+            ranges.push((&self.frame_records.coefficients, range.clone()));
+            if has_next {
+                ranges.push((&self.next_records.coefficients, range));
+            }
+        }
+        let block_ranges = ranges.len() - record_ranges;
         ranges.extend(
             capture
                 .site_batches
@@ -927,9 +1208,27 @@ impl TemporalCache {
         } else {
             None
         };
+        let mut next_blocks = || -> Vec<f32> {
+            read.next()
+                .map(|words| bytemuck::pod_collect_to_vec(&words))
+                .unwrap_or_default()
+        };
+        let blocks_now = if block_ranges > 0 {
+            next_blocks()
+        } else {
+            Vec::new()
+        };
+        let blocks_next = if block_ranges == 2 {
+            next_blocks()
+        } else {
+            blocks_now.clone()
+        };
+        let floats = self.frame_records.kind.coefficient_floats();
         if records.len() != computed
             || nexts.len() != computed
             || subsets.is_some_and(|s| s.len() != computed)
+            || blocks_now.len() != computed * floats
+            || blocks_next.len() != computed * floats
         {
             return Err(Error::Gpu("internal: record readback incomplete".into()));
         }
@@ -951,6 +1250,8 @@ impl TemporalCache {
         Ok(ComputedRecords {
             records,
             nexts,
+            blocks: blocks_now,
+            next_blocks: blocks_next,
             sites: sites_at,
             retraced_samples,
         })
@@ -996,14 +1297,29 @@ impl TemporalCache {
         } else {
             vec![0; bins]
         };
+        let floats = self.frame_records.kind.coefficient_floats();
+        let block = |all: &[f32], k: usize| -> Vec<f32> {
+            all.get(k * floats..(k + 1) * floats)
+                .map_or_else(Vec::new, <[f32]>::to_vec)
+        };
         let mut ids = Vec::with_capacity(computed.records.len());
-        for ((&record, &next), site) in computed
+        for (k, ((&record, &next), site)) in computed
             .records
             .iter()
             .zip(&computed.nexts)
             .zip(computed.sites)
+            .enumerate()
         {
-            let tau = temporal_ratio(record.irradiance, next.irradiance);
+            let blocks = RecordBlocks {
+                now: block(&computed.blocks, k),
+                next: block(&computed.next_blocks, k),
+            };
+            // Radiance records: tau of their coefficient vectors (radiance.rs).
+            let tau = if floats > 0 {
+                radiance::coefficient_ratio(&blocks.now, &blocks.next)
+            } else {
+                temporal_ratio(record.irradiance, next.irradiance)
+            };
             let anchor = match self.settings.anchor {
                 RecordAnchor::World => None,
                 RecordAnchor::Instance => {
@@ -1028,6 +1344,7 @@ impl TemporalCache {
                 anchor,
                 site,
             });
+            self.blocks.push_back(blocks);
             ids.push(id);
         }
         Ok((ids, lifespans))
@@ -1108,8 +1425,9 @@ impl TemporalCache {
         kept: &[Record],
         expired: &[(usize, u32)],
         transforms: &[Mat4],
+        vis: &mut Option<VisibilityBuffer>,
         times: &mut Vec<(&'static str, f64)>,
-    ) -> Result<(Vec<u32>, Vec<u32>, Option<VisibilityBuffer>)> {
+    ) -> Result<(Vec<u32>, Vec<u32>)> {
         let mode = self.settings.replacement;
         if mode == Replacement::Covering {
             // Counted by the last frame's splat, for every record of that frame.
@@ -1117,13 +1435,18 @@ impl TemporalCache {
                 .iter()
                 .map(|&(i, _)| self.coverage.get(i).copied().unwrap_or(0))
                 .collect();
-            return Ok((expired_then.clone(), expired_then, None));
+            return Ok((expired_then.clone(), expired_then));
         }
         if expired.is_empty() {
-            return Ok((Vec::new(), Vec::new(), None));
+            return Ok((Vec::new(), Vec::new()));
         }
         let ctx = &renderer.ctx;
-        let vis = renderer.visibility(now, camera, times)?;
+        if vis.is_none() {
+            *vis = Some(renderer.visibility(now, camera, times)?);
+        }
+        let Some(vis) = vis.as_ref() else {
+            return Err(Error::Usage("internal: no visibility buffer".into()));
+        };
         // Needed: the kept records first, so that the count sees which pixels they cover.
         let first = if mode == Replacement::Needed {
             kept.len()
@@ -1140,7 +1463,7 @@ impl TemporalCache {
         let accuracy = self.pass.settings.accuracy;
         let mut count = |flags: Option<&[bool]>| -> Result<Vec<u32>> {
             let all =
-                renderer.record_coverage(now, &vis, &self.frame_records, flags, accuracy, times)?;
+                renderer.record_coverage(now, vis, &self.frame_records, flags, accuracy, times)?;
             Ok(all[first..].to_vec())
         };
         let covering = count(None)?;
@@ -1150,7 +1473,7 @@ impl TemporalCache {
         } else {
             covering.clone()
         };
-        Ok((deciding, covering, Some(vis)))
+        Ok((deciding, covering))
     }
 
     /// `record` (record `id` as given at its first frame's place) where record `id` is
@@ -1202,6 +1525,61 @@ impl TemporalCache {
         self.world_record(at_birth_place, id, transforms)
     }
 
+    /// The coefficient block of record `id` at frame `t`, as [`TemporalCache::record_at`]
+    /// gives the record: every coefficient interpolated towards its successor's or
+    /// extrapolated by its estimate at t+1 (radiance.rs), where the record is when the
+    /// instances have `transforms`. Empty for irradiance records.
+    fn block_at_with(&self, id: u32, t: u32, transforms: &[Mat4]) -> Vec<f32> {
+        let r = self.rec(id);
+        let blocks = &self.blocks[(id - self.history_base) as usize];
+        if blocks.now.is_empty() {
+            return Vec::new();
+        }
+        let at_birth_place = match (self.settings.gradients, r.successor) {
+            (TemporalGradients::Interpolated, Some(l)) => {
+                let successor = self.rec(l);
+                let mut to = self.blocks[(l - self.history_base) as usize].now.clone();
+                if let (Some(mine), Some(its)) = (r.anchor, successor.anchor) {
+                    to = radiance::move_coefficients(&to, &its.motion_to(mine.transform));
+                }
+                let span = successor.birth.saturating_sub(r.birth).max(1) as f32;
+                let f = t.saturating_sub(r.birth) as f32 / span;
+                radiance::blend_coefficients(&blocks.now, &to, f)
+            }
+            // Extrapolated: c + (c(t+1) - c) (t - t_k).
+            _ => radiance::blend_coefficients(
+                &blocks.now,
+                &blocks.next,
+                t.saturating_sub(r.birth) as f32,
+            ),
+        };
+        match (
+            &r.anchor,
+            r.anchor.and_then(|a| transforms.get(a.instance as usize)),
+        ) {
+            (Some(anchor), Some(&now)) => {
+                radiance::move_coefficients(&at_birth_place, &anchor.motion_to(now))
+            }
+            _ => at_birth_place,
+        }
+    }
+
+    /// The records of rendered frame `t` as the second pass renders them, with their
+    /// coefficient blocks; None when frame `t` was not rendered.
+    fn second_pass_records(&self, t: u32) -> Option<(Vec<Record>, Vec<f32>)> {
+        let ids = &self.frames.iter().find(|f| f.frame == t)?.ids;
+        let transforms = self.transforms_of_frame(t);
+        let records = ids
+            .iter()
+            .map(|&id| self.record_at_with(id, t, transforms))
+            .collect();
+        let blocks = ids
+            .iter()
+            .flat_map(|&id| self.block_at_with(id, t, transforms))
+            .collect();
+        Some((records, blocks))
+    }
+
     /// Second pass of interpolated gradients: renders frame `t` again over exactly the
     /// records the first pass used there, now interpolated between each record and its
     /// successor (no placement: coverage is the first pass's). Its bytes are final once
@@ -1219,18 +1597,28 @@ impl TemporalCache {
                 self.released_before
             )));
         }
-        let ids = self
-            .frames
-            .iter()
-            .find(|f| f.frame == t)
-            .map(|f| f.ids.clone())
-            .ok_or_else(|| Error::Usage(format!("frame {t} was not rendered by the first pass")))?;
-        let transforms = self.transforms_of_frame(t);
-        let records: Vec<Record> = ids
-            .iter()
-            .map(|&id| self.record_at_with(id, t, transforms))
-            .collect();
-        self.second_records.upload(&renderer.ctx, &records)?;
+        let not_rendered = || Error::Usage(format!("frame {t} was not rendered by the first pass"));
+        let (records, blocks) = self.second_pass_records(t).ok_or_else(not_rendered)?;
+        self.second_records
+            .upload_with_coefficients(&renderer.ctx, &records, &blocks)?;
+        // Radiance records, interpolated the same way, over exactly the first pass's too.
+        let radiance = match self.radiance.as_deref_mut() {
+            Some(r) => {
+                let (records, blocks) =
+                    r.records.second_pass_records(t).ok_or_else(not_rendered)?;
+                let rc = &mut r.records;
+                rc.second_records
+                    .upload_with_coefficients(&renderer.ctx, &records, &blocks)?;
+                Some(RadianceFrame {
+                    records: &mut rc.second_records,
+                    pass: &rc.pass,
+                    splat: &r.splat,
+                    stage: None,
+                    max_new_records: Some(0),
+                })
+            }
+            None => None,
+        };
         let (frame, _) = renderer.render_cached_frame(
             scene,
             camera,
@@ -1238,6 +1626,7 @@ impl TemporalCache {
             &self.pass,
             CachedFrameOptions {
                 max_new_records: Some(0),
+                radiance,
                 ..Default::default()
             },
             |_| {},
