@@ -3,7 +3,8 @@
 // the translational gradient of every coefficient, sum over pixel edges of the radiance
 // difference across the edge times the edge's H_k weight over the nearer depth
 // (algorithms.md 3.3). One invocation per (coefficient, plane), its three channels, summing the
-// pixels in order: deterministic. CPU mirror: radiance_projection::project_with_gradients.
+// pixels in order: deterministic; a workgroup (64 coefficients of one plane) stages the
+// plane's samples and edge differences in workgroup memory, CHUNK pixels at a time. CPU mirror: radiance_projection::project_with_gradients.
 // Writes the radiance record's block (records/kind.rs): its frame, then values, x- and
 // y-gradients, channel-major.
 //!include shared/records.wgsl
@@ -25,37 +26,71 @@ struct ProjectParams {
 @group(1) @binding(3) var<storage, read> samples: array<PlaneSample>;
 @group(1) @binding(4) var<storage, read_write> coefficients: array<f32>;
 
+// Pixels staged in workgroup memory per round: each sample and its two edge differences are
+// read and computed once per workgroup instead of once per coefficient.
+const CHUNK: u32 = 256u;
+var<workgroup> chunk_radiance: array<vec3f, CHUNK>;
+// xyz: the radiance difference across the pixel's right (up) edge; w: the nearer depth
+// (<= 0: no edge, or both misses).
+var<workgroup> chunk_edge_x: array<vec4f, CHUNK>;
+var<workgroup> chunk_edge_y: array<vec4f, CHUNK>;
+
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3u) {
+fn main(
+    @builtin(global_invocation_id) id: vec3u,
+    @builtin(local_invocation_index) lane: u32,
+) {
     let n = params.coefficients;
-    if id.x >= n || id.y >= params.count {
-        return;
-    }
-    // Coefficient k of all three channels: each sample and table entry is read once.
+    // No early return: every invocation reaches the barriers (the workgroup is one plane).
+    let plane_valid = id.y < params.count;
+    let computing = plane_valid && id.x < n;
+    // Coefficient k of all three channels, the pixels summed in order (as the CPU mirror).
     let k = id.x;
     let res = params.resolution;
     let base = id.y * params.pixels;
     var value = vec3f(0.0);
     var gx = vec3f(0.0);
     var gy = vec3f(0.0);
-    for (var p = 0u; p < params.pixels; p++) {
-        let s = samples[base + p];
-        let t = p * 3u * n + k;
-        value += s.radiance * table[t];
-        if p % res + 1u < res {
-            let right = samples[base + p + 1u];
-            let z = nearer_depth(s.depth, right.depth);
-            if z > 0.0 {
-                gx += (right.radiance - s.radiance) * (table[t + n] / z);
+    for (var start = 0u; start < params.pixels; start += CHUNK) {
+        let len = min(CHUNK, params.pixels - start);
+        if plane_valid {
+            for (var j = lane; j < len; j += 64u) {
+                let p = start + j;
+                let s = samples[base + p];
+                chunk_radiance[j] = s.radiance;
+                var ex = vec4f(0.0);
+                if p % res + 1u < res {
+                    let right = samples[base + p + 1u];
+                    ex = vec4f(right.radiance - s.radiance, nearer_depth(s.depth, right.depth));
+                }
+                chunk_edge_x[j] = ex;
+                var ey = vec4f(0.0);
+                if p + res < params.pixels {
+                    let up = samples[base + p + res];
+                    ey = vec4f(up.radiance - s.radiance, nearer_depth(s.depth, up.depth));
+                }
+                chunk_edge_y[j] = ey;
             }
         }
-        if p + res < params.pixels {
-            let up = samples[base + p + res];
-            let z = nearer_depth(s.depth, up.depth);
-            if z > 0.0 {
-                gy += (up.radiance - s.radiance) * (table[t + 2u * n] / z);
+        workgroupBarrier();
+        if computing {
+            for (var j = 0u; j < len; j++) {
+                let t = (start + j) * 3u * n + k;
+                value += chunk_radiance[j] * table[t];
+                let ex = chunk_edge_x[j];
+                if ex.w > 0.0 {
+                    gx += ex.xyz * (table[t + n] / ex.w);
+                }
+                let ey = chunk_edge_y[j];
+                if ey.w > 0.0 {
+                    gy += ey.xyz * (table[t + 2u * n] / ey.w);
+                }
             }
         }
+        workgroupBarrier();
+    }
+    if !computing {
+        return;
     }
     let out = (params.first_record + id.y) * params.stride;
     if k == 0u {
