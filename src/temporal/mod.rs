@@ -6,7 +6,9 @@
 //! an expired record that covers pixels of the new frame is replaced by a new record at
 //! the same place, one that covers none is deleted ([`Replacement`]; the seed asks the
 //! record's last frame instead). With [`RecordAnchor::Instance`] records move with the
-//! instance they lie on instead ([`motion`]).
+//! instance they lie on instead ([`motion`]). Radiance records (glossy lobes) live by the
+//! same rules in a second cache of this type beside the irradiance one ([`radiance`]:
+//! tau, gradients and motion of their coefficient blocks).
 
 pub mod animation;
 pub mod estimate_error;
