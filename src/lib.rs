@@ -6,7 +6,7 @@
 //! [`scene`] → [`bvh`] → [`visibility`] → [`direct`] → [`light_maps`] → [`placement`] +
 //! [`records`] →
 //! [`splat`] → [`resolve`] → [`output`] ([`frame::Renderer::render_gi_frame`]).
-//! [`reference`] renders the brute-force direct + first-bounce reference and [`compare`]
+//! [`reference`](mod@reference) renders the brute-force direct + first-bounce reference and [`compare`]
 //! measures images against it.
 //!
 //! Embedding: build a [`gpu::GpuContext`] from your own `wgpu::Device` and `Queue` with

@@ -1,6 +1,6 @@
 //! The direct-light pass: shadow rays to every light (area lights and the environment
 //! with a deterministic low-discrepancy sequence), textured diffuse albedo, visible
-//! emitters. [`reference`] is its plain-Rust counterpart used by tests.
+//! emitters. [`reference`](mod@reference) is its plain-Rust counterpart used by tests.
 
 pub mod reference;
 

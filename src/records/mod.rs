@@ -1,7 +1,7 @@
 //! Irradiance records (thesis chapter 4, Ward's irradiance caching underneath): what a
 //! record holds, where new ones go ([`RecordSite`]), how they are computed on the GPU from
 //! a hemisphere plane ([`RecordPass`]: sites → planes → reduction) and the cache that
-//! holds them across frames ([`RecordCache`]). [`reference`] mirrors the computation on
+//! holds them across frames ([`RecordCache`]). [`reference`](mod@reference) mirrors the computation on
 //! the CPU.
 
 pub mod kind;

@@ -17,7 +17,7 @@ use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 pub enum PlaneMode {
     /// Border pixels stretched to infinity (Gautron; the default).
     Stretched,
-    /// Plain plane, irradiance divided by its cosine-weighted coverage ([LC04]).
+    /// Plain plane, irradiance divided by its cosine-weighted coverage (\[LC04\]).
     CoverageRatio,
     /// Plain plane, no compensation: grazing directions are lost.
     Plain,
@@ -117,7 +117,7 @@ fn cos_integral(x: f64, y: f64) -> f64 {
     }
 }
 
-/// Solid angle of the plane rectangle [x0,x1] x [y0,y1] (edges may be infinite).
+/// Solid angle of the plane rectangle \[x0,x1\] x \[y0,y1\] (edges may be infinite).
 pub fn rect_solid_angle(x0: f64, x1: f64, y0: f64, y1: f64) -> f64 {
     rect(solid_angle_integral, x0, x1, y0, y1)
 }

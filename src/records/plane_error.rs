@@ -1,6 +1,6 @@
 //! Thesis Table 4.1 reproduced: RMS error of plane irradiance against full-hemisphere Monte
 //! Carlo at random visible points, for the plain plane, the plane divided by its coverage
-//! ratio ([LC04]) and the stretched border (Gautron), at several fields of view. Runs on the
+//! ratio (\[LC04\]) and the stretched border (Gautron), at several fields of view. Runs on the
 //! CPU reference (same rays and shading as the GPU passes). With a [`RefineComparison`],
 //! also the stretched plane adaptively refined ([`super::refine`]) against a plain
 //! stretched plane of (about) the same ray count, and for each the share of points whose

@@ -20,7 +20,7 @@ pub const MAX_TEXTURE_SIZE: u32 = 2048;
 ///
 /// Only PNG and JPEG files are read (told apart by their content). The size the image's
 /// header claims is checked before decoding: at most [`MAX_IMAGE_PIXELS`], and no more than
-/// the file's bytes can hold ([`min_encoded_bytes`]).
+/// the file's bytes can hold (`min_encoded_bytes`).
 pub fn load_texture(path: &Path) -> Result<Texture> {
     let file_bytes = file_len(path)?;
     let mut reader = image::ImageReader::open(path)

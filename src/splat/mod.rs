@@ -1,7 +1,7 @@
 //! Tile-binned record splatting (thesis section 4.5, algorithms.md decision 8): records
 //! are binned into 16 x 16-pixel tiles by the screen bound of their footprint (atomic
 //! counts, a prefix sum, a scatter, a rank sort by record id), then each pixel gathers its
-//! tile's records in id order. [`reference`] is the same sum on the CPU.
+//! tile's records in id order. [`reference`](mod@reference) is the same sum on the CPU.
 //!
 //! A frame splats once: placement rounds only ask which pixels are covered ([`cover`],
 //! the same contribution test without the sums), and the weighted gather runs over every
