@@ -266,10 +266,9 @@ impl RadianceCache {
         }
         // Past what one binding holds, placement stops (its uncovered pixels take Monte
         // Carlo) rather than the frame failing.
-        let per = crate::records::RECORD_BYTES.max(r.kind().coefficient_bytes());
         let record_budget = settings
             .record_budget
-            .min((ctx.max_binding_size() / per).min(u64::from(u32::MAX)) as u32);
+            .min(RecordCache::max_records_of(ctx, r.kind()).min(u64::from(u32::MAX)) as u32);
         let record_settings = CacheSettings {
             accuracy: r.accuracy,
             record_budget,

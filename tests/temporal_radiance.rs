@@ -201,8 +201,9 @@ fn radiance_estimate_at_t_plus_1_predicts_the_recomputed_record() {
     );
 }
 
-/// Renders frames 0..`count` of the sliding cube with `gradients`, both passes for
-/// interpolated gradients (second-pass frames once ready); the images in frame order.
+/// Renders frames 0..`count` of the sliding cube with `gradients` (interpolated: the
+/// first pass over the whole range, then the second pass of every frame); the images in
+/// frame order.
 fn render_sliding(renderer: &Renderer, gradients: TemporalGradients, count: u32) -> Vec<Frame> {
     let scene = glossy_cube_in_box(32, 24);
     let frames = sliding(renderer, &scene, 0.03, count);
@@ -215,7 +216,6 @@ fn render_sliding(renderer: &Renderer, gradients: TemporalGradients, count: u32)
         TemporalCache::new(&renderer.ctx, &settings(), &temporal_settings).expect("temporal");
     let two_pass = gradients == TemporalGradients::Interpolated;
     let mut out = Vec::new();
-    let mut next_second = 0;
     for t in 0..count {
         let i = t as usize;
         let (frame, stats) = temporal
@@ -244,24 +244,20 @@ fn render_sliding(renderer: &Renderer, gradients: TemporalGradients, count: u32)
         if !two_pass {
             out.push(frame);
         }
-        while two_pass && next_second <= t && temporal.second_pass_ready(next_second, count - 1) {
-            let j = next_second as usize;
+    }
+    if two_pass {
+        for t in 0..count {
+            assert!(
+                temporal.second_pass_ready(t, count - 1),
+                "frame {t} not ready"
+            );
+            let i = t as usize;
             out.push(
                 temporal
-                    .render_second_pass(renderer, &frames[j].1, &scene.camera, next_second)
+                    .render_second_pass(renderer, &frames[i].1, &scene.camera, t)
                     .expect("second pass"),
             );
-            next_second += 1;
         }
-    }
-    while two_pass && next_second < count {
-        let j = next_second as usize;
-        out.push(
-            temporal
-                .render_second_pass(renderer, &frames[j].1, &scene.camera, next_second)
-                .expect("second pass"),
-        );
-        next_second += 1;
     }
     out
 }

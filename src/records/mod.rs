@@ -474,8 +474,13 @@ impl RecordCache {
 
     /// Most records of this cache's kind one binding holds on `ctx`'s device.
     pub fn max_records(&self, ctx: &GpuContext) -> u64 {
-        let per = RECORD_BYTES.max(self.kind.coefficient_bytes());
-        ctx.max_binding_size() / per
+        Self::max_records_of(ctx, self.kind)
+    }
+
+    /// Most records of `kind` one binding holds on `ctx`'s device (the records or their
+    /// coefficient blocks, whichever is larger per record).
+    pub fn max_records_of(ctx: &GpuContext, kind: RecordKind) -> u64 {
+        ctx.max_binding_size() / RECORD_BYTES.max(kind.coefficient_bytes())
     }
 
     /// Makes room for `extra` more records, growing the buffers (copying the records) or

@@ -19,7 +19,7 @@ use crate::{Error, Result};
 /// scene at t+1 and the caches that receive the estimates at the same indices as the new
 /// records.
 pub struct Lookahead<'a> {
-    pub next_frame: NextFrame<'a>,
+    pub next_frame: &'a NextFrame<'a>,
     pub reprojection: &'a ReprojectionPass,
     /// Records at t+1, in step with the cache (`next.count == cache.count`).
     pub next: &'a mut RecordCache,
@@ -35,7 +35,7 @@ pub struct Lookahead<'a> {
 
 impl<'a> Lookahead<'a> {
     pub fn new(
-        next_frame: NextFrame<'a>,
+        next_frame: &'a NextFrame<'a>,
         reprojection: &'a ReprojectionPass,
         next: &'a mut RecordCache,
         subset: &'a mut RecordCache,
@@ -118,7 +118,7 @@ impl RecordStage for Lookahead<'_> {
         self.reprojection.record(
             ctx,
             enc,
-            &self.next_frame,
+            self.next_frame,
             &pass.settings,
             batch.sites,
             batch.hits,

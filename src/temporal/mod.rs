@@ -801,24 +801,32 @@ impl TemporalCache {
         // The visibility buffer of frame t, traced once for the replacement decisions of
         // both caches and the frame.
         let mut vis = None;
-        let mut plan = self.begin_frame(renderer, &scenes, camera, t, &mut vis)?;
-        let mut radiance_plan = match self.radiance.as_deref_mut() {
-            Some(r) => Some(
-                r.records
-                    .begin_frame(renderer, &scenes, camera, t, &mut vis)?,
-            ),
+        // Frame t+1 as the reprojection sees it, once for every estimate of the frame.
+        let anchored = self.settings.anchor == RecordAnchor::Instance;
+        let next_frame = match scenes.next {
+            Some((next, next_cpu)) => Some(NextFrame::new(
+                ctx,
+                &next.gpu,
+                scenes.scene,
+                next_cpu,
+                anchored,
+            )?),
             None => None,
         };
-        let anchored = self.settings.anchor == RecordAnchor::Instance;
-        let next_frame = |scene: &Scene| -> Result<Option<NextFrame<'_>>> {
-            match scenes.next {
-                Some((next, next_cpu)) => Ok(Some(NextFrame::new(
-                    ctx, &next.gpu, scene, next_cpu, anchored,
-                )?)),
-                None => Ok(None),
-            }
+        let mut plan =
+            self.begin_frame(renderer, &scenes, camera, t, next_frame.as_ref(), &mut vis)?;
+        let mut radiance_plan = match self.radiance.as_deref_mut() {
+            Some(r) => Some(r.records.begin_frame(
+                renderer,
+                &scenes,
+                camera,
+                t,
+                next_frame.as_ref(),
+                &mut vis,
+            )?),
+            None => None,
         };
-        let mut lookahead = next_frame(scenes.scene)?.map(|next| {
+        let mut lookahead = next_frame.as_ref().map(|next| {
             Lookahead::new(
                 next,
                 &self.reprojection,
@@ -833,7 +841,7 @@ impl TemporalCache {
             (Some(r), Some(rp)) => {
                 let rc = &mut r.records;
                 radiance_before = rc.frame_records.count;
-                radiance_lookahead = next_frame(scenes.scene)?.map(|next| {
+                radiance_lookahead = next_frame.as_ref().map(|next| {
                     Lookahead::new(
                         next,
                         &rc.reprojection,
@@ -903,13 +911,14 @@ impl TemporalCache {
     /// The first half of a frame of this cache: expiry, the replacement decisions (on
     /// frame t's visibility buffer `vis`, traced here if not yet), the kept records
     /// uploaded at t and the replacements computed (each estimated at t+1 when there is a
-    /// next frame). Placement, in the frame, appends the new records.
+    /// next frame, `next_frame`). Placement, in the frame, appends the new records.
     fn begin_frame(
         &mut self,
         renderer: &Renderer,
         scenes: &FrameScenes<'_>,
         camera: &Camera,
         t: u32,
+        next_frame: Option<&NextFrame<'_>>,
         vis: &mut Option<VisibilityBuffer>,
     ) -> Result<FramePlan> {
         let ctx = &renderer.ctx;
@@ -982,22 +991,20 @@ impl TemporalCache {
         let refreshing = self.refreshing();
         replace.sort_by_key(|&id| (self.rec(id).birth, id));
         let runs = self.replacement_runs(&replace, t, &transforms, &lights, refreshing);
-        let anchored = self.settings.anchor == RecordAnchor::Instance;
         let mut capture = plane_refresh::PlaneCapture {
             planes: refreshing,
             budget: self.planes.free(),
             ..Default::default()
         };
-        let mut lookahead = match scenes.next {
-            Some((next, next_cpu)) => Some(Lookahead::new(
-                NextFrame::new(ctx, &next.gpu, scenes.scene, next_cpu, anchored)?,
+        let mut lookahead = next_frame.map(|next| {
+            Lookahead::new(
+                next,
                 &self.reprojection,
                 &mut self.next_records,
                 &mut self.subset_records,
                 Some(&mut capture),
-            )),
-            None => None,
-        };
+            )
+        });
         let mut retraced_lists = Vec::new();
         for ReplacementRun {
             refresh_from,
@@ -1183,26 +1190,27 @@ impl TemporalCache {
             ctx.read_buffer_ranges::<u32>(&ranges)?
         }
         .into_iter();
-        let mut next_records = || -> Vec<Record> {
+        // The next range read, as `T`s (empty past the last).
+        fn next_range<T: bytemuck::Pod>(read: &mut impl Iterator<Item = Vec<u32>>) -> Vec<T> {
             read.next()
                 .map(|words| bytemuck::pod_collect_to_vec(&words))
                 .unwrap_or_default()
-        };
-        let records = if record_ranges > 0 {
-            next_records()
+        }
+        let records: Vec<Record> = if record_ranges > 0 {
+            next_range(&mut read)
         } else {
             Vec::new()
         };
         // Without a next frame the records are their own estimates.
-        let mut nexts = if record_ranges >= 2 {
-            next_records()
+        let mut nexts: Vec<Record> = if record_ranges >= 2 {
+            next_range(&mut read)
         } else {
             records.clone()
         };
         // With an estimate stride, tau is the ratio of the estimate to the subset it was
         // moved from, and the record at t+1 is the record scaled by it, channel by channel.
         let subsets = if record_ranges == 3 {
-            let subsets = next_records();
+            let subsets: Vec<Record> = next_range(&mut read);
             for ((next, subset), record) in nexts.iter_mut().zip(&subsets).zip(&records) {
                 *next = scaled_by_estimate(record, subset, next);
             }
@@ -1210,18 +1218,13 @@ impl TemporalCache {
         } else {
             None
         };
-        let mut next_blocks = || -> Vec<f32> {
-            read.next()
-                .map(|words| bytemuck::pod_collect_to_vec(&words))
-                .unwrap_or_default()
-        };
-        let blocks_now = if block_ranges > 0 {
-            next_blocks()
+        let blocks_now: Vec<f32> = if block_ranges > 0 {
+            next_range(&mut read)
         } else {
             Vec::new()
         };
-        let blocks_next = if block_ranges == 2 {
-            next_blocks()
+        let blocks_next: Vec<f32> = if block_ranges == 2 {
+            next_range(&mut read)
         } else {
             blocks_now.clone()
         };
