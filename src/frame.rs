@@ -31,7 +31,18 @@ pub struct PreparedScene {
     /// on the scene, not the camera, so every frame rendered from it (a walkthrough, an
     /// engine's views) reuses them.
     light_maps: std::sync::Mutex<Option<TracedLightMaps>>,
+    /// The triangles' areas the bounce cache is laid out from, and the cache built for this
+    /// scene with the settings it was built for (none: one bounce).
+    bounce_geometry: crate::bounce::BounceGeometry,
+    bounce: std::sync::Mutex<Option<BuiltBounceCache>>,
 }
+
+/// A bounce cache of a prepared scene, with its settings and gather light samples.
+type BuiltBounceCache = (
+    crate::bounce::BounceSettings,
+    u32,
+    std::sync::Arc<crate::bounce::BounceCache>,
+);
 
 /// Light maps of a prepared scene and the settings they were traced with.
 type TracedLightMaps = (LightMapSettings, MappedLights, std::sync::Arc<LightMaps>);
@@ -132,6 +143,8 @@ pub struct CacheFrameStats {
     /// Radiance records in their cache after the frame, and those added this frame.
     pub radiance_records: u32,
     pub new_radiance_records: u32,
+    /// The surface bounce cache the plane hits reflected (`--bounces` above 1).
+    pub bounce: Option<crate::bounce::BounceStats>,
 }
 
 /// The images of one frame, row-major, top row first.
@@ -186,6 +199,7 @@ pub struct Renderer {
     placement: OnFirstUse<PlacementPass>,
     resolve: OnFirstUse<ResolvePass>,
     light_maps: OnFirstUse<LightMapPass>,
+    bounce: OnFirstUse<crate::bounce::BouncePass>,
     glossy: OnFirstUse<GlossyIndirectPass>,
 }
 
@@ -304,6 +318,7 @@ impl Renderer {
             placement: OnFirstUse::new(),
             resolve: OnFirstUse::new(),
             light_maps: OnFirstUse::new(),
+            bounce: OnFirstUse::new(),
             glossy: OnFirstUse::new(),
         })
     }
@@ -361,6 +376,60 @@ impl Renderer {
         )?);
         *slot = Some((*settings, mapped, maps.clone()));
         Ok(maps)
+    }
+
+    /// Makes `scene`'s bounce cache the one `settings` ask for (built once per prepared
+    /// scene and settings; with one bounce, the empty cache), timed as "bounce cache".
+    /// Returns its statistics (None: one bounce).
+    pub fn scene_bounce_cache(
+        &self,
+        scene: &PreparedScene,
+        settings: &CacheSettings,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<Option<crate::bounce::BounceStats>> {
+        let wanted = settings.bounce;
+        let light_samples = settings.plane_light_samples;
+        let mut slot = scene
+            .bounce
+            .lock()
+            .map_err(|_| Error::Gpu("internal: bounce cache poisoned".into()))?;
+        if let Some((s, l, cache)) = slot.as_ref() {
+            if (*s, *l) == (wanted, light_samples) {
+                return Ok(Some(cache.stats));
+            }
+        }
+        if wanted.levels() == 0 {
+            if slot.take().is_some() {
+                scene
+                    .gpu
+                    .set_bounce_cache(self.ctx.storage_buffer("bounce cache", &[0u32; 4])?);
+            }
+            return Ok(None);
+        }
+        let layout =
+            crate::bounce::BounceLayout::new(&scene.bounce_geometry, &wanted, scene.gpu.diagonal)?;
+        let maps = if wanted.shadow_maps {
+            self.scene_light_maps(scene, &settings.light_maps, MappedLights::All, times)?
+        } else {
+            std::sync::Arc::new(LightMaps::none(&self.ctx)?)
+        };
+        let cache = self.bounce_pass()?.build(
+            &self.ctx,
+            &scene.gpu,
+            &layout,
+            &wanted,
+            light_samples,
+            &maps,
+            times,
+        )?;
+        let stats = cache.stats;
+        *slot = Some((wanted, light_samples, std::sync::Arc::new(cache)));
+        Ok(Some(stats))
+    }
+
+    fn bounce_pass(&self) -> Result<&crate::bounce::BouncePass> {
+        self.bounce
+            .get(|| crate::bounce::BouncePass::new(&self.ctx))
     }
 
     fn resolve_pass(&self) -> Result<&ResolvePass> {
@@ -585,6 +654,10 @@ impl Renderer {
         let t0 = Instant::now();
         let mut times: Vec<(&'static str, f64)> = Vec::new();
 
+        // Bounces past the first: the surface cache every plane hit reflects (once per
+        // prepared scene; nothing with one bounce).
+        let bounce = self.scene_bounce_cache(scene, &pass.settings, &mut times)?;
+
         // Visibility buffer and direct light (placement needs only the visibility).
         let (vis, direct) =
             self.visibility_and_direct(scene, camera, visibility, !placement_only, &mut times)?;
@@ -731,6 +804,7 @@ impl Renderer {
                 uncovered_pixels,
                 radiance_records: radiance_stats.0,
                 new_radiance_records: radiance_stats.1,
+                bounce,
             }),
         };
         let mut coverage = if count_coverage {
@@ -899,6 +973,8 @@ impl Renderer {
             lights: scene.lights.iter().map(GpuLight::new).collect(),
             bounds: bvh.world_bounds(),
             light_maps: Default::default(),
+            bounce_geometry: crate::bounce::BounceGeometry::from_bvh(bvh),
+            bounce: Default::default(),
             bvh_stats: BvhStats {
                 triangles: bvh.triangles.len(),
                 blas_nodes: bvh.blas_nodes.len(),

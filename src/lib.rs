@@ -13,6 +13,7 @@
 //! [`gpu::GpuContext::from_device`]; [`gpu::required_limits`] says what the device needs.
 
 pub mod bench;
+pub mod bounce;
 pub mod bvh;
 pub mod commands;
 pub mod compare;

@@ -258,6 +258,10 @@ enum Command {
         /// gives independent noise (two seeds measure a reference's own noise).
         #[arg(long, default_value_t = 0)]
         seed: u32,
+        /// Bounces of indirect light (Radiance's `-ab`): 1 reflects direct light once;
+        /// N follows each path N - 1 more (Lambertian) hits.
+        #[arg(long, default_value_t = 1, value_parser = parse_bounces)]
+        bounces: u32,
         /// Render this frame of an animated scene (default: its first frame).
         #[arg(long)]
         frame: Option<u32>,
@@ -371,6 +375,23 @@ struct CacheArgs {
     /// Light samples per area light at each plane hit.
     #[arg(long, default_value_t = CacheSettings::default().plane_light_samples, value_parser = parse_at_least_one)]
     plane_light_samples: u32,
+    /// Bounces of indirect light (Radiance's `-ab`): 1 reflects direct light once; N > 1
+    /// lets plane hits reflect a surface cache of N - 1 more bounces (docs/architecture.md).
+    #[arg(long, default_value_t = CacheSettings::default().bounce.bounces, value_parser = parse_bounces)]
+    bounces: u32,
+    /// Gather rays per cell side and level of the bounce cache (with --bounces above 1).
+    #[arg(long, default_value_t = CacheSettings::default().bounce.rays, value_parser = parse_at_least_one)]
+    bounce_rays: u32,
+    /// Bounce-cache cell edge as a fraction of the scene's bounding-box diagonal.
+    #[arg(long, default_value_t = CacheSettings::default().bounce.cell_size, value_parser = parse_positive)]
+    bounce_cell: f32,
+    /// Most bounce-cache cell sides (two per cell); cells grow until they fit.
+    #[arg(long, default_value_t = CacheSettings::default().bounce.max_cells, value_parser = parse_at_least_one)]
+    bounce_cells: u32,
+    /// Shadow rays at the bounce cache's gather hits instead of light-space maps of every
+    /// light.
+    #[arg(long)]
+    bounce_shadow_rays: bool,
     /// R_min as the validity radius a R_min in pixels at creation.
     #[arg(long, default_value_t = CacheSettings::default().r_min_pixels, value_parser = parse_positive)]
     r_min_pixels: f32,
@@ -489,6 +510,16 @@ fn parse_at_least_one(s: &str) -> std::result::Result<u32, String> {
     }
 }
 
+/// Bounces: 1 to [`radsplat::bounce::MAX_BOUNCES`].
+fn parse_bounces(s: &str) -> std::result::Result<u32, String> {
+    let n: u32 = parse_number(s)?;
+    if (1..=radsplat::bounce::MAX_BOUNCES).contains(&n) {
+        Ok(n)
+    } else {
+        Err(format!("must be 1 to {}", radsplat::bounce::MAX_BOUNCES))
+    }
+}
+
 fn parse_positive(s: &str) -> std::result::Result<f32, String> {
     let x: f32 = parse_number(s)?;
     if x > 0.0 && x.is_finite() {
@@ -566,6 +597,13 @@ impl CacheArgs {
                 min_lobe_accuracy: self.radiance_lobe_accuracy,
                 rotation: self.radiance_rotation,
                 plane_resolution: self.radiance_plane_resolution,
+            },
+            bounce: radsplat::bounce::BounceSettings {
+                bounces: self.bounces,
+                rays: self.bounce_rays,
+                cell_size: self.bounce_cell,
+                max_cells: self.bounce_cells,
+                shadow_maps: !self.bounce_shadow_rays,
             },
             ..CacheSettings::default()
         }
@@ -742,6 +780,7 @@ fn main() -> ExitCode {
             scene,
             spp,
             seed,
+            bounces,
             frame,
             output,
             png,
@@ -751,8 +790,9 @@ fn main() -> ExitCode {
             quiet,
         } => commands::reference::reference(
             &scene,
-            spp,
-            seed,
+            radsplat::reference::ReferenceOptions::new(spp)
+                .with_seed(seed)
+                .with_bounces(bounces),
             frame,
             output,
             png,

@@ -22,6 +22,7 @@ fn layers() -> BTreeMap<&'static str, u32> {
         ("visibility", 2),
         ("direct", 3),
         ("light_maps", 3),
+        ("bounce", 3),
         ("records", 4),
         ("glossy", 4),
         ("splat", 5),

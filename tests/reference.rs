@@ -151,6 +151,7 @@ fn reference_is_deterministic_and_independent_of_chunking() {
             spp,
             chunk_work: 240,
             seed: 0,
+            bounces: 1,
         },
     );
     assert_eq!(chunked.stats.dispatches, 24);

@@ -6,6 +6,7 @@
 // the reference's glossy estimate), averaged. Pixels without a glossy lobe get 0.
 // CPU mirror: glossy::reference::glossy_indirect.
 //!include shared/glossy_bounce.wgsl
+//!include shared/bounce_cache.wgsl
 //!include shared/camera.wgsl
 
 // One dispatch takes lobe samples [sample_begin, sample_end) of `samples` and adds them to
@@ -28,6 +29,13 @@ struct GlossyParams {
 @group(1) @binding(3) var<storage, read_write> glossy_out: array<vec4f>;
 // (specular * sum w L, sum w) of the radiance records (splat/radiance.rs), when used.
 @group(1) @binding(4) var<storage, read> radiance: array<vec4f>;
+@group(1) @binding(5) var<storage, read> bounce_cache: array<u32>;
+
+// Secondary hits reflect the surface bounce cache's indirect irradiance (zero with one
+// bounce: the cache is then empty).
+fn hit_indirect_irradiance(shaded: ShadedHit, seed: u32, k: u32) -> vec3f {
+    return bounce_irradiance(shaded.hit, shaded.surface.front_face);
+}
 
 // Every shadow ray is traced (no light maps).
 fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32 {

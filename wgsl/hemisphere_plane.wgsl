@@ -4,6 +4,7 @@
 // The sample itself is shared/plane.wgsl. One invocation per
 // (pixel, record).
 //!include shared/plane.wgsl
+//!include shared/bounce_cache.wgsl
 
 struct PlaneParams {
     resolution: u32,
@@ -20,6 +21,13 @@ struct PlaneParams {
 @group(1) @binding(5) var<storage, read> light_maps: array<LightMap>;
 @group(1) @binding(6) var<storage, read> light_map_depths: array<f32>;
 @group(1) @binding(7) var<storage, read> light_map_first: array<u32>;
+@group(1) @binding(8) var<storage, read> bounce_cache: array<u32>;
+
+// Secondary hits reflect the surface bounce cache's indirect irradiance (zero with one
+// bounce: the cache is then empty).
+fn hit_indirect_irradiance(shaded: ShadedHit, seed: u32, k: u32) -> vec3f {
+    return bounce_irradiance(shaded.hit, shaded.surface.front_face);
+}
 
 @compute @workgroup_size(8, 8)
 fn main(

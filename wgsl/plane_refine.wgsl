@@ -6,6 +6,7 @@
 // add 0 to the sum of 1/Z, as in R), so the reduction (record_reduce.wgsl, unchanged)
 // reads refined pixels. One invocation per (selected pixel, record).
 //!include shared/plane.wgsl
+//!include shared/bounce_cache.wgsl
 
 struct RefineParams {
     resolution: u32,
@@ -34,6 +35,13 @@ struct RefineSample {
 @group(1) @binding(6) var<storage, read> light_maps: array<LightMap>;
 @group(1) @binding(7) var<storage, read> light_map_depths: array<f32>;
 @group(1) @binding(8) var<storage, read> light_map_first: array<u32>;
+@group(1) @binding(9) var<storage, read> bounce_cache: array<u32>;
+
+// Secondary hits reflect the surface bounce cache's indirect irradiance (zero with one
+// bounce: the cache is then empty).
+fn hit_indirect_irradiance(shaded: ShadedHit, seed: u32, k: u32) -> vec3f {
+    return bounce_irradiance(shaded.hit, shaded.surface.front_face);
+}
 
 @compute @workgroup_size(64)
 fn main(

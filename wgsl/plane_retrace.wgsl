@@ -22,6 +22,12 @@ struct PlaneParams {
 @group(1) @binding(7) var<storage, read> light_map_depths: array<f32>;
 @group(1) @binding(8) var<storage, read> light_map_first: array<u32>;
 
+// Temporal caching runs with one bounce (src/bounce: `--bounces` above 1 needs
+// `--temporal off`), so re-traced samples see direct light only.
+fn hit_indirect_irradiance(shaded: ShadedHit, seed: u32, k: u32) -> vec3f {
+    return vec3f(0.0);
+}
+
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) group: vec3u,

@@ -9,6 +9,9 @@
 // radiance albedo / pi * E = albedo / N * sum(L); the host does that last step.
 // Rays that miss add nothing: the environment is already a light of `direct_irradiance`
 // (it would otherwise be counted twice, like sampled emitters: Ward's rule).
+// With N bounces (`params.bounces`) the path goes on from the hit N - 1 more times
+// (`hit_indirect_irradiance`): cosine-distributed, Lambertian at every hit, each hit's
+// direct light sampled, so L = albedo / pi * E_direct + L_e + albedo * L(next hit).
 // Pixels with a glossy lobe also sample the lobe (importance sampling, `glossy_bounce`):
 // `glossy_sum` gathers f cos / pdf * L per sample, the host divides by N. The two lobes'
 // estimates add up to the pixel's first-bounce indirect light.
@@ -23,7 +26,7 @@ struct ReferenceParams {
     row_end: u32,
     // `radsplat reference --seed`: 0 keeps the seed-less bytes; others rescramble.
     seed: u32,
-    _pad0: u32,
+    bounces: u32,   // N: light reflected N times in all (1: direct light at the bounce hit)
     _pad1: u32,
     _pad2: u32,
 }
@@ -51,6 +54,38 @@ fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32 {
 }
 
 // Outgoing radiance towards the pixel of the closest hit along direction sample `k`.
+// Indirect irradiance at a bounce hit: bounces 2..N of the path from it, one
+// cosine-distributed direction each (sample `k` of a sequence scrambled per bounce), with
+// the hits' direct light and emission; with the cosine pdf, pi times the path's radiance
+// estimates it. Zero with one bounce. CPU mirror: reference::cpu::path_irradiance.
+fn hit_indirect_irradiance(shaded: ShadedHit, seed: u32, k: u32) -> vec3f {
+    var l = vec3f(0.0);
+    var throughput = vec3f(1.0);
+    var s = shaded.surface;
+    for (var b = 2u; b <= params.bounces; b++) {
+        let bounce_seed = hash_combine(seed, PATH_SEED + b);
+        let dir = orthonormal_basis(s.shading_normal) * cosine_hemisphere(sobol_2d(k, bounce_seed));
+        if dot(dir, s.geometric_normal) <= 0.0 {
+            break;
+        }
+        let next = trace_and_shade(
+            Ray(offset_ray_origin(s.position, s.geometric_normal), 0.0, dir, INF),
+            hash_combine(bounce_seed, k), scene_info.light_samples);
+        if next.hit.instance == NO_HIT {
+            break;
+        }
+        let h = next.surface;
+        let albedo = surface_albedo(h);
+        l += throughput * (albedo * (1.0 / PI) * next.irradiance + indirect_emission(h));
+        throughput *= albedo;
+        s = h;
+    }
+    return PI * l;
+}
+
+// Scrambles the directions of bounce b >= 2 (with the caller's seed, plus b).
+const PATH_SEED: u32 = 0xb0u;
+
 fn bounce_radiance(s: Surface, seed: u32, k: u32) -> vec3f {
     let dir = orthonormal_basis(s.shading_normal) * cosine_hemisphere(sobol_2d(k, seed));
     if dot(dir, s.geometric_normal) <= 0.0 {
@@ -63,8 +98,7 @@ fn bounce_radiance(s: Surface, seed: u32, k: u32) -> vec3f {
     if shaded.hit.instance == NO_HIT {
         return vec3f(0.0);
     }
-    let h = shaded.surface;
-    return surface_albedo(h) * (1.0 / PI) * shaded.irradiance + indirect_emission(h);
+    return hit_radiance(shaded, seed, k);
 }
 
 @compute @workgroup_size(8, 8)

@@ -186,13 +186,13 @@ def time_at_error(front, e, key):
     return None
 
 
-def plot(path, scene, size, rad_pts, rp_pts, rad_front, rp_front, noise, downsample):
+def plot(path, scene, size, rad_pts, rp_pts, rad_front, rp_front, noise, downsample, ab=1):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(7.5, 5), dpi=110)
     for pts, front, colour, name in [(rad_pts, rad_front, "tab:blue", "radsplat"),
-                                     (rp_pts, rp_front, "tab:orange", "rpict -ab 1")]:
+                                     (rp_pts, rp_front, "tab:orange", f"rpict -ab {ab}")]:
         ax.scatter([p["wall_s"] for p in pts], [100 * p["error"] for p in pts], color=colour,
                    alpha=0.35, s=22)
         ax.plot([p["wall_s"] for p in front], [100 * p["error"] for p in front], "o-",
@@ -248,6 +248,9 @@ def main():
                          "the built-in table): {\"radsplat\": [[label, [flags...]], ...], ...}")
     ap.add_argument("--only", choices=["radsplat", "rpict"], default=None,
                     help="rerender this side's points; take the other side's from the cache")
+    ap.add_argument("--bounces", type=int, default=1,
+                    help="bounces N on every side: radsplat --bounces N, rpict -ab N, the "
+                         "references --bounces N (outputs in OUT-abN, plot peers-SCENE-abN.png)")
     ap.add_argument("--fresh", action="store_true", help="rerender every cached point")
     ap.add_argument("--repeat", type=int, default=1,
                     help="runs per point, median wall and CPU time (default 1)")
@@ -281,9 +284,11 @@ def main():
             sys.exit("no --size and no resolution found in the scene file")
         size = f"{m.group(1)}x{m.group(2)}"
     w, h = (int(v) for v in size.lower().split("x"))
-    out = (args.out or REPO / "out/fronts" / f"{stem}-{w}x{h}").resolve()
+    ab = args.bounces
+    suffix = f"-ab{ab}" if ab > 1 else ""
+    out = (args.out or REPO / "out/fronts" / f"{stem}-{w}x{h}{suffix}").resolve()
     (out / "points").mkdir(parents=True, exist_ok=True)
-    plot_path = (args.plot or REPO / "docs/images" / f"peers-{stem}.png").resolve()
+    plot_path = (args.plot or REPO / "docs/images" / f"peers-{stem}{suffix}.png").resolve()
 
     print(f"== {args.scene} at {w}x{h}, output in {out}", file=sys.stderr)
     run([radsplat, "export-rad", args.scene, out / "rad", "--size", size], env)
@@ -300,7 +305,7 @@ def main():
     notex_hash = sha256_file(notex)
     radsplat_hash = sha256_file(radsplat)
     ls = ["--light-samples", str(light_samples)] if light_samples else []
-    common = ["--size", size, "--quiet"] + ls
+    common = ["--size", size, "--quiet"] + ls + (["--bounces", str(ab)] if ab > 1 else [])
 
     def cached(side, label, key, render):
         """Cached point or a new render (render() returns the point's dict)."""
@@ -325,7 +330,7 @@ def main():
         if given is not None:
             refs.append({"image": str(given.resolve()), "seed": None, "given": True})
             continue
-        key = key_of("reference", notex_hash, size, spp, seed, ref_ls)
+        key = key_of("reference", notex_hash, size, spp, seed, ref_ls, *([ab] if ab > 1 else []))
         img = out / f"reference-seed{seed}.exr"
         meta = out / f"reference-seed{seed}.json"
         if meta.exists() and img.exists() and json.loads(meta.read_text()).get("key") == key \
@@ -334,7 +339,7 @@ def main():
             refs.append(json.loads(meta.read_text()))
             continue
         t, _ = run([radsplat, "reference", notex, "--spp", str(spp), "--seed", str(seed),
-                    "-o", img, "--size", size, "--quiet"]
+                    "-o", img, "--size", size, "--quiet", "--bounces", str(ab)]
                    + (["--light-samples", str(ref_ls)] if ref_ls else []), env)
         r = {"image": str(img), "seed": seed, "spp": spp, "light_samples": ref_ls,
              "wall_s": t, "cpu_s": LAST_CPU[0], "key": key}
@@ -369,10 +374,11 @@ def main():
         rad_pts.append(cached("radsplat", label, key, render))
 
     # rpict: pixel centres, every pixel traced (-pj 0 -ps 1 -pt 0 -pa 0), the direct
-    # settings of compare_peers.py; -ab 0 once (shared), -ab 1 per setting.
+    # settings of compare_peers.py; -ab 0 once (shared), -ab N per setting. -lr N: each
+    # ambient bounce is one level of ray depth, so -lr 1 would cut -ab 2 down to -ab 1.
     rp = [bindir / "rpict"] + view + ["-x", w, "-y", h, "-pa", "0", "-pj", "0", "-ps", "1",
                                       "-pt", "0", "-dt", "0", "-dc", "1", "-dj", str(dj),
-                                      "-ds", args.ds, "-dr", "0", "-lr", "1"]
+                                      "-ds", args.ds, "-dr", "0", "-lr", str(ab)]
     rp = [str(x) for x in rp]
     rp_key_base = (rad_version, scene_rad_hash, info["view"], size, dj, args.ds)
 
@@ -388,12 +394,12 @@ def main():
         def render(label=label, flags=flags):
             img = out / f"rpict-{slug(label)}.hdr"
             amb = out / f"rpict-{slug(label)}.amb"
-            cmd = rp + ["-ab", "1"] + flags + ["-af", str(amb), str(oct_path)]
+            cmd = rp + ["-ab", str(ab)] + flags + ["-af", str(amb), str(oct_path)]
             wall, cpu = timed(cmd, env, args.repeat, stdout_path=img,
                               before=lambda: amb.unlink() if amb.exists() else None)
             return {"command": " ".join(cmd), "flags": flags, "wall_s": wall, "cpu_s": cpu,
                     "records": count_ambient_records(bindir, amb, env), "image": str(img)}
-        key = key_of("rpict", *rp_key_base, flags, args.repeat)
+        key = key_of("rpict", *rp_key_base, flags, args.repeat, *([ab] if ab > 1 else []))
         rp_pts.append(cached("rpict", label, key, render))
 
     # Errors (always recomputed: they depend on the reference).
@@ -428,7 +434,7 @@ def main():
         say(f"{name:<9} {'setting':<14} {'flags':<40} {'wall s':>8} {'cpu s':>8} "
             f"{'records':>8} {'error %':>8} {'front':>5}")
         for p in sorted(pts, key=lambda p: p["wall_s"]):
-            flags = " ".join(p["flags"]) or ("(none)" if name == "radsplat" else "(-ab 1 only)")
+            flags = " ".join(p["flags"]) or ("(none)" if name == "radsplat" else f"(-ab {ab} only)")
             say(f"{name:<9} {p['label']:<14} {flags:<40} {p['wall_s']:>8.2f} {p['cpu_s']:>8.2f} "
                 f"{p['records']:>8} {100 * p['error']:>8.3f} {'*' if p in front else '':>5}")
     say()
@@ -459,7 +465,7 @@ def main():
     verdict = "PASS" if faster and accurate else "FAIL"
     say()
     say(f"defaults pair: radsplat defaults {rd['wall_s']:.2f} s wall / {rd['cpu_s']:.2f} s CPU, "
-        f"error {100 * rd['error']:.3f} %; rpict defaults -ab 1 {pd['wall_s']:.2f} s / "
+        f"error {100 * rd['error']:.3f} %; rpict defaults -ab {ab} {pd['wall_s']:.2f} s / "
         f"{pd['cpu_s']:.2f} s, error {100 * pd['error']:.3f} %: "
         f"{pd['wall_s'] / rd['wall_s']:.2f}x faster (wall), {pd['cpu_s'] / rd['cpu_s']:.2f}x "
         f"(CPU), error ratio {rd['error'] / pd['error']:.3f}: "
@@ -487,7 +493,7 @@ def main():
         f"{100 * conv:.2f} %")
 
     plot(plot_path, stem, f"{w}x{h}", rad_pts, rp_pts, rad_front, rp_front, noise,
-         args.downsample)
+         args.downsample, ab)
     say(f"plot: {plot_path}")
     summary = {
         "scene": str(args.scene), "width": w, "height": h, "downsample": args.downsample,

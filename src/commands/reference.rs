@@ -11,8 +11,7 @@ use std::path::{Path, PathBuf};
 #[allow(clippy::too_many_arguments)]
 pub fn reference(
     scene_path: &Path,
-    spp: u32,
-    seed: u32,
+    options: crate::reference::ReferenceOptions,
     frame: Option<u32>,
     output: Option<PathBuf>,
     png: Option<PathBuf>,
@@ -21,7 +20,8 @@ pub fn reference(
     stats: Option<PathBuf>,
     quiet: bool,
 ) -> Result<()> {
-    use crate::reference::{ReferenceOptions, ReferencePass};
+    use crate::reference::ReferencePass;
+    let spp = options.spp;
     if spp == 0 {
         return Err(Error::Usage("--spp must be at least 1".into()));
     }
@@ -40,7 +40,6 @@ pub fn reference(
     crate::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
     let pass = ReferencePass::new(&renderer.ctx)?;
     let prepared = renderer.prepare(&scene)?;
-    let options = ReferenceOptions::new(spp).with_seed(seed);
     let bar = progress(quiet, 1);
     bar.set_message(format!("reference, {spp} spp"));
     let result = pass.render(

@@ -38,7 +38,14 @@ impl GlossyIndirectPass {
             pass: ComputePass::new(
                 ctx,
                 "glossy_indirect.wgsl",
-                &[Uniform, StorageRead, Uniform, StorageReadWrite, StorageRead],
+                &[
+                    Uniform,
+                    StorageRead,
+                    Uniform,
+                    StorageReadWrite,
+                    StorageRead,
+                    StorageRead,
+                ],
             )?,
         })
     }
@@ -103,6 +110,7 @@ impl GlossyIndirectPass {
                     &params,
                     &out,
                     radiance_buf,
+                    &scene.bounce_cache(),
                 ],
             );
             self.pass.record(

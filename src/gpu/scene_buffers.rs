@@ -277,6 +277,10 @@ pub struct GpuScene {
     /// Each material's glossy lobe (index: material), for the tables radiance records
     /// are splatted with.
     pub glossy_lobes: Vec<Option<crate::scene::GlossyLobe>>,
+    /// The surface bounce cache the passes that shade secondary hits bind (laid out by the
+    /// bounce module, a layer above; 16 zero bytes, the empty cache, until one is set): the
+    /// indirect light of this scene's surfaces, so it belongs to the scene, not to a pass.
+    bounce_cache: std::sync::Mutex<wgpu::Buffer>,
 }
 
 /// Group 0: the BVH node texture at binding 0, storage buffers at bindings
@@ -449,7 +453,24 @@ impl GpuScene {
             },
             has_glossy: scene.materials.iter().any(|m| m.glossy.is_some()),
             glossy_lobes: scene.materials.iter().map(|m| m.glossy).collect(),
+            bounce_cache: std::sync::Mutex::new(ctx.storage_buffer("bounce cache", &[0u32; 4])?),
         })
+    }
+
+    /// The surface bounce cache to bind (a handle: the buffer itself is shared).
+    pub fn bounce_cache(&self) -> wgpu::Buffer {
+        match self.bounce_cache.lock() {
+            Ok(b) => b.clone(),
+            Err(poisoned) => poisoned.into_inner().clone(),
+        }
+    }
+
+    /// Sets the surface bounce cache later passes bind (the bounce module's gather).
+    pub fn set_bounce_cache(&self, cache: wgpu::Buffer) {
+        match self.bounce_cache.lock() {
+            Ok(mut b) => *b = cache,
+            Err(poisoned) => *poisoned.into_inner() = cache,
+        }
     }
 
     /// Changes the number of light samples without re-uploading the scene.

@@ -145,6 +145,14 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/light_map_trace.wgsl"),
     ),
     (
+        "shared/bounce_cache.wgsl",
+        include_str!("../../wgsl/shared/bounce_cache.wgsl"),
+    ),
+    (
+        "bounce_gather.wgsl",
+        include_str!("../../wgsl/bounce_gather.wgsl"),
+    ),
+    (
         "plane_refine_select.wgsl",
         include_str!("../../wgsl/plane_refine_select.wgsl"),
     ),

@@ -207,6 +207,8 @@ pub struct CacheSettings {
     /// Radiance records for low-frequency glossy lobes (issue 18): order, their own
     /// accuracy, which lobes they shade, how their frames are rotated.
     pub radiance: kind::RadianceSettings,
+    /// Bounces past the first, carried by the surface bounce cache ([`crate::bounce`]).
+    pub bounce: crate::bounce::BounceSettings,
 }
 
 /// How hemisphere-plane hits are shadowed (thesis section 4.4 uses shadow maps).
@@ -249,6 +251,7 @@ impl Default for CacheSettings {
             plane_refine_split: 2,
             glossy_samples: 32,
             radiance: Default::default(),
+            bounce: Default::default(),
         }
     }
 }
@@ -290,6 +293,7 @@ impl CacheSettings {
     /// Checks the ranges. Errors name the setting, the value given and the command-line
     /// flag that sets it.
     pub fn validate(&self) -> Result<()> {
+        self.bounce.validate()?;
         let bad = |setting: &str, flag: &str, value: String, rule: &str| {
             Err(Error::Usage(format!(
                 "cache setting {setting} ({flag}) {value}: {rule}"
@@ -747,6 +751,7 @@ impl RecordPass {
                     StorageRead,
                     StorageRead,
                     StorageRead,
+                    StorageRead,
                 ],
             )?,
             reduce: ComputePass::new(
@@ -1045,6 +1050,7 @@ impl RecordPass {
                 &light_maps.maps_buffer,
                 &light_maps.depths,
                 &light_maps.first_buffer,
+                &scene.bounce_cache(),
             ],
         );
         self.plane.record(

@@ -182,6 +182,7 @@ impl RefinePass {
                     StorageRead,
                     StorageRead,
                     StorageRead,
+                    StorageRead,
                 ],
             )?,
             subs: ctx.storage_buffer("refine samples", &plane.refine_samples(split))?,
@@ -255,6 +256,7 @@ impl RefinePass {
                 &light_maps.maps_buffer,
                 &light_maps.depths,
                 &light_maps.first_buffer,
+                &scene.bounce_cache(),
             ],
         );
         self.refine.record(

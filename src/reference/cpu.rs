@@ -29,7 +29,12 @@ pub struct IndirectReference<'a> {
     pub spp: u32,
     /// Sequence seed, as [`crate::reference::ReferenceOptions::seed`] (0 by default).
     pub seed: u32,
+    /// Bounces N, as [`crate::reference::ReferenceOptions::bounces`] (1 by default).
+    pub bounces: u32,
 }
+
+/// WGSL `PATH_SEED`: scrambles the directions of bounce b >= 2 (plus b).
+pub const PATH_SEED: u32 = 0xb0;
 
 /// Scramble seed of a pixel's hemisphere directions with sequence seed 0, as WGSL
 /// `indirect_seed(pixel, 0u)`.
@@ -54,6 +59,7 @@ impl<'a> IndirectReference<'a> {
             direct: DirectReference::new(scene, light_samples),
             spp: spp.max(1),
             seed: 0,
+            bounces: 1,
         }
     }
 
@@ -85,7 +91,47 @@ impl<'a> IndirectReference<'a> {
         };
         let h = self.direct.surface_at(&hit, dir);
         let e = self.direct.direct_irradiance(&h, hash_combine(seed, k));
-        self.direct.albedo(&h) * (1.0 / PI) * e + self.indirect_emission(&h)
+        self.hit_radiance(&h, e, seed, k)
+    }
+
+    /// Outgoing radiance of a secondary hit `h` with direct irradiance `e`, as WGSL
+    /// `hit_radiance` in the reference: ρ / π · (E_direct + E_path) + L_e,indirect.
+    pub fn hit_radiance(&self, h: &Surface, e: Vec3, seed: u32, k: u32) -> Vec3 {
+        let e = e + self.path_irradiance(h, seed, k);
+        self.direct.albedo(h) * (1.0 / PI) * e + self.indirect_emission(h)
+    }
+
+    /// Indirect irradiance at a bounce hit from bounces 2..N of its path, as WGSL
+    /// `hit_indirect_irradiance` of `reference_indirect.wgsl`: zero with one bounce.
+    pub fn path_irradiance(&self, hit: &Surface, seed: u32, k: u32) -> Vec3 {
+        let mut l = Vec3::ZERO;
+        let mut throughput = Vec3::ONE;
+        let mut s = *hit;
+        for b in 2..=self.bounces {
+            let bounce_seed = hash_combine(seed, PATH_SEED + b);
+            let dir =
+                orthonormal_basis(s.shading_normal) * cosine_hemisphere(sobol_2d(k, bounce_seed));
+            if dir.dot(s.geometric_normal) <= 0.0 {
+                break;
+            }
+            let origin = offset_ray_origin(s.position, s.geometric_normal);
+            let Some(next) = self
+                .direct
+                .tracer
+                .closest_hit(origin, dir, 0.0, f32::INFINITY)
+            else {
+                break;
+            };
+            let h = self.direct.surface_at(&next, dir);
+            let e = self
+                .direct
+                .direct_irradiance(&h, hash_combine(bounce_seed, k));
+            let albedo = self.direct.albedo(&h);
+            l += throughput * (albedo * (1.0 / PI) * e + self.indirect_emission(&h));
+            throughput *= albedo;
+            s = h;
+        }
+        PI * l
     }
 
     /// Renders one pixel (its own camera ray, traced on the CPU).
@@ -170,7 +216,7 @@ pub fn glossy_bounce(r: &IndirectReference<'_>, s: &Surface, wo: Vec3, seed: u32
     let e = r
         .direct
         .direct_irradiance(&h, hash_combine(seed, k ^ GLOSSY_SEED));
-    let l = r.direct.albedo(&h) * (1.0 / PI) * e + r.indirect_emission(&h);
+    let l = r.hit_radiance(&h, e, hash_combine(seed, GLOSSY_SEED), k);
     lobe.eval(n, wo, wi) * (cos_i / pdf) * l
 }
 

@@ -64,7 +64,8 @@ struct ReferenceParams {
     row_begin: u32,
     row_end: u32,
     seed: u32,
-    _pad: [u32; 3],
+    bounces: u32,
+    _pad: [u32; 2],
 }
 
 /// One dispatch of the reference pass: samples `[samples.0, samples.1)` of rows
@@ -123,6 +124,10 @@ pub struct ReferenceOptions {
     pub chunk_work: u64,
     /// Sequence seed (module docs): 0, the default, gives the seed-less bytes.
     pub seed: u32,
+    /// Bounces N (Radiance's `-ab N`): light reflected N times between the lights and the
+    /// camera's surface, Lambertian at every hit after the first. 1, the default, is the
+    /// first bounce alone.
+    pub bounces: u32,
 }
 
 impl ReferenceOptions {
@@ -132,12 +137,18 @@ impl ReferenceOptions {
             spp,
             chunk_work: DEFAULT_CHUNK_WORK,
             seed: 0,
+            bounces: 1,
         }
     }
 
     /// The same options with sequence seed `seed`.
     pub fn with_seed(self, seed: u32) -> Self {
         Self { seed, ..self }
+    }
+
+    /// The same options with `bounces` bounces.
+    pub fn with_bounces(self, bounces: u32) -> Self {
+        Self { bounces, ..self }
     }
 }
 
@@ -259,8 +270,12 @@ impl ReferencePass {
         let glossy_sums = ctx.storage_buffer_sized("glossy sums", glossy_bytes)?;
         // Shadow rays per bounce hit, at most; glossy pixels trace a second bounce per sample.
         let info = &prepared.gpu.info;
-        let bounces = if prepared.gpu.has_glossy { 2 } else { 1 };
-        let shadow_rays = bounces * info.max_shadow_rays(info.light_samples.max(1));
+        // Each of the sample's paths (two on glossy pixels) has N hits, each with its
+        // shadow rays, and N - 1 rays past the first hit.
+        let paths = if prepared.gpu.has_glossy { 2 } else { 1 };
+        let bounces = u64::from(options.bounces.max(1));
+        let shadow_rays =
+            paths * (bounces * info.max_shadow_rays(info.light_samples.max(1)) + bounces - 1);
         let chunks = plan_chunks(
             width,
             height,
@@ -277,7 +292,8 @@ impl ReferencePass {
                     row_begin: chunk.rows.0,
                     row_end: chunk.rows.1,
                     seed: options.seed,
-                    _pad: [0; 3],
+                    bounces: options.bounces.max(1),
+                    _pad: [0; 2],
                 },
             );
             let bind = self

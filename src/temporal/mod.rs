@@ -591,6 +591,15 @@ impl TemporalCache {
         kind: RecordKind,
     ) -> Result<Self> {
         settings.validate()?;
+        if cache.bounce.bounces > 1 {
+            // The reprojection re-shades plane samples at t+1 with direct light only, and
+            // the bounce cache of frame t+1 does not exist yet when it runs.
+            return Err(Error::Usage(format!(
+                "--bounces {} does not work with temporal caching yet (its estimates at \
+                 t+1 see direct light only): use --temporal off, or --bounces 1",
+                cache.bounce.bounces
+            )));
+        }
         let user_settings = cache.clone();
         // Every pass (records, reprojection, plane store) with the same record settings.
         let cache = &Self::record_settings(cache);

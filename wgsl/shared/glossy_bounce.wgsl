@@ -27,7 +27,6 @@ fn glossy_bounce(s: Surface, wo: vec3f, seed: u32, k: u32) -> vec3f {
     if shaded.hit.instance == NO_HIT {
         return vec3f(0.0);
     }
-    let h = shaded.surface;
-    let l = surface_albedo(h) * (1.0 / PI) * shaded.irradiance + indirect_emission(h);
+    let l = hit_radiance(shaded, hash_combine(seed, GLOSSY_SEED), k);
     return phong_eval(s, wo, wi) * (cos_i / pdf) * l;
 }

@@ -2,7 +2,8 @@
 // plane pass (hemisphere_plane.wgsl) and the plane refresh's re-trace
 // (plane_retrace.wgsl), which must give the same bytes. The including pass declares
 // `plane: array<PlanePixel>` (the plane table), a `params` uniform with a
-// `light_samples` field and the light-map bindings of shared/light_map_lookup.wgsl.
+// `light_samples` field, the light-map bindings of shared/light_map_lookup.wgsl and
+// `hit_indirect_irradiance` (shared/trace_and_shade.wgsl).
 //!include shared/trace_and_shade.wgsl
 //!include shared/light_map_lookup.wgsl
 //!include shared/plane_direction.wgsl
@@ -43,9 +44,7 @@ fn trace_plane_ray(site: RecordSite, dir: vec3f, index: u32) -> TracedSample {
             params.light_samples);
         let hit = shaded.hit;
         if hit.instance != NO_HIT {
-            let s = shaded.surface;
-            let e = shaded.irradiance;
-            out.sample.radiance = surface_albedo(s) * (1.0 / PI) * e + indirect_emission(s);
+            out.sample.radiance = hit_radiance(shaded, site.seed, index);
             out.sample.depth = hit.t * dot(dir, site.normal);
             out.hit = PlaneHit(hit.instance, hit.triangle, hit.u, hit.v);
         }

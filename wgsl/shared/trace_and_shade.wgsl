@@ -1,6 +1,7 @@
 // One traced ray and its hit's direct light through a single call of `trace`
 // (shared/shading.wgsl `ShadowLoop`), for the passes that shade secondary hits: hemisphere
-// planes (shared/plane.wgsl) and the reference's bounce (reference_indirect.wgsl).
+// planes (shared/plane.wgsl), glossy lobes (shared/glossy_bounce.wgsl), the bounce cache's
+// gather (bounce_gather.wgsl) and the reference's bounce (reference_indirect.wgsl).
 //!include shared/shading.wgsl
 
 // What `trace_and_shade` found: the closest hit (instance NO_HIT on a miss), its surface
@@ -59,4 +60,17 @@ fn trace_and_shade_at(primary: Ray, seed: u32, first: u32, count: u32) -> Shaded
         shadow = true;
     }
     return out;
+}
+
+// Outgoing radiance of a shaded secondary hit (Lambertian): its direct irradiance plus the
+// indirect irradiance the including pass finds there, reflected, and emission not sampled
+// as a light. The including pass defines
+// `fn hit_indirect_irradiance(shaded: ShadedHit, seed: u32, k: u32) -> vec3f`: the
+// surface bounce cache (shared/bounce_cache.wgsl) with `--bounces` above 1, the
+// reference's path continuation, or zero (one bounce). `seed` and `k` are the caller's
+// sequence seed and sample index.
+fn hit_radiance(shaded: ShadedHit, seed: u32, k: u32) -> vec3f {
+    let h = shaded.surface;
+    let e = shaded.irradiance + hit_indirect_irradiance(shaded, seed, k);
+    return surface_albedo(h) * (1.0 / PI) * e + indirect_emission(h);
 }
