@@ -4,6 +4,7 @@
 // each entry writes only its own sample's radiance, so the list's order does not matter.
 //!include shared/reprojection.wgsl
 //!include shared/work_items.wgsl
+//!include shared/bounce_cache.wgsl
 
 @group(1) @binding(0) var<uniform> params: ReprojectParams;
 @group(1) @binding(1) var<storage, read> sites: array<RecordSite>;
@@ -11,6 +12,7 @@
 @group(1) @binding(3) var<storage, read_write> moved: array<vec4f>;   // radiance at t+1, depth
 @group(1) @binding(4) var<storage, read> motion: array<InstanceMotion>;
 @group(1) @binding(5) var<storage, read> work: WorkItems;   // samples to re-shade
+@group(1) @binding(6) var<storage, read> bounce_cache: array<u32>;   // frame t+1's
 
 @compute @workgroup_size(64)
 fn main(
@@ -26,7 +28,11 @@ fn main(
     let plane_size = params.resolution * params.resolution;
     let pixel = sample % plane_size;
     let m = moved_hit(sites[sample / plane_size], hits[sample], pixel);
-    let e = direct_irradiance_samples_at(m.surface, m.seed, m.first, params.light_samples);
+    // The hit moves with its instance: same triangle and barycentrics at t+1; with
+    // `--bounces` above 1 it reflects frame t+1's bounce cache too (as `hit_radiance`).
+    let h = hits[sample];
+    let e = direct_irradiance_samples_at(m.surface, m.seed, m.first, params.light_samples)
+        + bounce_irradiance(Hit(0.0, h.instance, h.triangle, h.u, h.v), m.surface.front_face);
     let radiance = surface_albedo(m.surface) * (1.0 / PI) * e + indirect_emission(m.surface);
     moved[sample] = vec4f(radiance, moved[sample].w);
 }

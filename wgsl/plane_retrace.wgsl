@@ -3,6 +3,7 @@
 // indirect dispatch of 64-invocation groups over the list; each item writes only its own
 // sample.
 //!include shared/plane.wgsl
+//!include shared/bounce_cache.wgsl
 //!include shared/work_items.wgsl
 
 struct PlaneParams {
@@ -21,11 +22,12 @@ struct PlaneParams {
 @group(1) @binding(6) var<storage, read> light_maps: array<LightMap>;
 @group(1) @binding(7) var<storage, read> light_map_depths: array<f32>;
 @group(1) @binding(8) var<storage, read> light_map_first: array<u32>;
+@group(1) @binding(9) var<storage, read> bounce_cache: array<u32>;
 
-// Temporal caching runs with one bounce (src/bounce: `--bounces` above 1 needs
-// `--temporal off`), so re-traced samples see direct light only.
+// Secondary hits reflect the surface bounce cache's indirect irradiance (zero with one
+// bounce: the cache is then empty).
 fn hit_indirect_irradiance(shaded: ShadedHit, seed: u32, k: u32) -> vec3f {
-    return vec3f(0.0);
+    return bounce_irradiance(shaded.hit, shaded.surface.front_face);
 }
 
 @compute @workgroup_size(64)

@@ -14,8 +14,8 @@
 //!   `--bounce-rays` cosine-distributed rays whose hits reflect their direct light plus
 //!   level k - 1 (`wgsl/bounce_gather.wgsl`); level N - 1 holds light reflected N - 1
 //!   times before it reaches a surface;
-//! - hemisphere-plane samples, their refinement and glossy lobe rays reflect their hit's
-//!   cell of level N - 1 (`hit_radiance` in `wgsl/shared/trace_and_shade.wgsl`), so
+//! - hemisphere-plane samples (traced, refined, re-traced or re-shaded at t+1) and glossy
+//!   lobe rays reflect their hit's cell of level N - 1 (`hit_radiance` in `wgsl/shared/trace_and_shade.wgsl`), so
 //!   records hold N bounces.
 //!
 //! The cache is computed once per prepared scene (it depends on the scene, not the
@@ -23,7 +23,8 @@
 //! one bounce it is empty and every image is byte for byte what it was. The reference
 //! (`radsplat reference --bounces N`) follows its paths instead; the two agree exactly
 //! where radiance is uniform (the furnace test) and within the cache's resolution
-//! elsewhere. Temporal caching keeps one bounce for now (`--temporal off` with N > 1).
+//! elsewhere. In animations every frame's prepared scene has its own cache; temporal
+//! caching builds frame t+1's while rendering frame t, for its estimates at t+1.
 
 pub mod layout;
 pub mod reference;

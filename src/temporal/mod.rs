@@ -591,15 +591,6 @@ impl TemporalCache {
         kind: RecordKind,
     ) -> Result<Self> {
         settings.validate()?;
-        if cache.bounce.bounces > 1 {
-            // The reprojection re-shades plane samples at t+1 with direct light only, and
-            // the bounce cache of frame t+1 does not exist yet when it runs.
-            return Err(Error::Usage(format!(
-                "--bounces {} does not work with temporal caching yet (its estimates at \
-                 t+1 see direct light only): use --temporal off, or --bounces 1",
-                cache.bounce.bounces
-            )));
-        }
         let user_settings = cache.clone();
         // Every pass (records, reprojection, plane store) with the same record settings.
         let cache = &Self::record_settings(cache);
@@ -807,6 +798,14 @@ impl TemporalCache {
                 RadianceTemporal::new(ctx, &scenes.now.gpu, &self.user_settings, &self.settings)?
                     .map(Box::new);
         }
+        // Bounces past the first: the bounce caches of frame t (its replacements and
+        // placed records reflect it) and of t+1 (the estimates re-shade with it; the next
+        // frame finds it built).
+        let mut bounce_times = Vec::new();
+        renderer.scene_bounce_cache(scenes.now, &self.pass.settings, &mut bounce_times)?;
+        if let Some((next, _)) = scenes.next {
+            renderer.scene_bounce_cache(next, &self.pass.settings, &mut bounce_times)?;
+        }
         // The visibility buffer of frame t, traced once for the replacement decisions of
         // both caches and the frame.
         let mut vis = None;
@@ -892,6 +891,7 @@ impl TemporalCache {
         let new = self.frame_records.count - before_new;
         let has_next = scenes.next.is_some();
         let mut times = std::mem::take(&mut plan.times);
+        times.extend(bounce_times);
         let mut stats = self.finish_frame(ctx, plan, t, has_next, dynamic, coverage, new)?;
         if let (Some(r), Some(mut rp)) = (self.radiance.as_deref_mut(), radiance_plan) {
             // Their replacements' passes under the radiance cache's names.

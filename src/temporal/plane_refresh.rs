@@ -152,6 +152,7 @@ impl RefreshPass {
                     StorageRead,
                     StorageRead,
                     StorageRead,
+                    StorageRead,
                 ],
             )?,
             no_light_maps: crate::light_maps::LightMaps::none(ctx)?,
@@ -244,6 +245,7 @@ impl PlaneRefresh<'_> {
                 &self.pass.no_light_maps.maps_buffer,
                 &self.pass.no_light_maps.depths,
                 &self.pass.no_light_maps.first_buffer,
+                &scene.bounce_cache(),
             ],
         );
         self.pass.retrace.record_indirect(

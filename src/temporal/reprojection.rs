@@ -179,6 +179,7 @@ impl ReprojectionPass {
                     StorageReadWrite,
                     StorageRead,
                     StorageRead,
+                    StorageRead,
                 ],
             )?,
             fill: ComputePass::new(
@@ -286,6 +287,7 @@ impl ReprojectionPass {
                 &moved,
                 &next.motion,
                 &reshade,
+                &next.scene.bounce_cache(),
             ],
         );
         self.reshade.record_indirect(
