@@ -973,7 +973,7 @@ impl Renderer {
             lights: scene.lights.iter().map(GpuLight::new).collect(),
             bounds: bvh.world_bounds(),
             light_maps: Default::default(),
-            bounce_geometry: crate::bounce::BounceGeometry::from_bvh(bvh),
+            bounce_geometry: crate::bounce::BounceGeometry::new(bvh, scene),
             bounce: Default::default(),
             bvh_stats: BvhStats {
                 triangles: bvh.triangles.len(),

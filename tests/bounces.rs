@@ -200,7 +200,7 @@ fn gather_matches_its_cpu_mirror_at_two_levels() {
         ..BounceSettings::default()
     };
     let layout = BounceLayout::new(
-        &BounceGeometry::from_bvh(&bvh),
+        &BounceGeometry::new(&bvh, &scene),
         &settings,
         bvh_diagonal(&bvh),
     )
@@ -325,4 +325,38 @@ fn temporal_caching_carries_two_bounces() {
              {per_frame_gain} x per frame"
         );
     }
+}
+
+#[test]
+fn irradiance_bound_is_a_hemisphere_of_the_brightest_emitter() {
+    // The Cornell box: one rect light of radiance (17, 12, 4) and no environment.
+    let scene = common::load("cornell-box.toml", Some((8, 8)));
+    let bound = radsplat::bounce::direct_irradiance_bound(&scene, 1.0);
+    assert!(
+        (bound - std::f32::consts::PI * 17.0).abs() < 1e-3,
+        "bound {bound}"
+    );
+    // No true irradiance on the box exceeds it: the largest cell of a level stays below
+    // it too (each cell reflects at most albedo < 1 of what reaches its hits).
+    let bvh = SceneBvh::build(&scene);
+    let settings = BounceSettings {
+        bounces: 2,
+        rays: 8,
+        cell_size: 0.1,
+        ..BounceSettings::default()
+    };
+    let layout = BounceLayout::new(
+        &BounceGeometry::new(&bvh, &scene),
+        &settings,
+        bvh_diagonal(&bvh),
+    )
+    .expect("layout");
+    assert_eq!(layout.irradiance_bound, bound);
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let values = gpu_values(&renderer, &scene, &layout, &settings);
+    let largest = values.iter().copied().fold(0.0f32, f32::max);
+    assert!(
+        largest > 0.0 && largest < bound,
+        "largest cell {largest}, bound {bound}"
+    );
 }

@@ -21,8 +21,8 @@ struct GatherParams {
     ray_end: u32,
     rays: u32,           // K
     light_samples: u32,  // per light at each hit
-    _pad0: u32,
-    _pad1: u32,
+    irradiance_bound: f32,   // the most direct irradiance any point can get (src/bounce)
+    _pad: u32,
 }
 
 struct BounceCell {
@@ -97,7 +97,11 @@ fn main(
             let shaded = trace_and_shade(
                 Ray(origin, 0.0, dir, INF), hash_combine(seed, k), params.light_samples);
             if shaded.hit.instance != NO_HIT {
-                sum += hit_radiance(shaded, seed, k);
+                // A one-sample estimate beside an area light can exceed any true
+                // irradiance (1 / r^2 of the sampled point): clamp it to the bound.
+                var clamped = shaded;
+                clamped.irradiance = min(shaded.irradiance, vec3f(params.irradiance_bound));
+                sum += hit_radiance(clamped, seed, k);
             }
         }
     }

@@ -28,10 +28,23 @@ pub struct TriangleInfo {
 pub struct BounceGeometry {
     /// Per instance: its mesh's first triangle (leaf order, absolute) and its triangles.
     pub instances: Vec<(u32, Vec<TriangleInfo>)>,
+    /// The most direct irradiance any point of the scene can receive (per channel, the
+    /// largest): what a gather hit's one-sample estimate is clamped to
+    /// ([`super::direct_irradiance_bound`]).
+    pub irradiance_bound: f32,
 }
 
 impl BounceGeometry {
-    /// The triangles of `bvh`'s instances.
+    /// The triangles of `bvh`'s instances, and the irradiance bound of `scene`.
+    pub fn new(bvh: &SceneBvh, scene: &crate::scene::Scene) -> Self {
+        let (lo, hi) = bvh.world_bounds();
+        Self {
+            irradiance_bound: super::direct_irradiance_bound(scene, (hi - lo).length()),
+            ..Self::from_bvh(bvh)
+        }
+    }
+
+    /// The triangles of `bvh`'s instances (no irradiance bound: infinite).
     pub fn from_bvh(bvh: &SceneBvh) -> Self {
         let ends: Vec<u32> = bvh
             .mesh_offsets
@@ -71,7 +84,10 @@ impl BounceGeometry {
                 (first, triangles)
             })
             .collect();
-        Self { instances }
+        Self {
+            instances,
+            irradiance_bound: f32::INFINITY,
+        }
     }
 
     /// Triangles over all instances.
@@ -127,6 +143,8 @@ pub struct BounceLayout {
     pub cells: Vec<BounceCell>,
     /// The cell edge the subdivision aimed at (world units), after the budget.
     pub cell_size: f32,
+    /// [`BounceGeometry::irradiance_bound`].
+    pub irradiance_bound: f32,
 }
 
 /// Subdivisions of a triangle of `area` for cells of edge `h`: a right triangle with legs
@@ -246,6 +264,7 @@ impl BounceLayout {
             table,
             cells,
             cell_size: h,
+            irradiance_bound: geometry.irradiance_bound,
         })
     }
 
@@ -353,6 +372,7 @@ mod tests {
     /// Right triangles in the z = 0 plane with legs `leg`, at `x` along x.
     fn geometry(triangles: &[(f32, f32)]) -> BounceGeometry {
         BounceGeometry {
+            irradiance_bound: f32::INFINITY,
             instances: vec![(
                 10,
                 triangles

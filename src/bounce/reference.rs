@@ -127,7 +127,10 @@ impl<'a> GatherReference<'a> {
                 continue;
             };
             let h = self.direct.surface_at(&hit, dir);
-            let e = self.direct.direct_irradiance(&h, hash_combine(seed, k))
+            let e = self
+                .direct
+                .direct_irradiance(&h, hash_combine(seed, k))
+                .min(Vec3::splat(self.layout.irradiance_bound))
                 + self.lookup(&hit, h.front_face);
             let m = &self.direct.scene.materials[h.material as usize];
             let emission = if m.sampled_light || !h.front_face {
