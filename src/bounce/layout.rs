@@ -161,7 +161,7 @@ fn subdivisions(area: f32, h: f32) -> u32 {
 impl BounceLayout {
     /// Lays the cells of `geometry` out at `settings.cell_size` of the scene's `diagonal`:
     /// a triangle of at least two cells per edge gets its own n x n grid; smaller ones
-    /// share one cell per group ([`group_key`]: same instance, cube of the cell edge and
+    /// share one cell per group (same instance, cube of the cell edge and
     /// normal direction), gathered at the centroid of the group's largest triangle, so a
     /// finely tessellated mesh costs cells by its area, not by its triangle count. The
     /// cell edge grows by quarters until the sides fit `settings.max_cells`.
