@@ -402,7 +402,7 @@ impl Renderer {
             if slot.take().is_some() {
                 scene
                     .gpu
-                    .set_bounce_cache(self.ctx.storage_buffer("bounce cache", &[0u32; 4])?);
+                    .set_bounce_cache(GpuScene::empty_bounce_cache(&self.ctx)?);
             }
             return Ok(None);
         }

@@ -199,12 +199,7 @@ fn gather_matches_its_cpu_mirror_at_two_levels() {
         cell_size: 0.2,
         ..BounceSettings::default()
     };
-    let layout = BounceLayout::new(
-        &BounceGeometry::new(&bvh, &scene),
-        &settings,
-        bvh_diagonal(&bvh),
-    )
-    .expect("layout");
+    let layout = layout(&scene, &bvh, &settings);
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let level1 = gpu_values(&renderer, &scene, &layout, &settings);
     settings.bounces = 3;
@@ -235,9 +230,15 @@ fn gather_matches_its_cpu_mirror_at_two_levels() {
     }
 }
 
-fn bvh_diagonal(bvh: &SceneBvh) -> f32 {
+/// The cache layout of `scene` (whose BVH is `bvh`) with `settings`.
+fn layout(scene: &Scene, bvh: &SceneBvh, settings: &BounceSettings) -> BounceLayout {
     let (lo, hi) = bvh.world_bounds();
-    (hi - lo).length()
+    BounceLayout::new(
+        &BounceGeometry::new(bvh, scene),
+        settings,
+        (hi - lo).length(),
+    )
+    .expect("layout")
 }
 
 #[test]
@@ -345,12 +346,7 @@ fn irradiance_bound_is_a_hemisphere_of_the_brightest_emitter() {
         cell_size: 0.1,
         ..BounceSettings::default()
     };
-    let layout = BounceLayout::new(
-        &BounceGeometry::new(&bvh, &scene),
-        &settings,
-        bvh_diagonal(&bvh),
-    )
-    .expect("layout");
+    let layout = layout(&scene, &bvh, &settings);
     assert_eq!(layout.irradiance_bound, bound);
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let values = gpu_values(&renderer, &scene, &layout, &settings);

@@ -32,7 +32,7 @@ pub mod reference;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
-use crate::gpu::timer::PassTimer;
+use crate::gpu::timer::{PassTimer, spanning};
 use crate::light_maps::LightMaps;
 use crate::{Error, Result};
 pub use layout::{BounceCell, BounceGeometry, BounceLayout};
@@ -213,7 +213,15 @@ impl BouncePass {
         let shadow_rays = scene.info.max_shadow_rays(light_samples.max(1));
         let per_dispatch =
             crate::gpu::context::max_samples_per_dispatch(shadow_rays).min(settings.rays);
-        let mut ms = 0.0;
+        // Every level in one submission, timed as one span and read back once: wgpu
+        // orders each dispatch after the copy of the level before it.
+        let ray_chunks = settings.rays.div_ceil(per_dispatch);
+        let side_chunks = sides.div_ceil(SIDES_PER_DISPATCH).max(1);
+        let dispatches = settings.levels() * ray_chunks * side_chunks;
+        let mut timer = PassTimer::new(ctx, 1);
+        let stamps = timer.next("bounce cache");
+        let mut dispatch = 0;
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
         for _level in 0..settings.levels() {
             let mut ray = 0;
             while ray < settings.rays {
@@ -246,29 +254,24 @@ impl BouncePass {
                             &light_maps.first_buffer,
                         ],
                     );
-                    let mut timer = PassTimer::new(ctx, 1);
-                    let mut enc = ctx.device.create_command_encoder(&Default::default());
                     self.gather.record(
                         &mut enc,
                         &scene.bind_group,
                         &bind,
                         [n.div_ceil(64), 1, 1],
-                        timer.next("bounce cache"),
+                        spanning(stamps.as_ref(), dispatch == 0, dispatch + 1 == dispatches),
                     );
-                    timer.resolve(&mut enc);
-                    ctx.queue.submit([enc.finish()]);
-                    for (_, t) in timer.read(ctx)? {
-                        ms += t;
-                    }
+                    dispatch += 1;
                     first += n;
                 }
                 ray = ray_end;
             }
             // The level just gathered becomes what the next one (and every pass) reads.
-            let mut enc = ctx.device.create_command_encoder(&Default::default());
             enc.copy_buffer_to_buffer(&values, 0, &cache, table_bytes, value_bytes);
-            ctx.queue.submit([enc.finish()]);
         }
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        let ms: f64 = timer.read(ctx)?.iter().map(|(_, t)| t).sum();
         ctx.check()?;
         times.push(("bounce cache", ms));
         scene.set_bounce_cache(cache.clone());

@@ -25,6 +25,8 @@ pub struct GatherReference<'a> {
     pub rays: u32,
     /// Leaf-order triangle of (mesh's first leaf triangle + mesh triangle).
     leaf_of: Vec<u32>,
+    /// Mesh triangle of each leaf-order triangle (the GPU shading table's).
+    mesh_triangle_of: Vec<u32>,
     /// First leaf triangle of each instance.
     first_of_instance: Vec<u32>,
 }
@@ -53,6 +55,7 @@ impl<'a> GatherReference<'a> {
             previous,
             rays,
             leaf_of,
+            mesh_triangle_of: bvh.shading.iter().map(|sh| sh.mesh_triangle).collect(),
             first_of_instance: bvh.instances.iter().map(|i| i.first_triangle).collect(),
         }
     }
@@ -80,12 +83,10 @@ impl<'a> GatherReference<'a> {
     pub fn side_surface(&self, side: u32) -> Surface {
         let c = self.layout.cells[(side / 2) as usize];
         let (u, v) = cell_centroid(c.cell, c.n);
-        let first = self.first_of_instance[c.instance as usize];
-        let mesh_triangle = self.mesh_triangle_of(c.triangle, first);
         let hit = CpuHit {
             t: 0.0,
             instance: c.instance,
-            triangle: mesh_triangle,
+            triangle: self.mesh_triangle_of[c.triangle as usize],
             u,
             v,
             leaf: 0,
@@ -96,14 +97,6 @@ impl<'a> GatherReference<'a> {
         } else {
             back
         }
-    }
-
-    fn mesh_triangle_of(&self, leaf: u32, first: u32) -> u32 {
-        // leaf_of is a permutation within each mesh: search that mesh's range.
-        let end = self.leaf_of.len();
-        (first as usize..end)
-            .find(|&i| self.leaf_of[i] == leaf)
-            .map_or(0, |i| i as u32 - first)
     }
 
     /// The value of cell side `side` at this level: pi / K times the sum of its rays'
@@ -132,13 +125,7 @@ impl<'a> GatherReference<'a> {
                 .direct_irradiance(&h, hash_combine(seed, k))
                 .min(Vec3::splat(self.layout.irradiance_bound))
                 + self.lookup(&hit, h.front_face);
-            let m = &self.direct.scene.materials[h.material as usize];
-            let emission = if m.sampled_light || !h.front_face {
-                Vec3::ZERO
-            } else {
-                m.emission
-            };
-            sum += self.direct.albedo(&h) * (1.0 / PI) * e + emission;
+            sum += self.direct.albedo(&h) * (1.0 / PI) * e + self.direct.indirect_emission(&h);
         }
         sum * (PI / self.rays as f32)
     }

@@ -89,6 +89,17 @@ impl<'a> DirectReference<'a> {
         }
     }
 
+    /// Emission seen by a secondary ray: zero for emitters sampled as lights (Ward's rule)
+    /// and from behind, as WGSL `indirect_emission`.
+    pub fn indirect_emission(&self, s: &Surface) -> Vec3 {
+        let m = &self.scene.materials[s.material as usize];
+        if m.sampled_light || !s.front_face {
+            Vec3::ZERO
+        } else {
+            m.emission
+        }
+    }
+
     /// Textured albedo, as WGSL `surface_albedo`.
     pub fn albedo(&self, s: &Surface) -> Vec3 {
         let m = &self.scene.materials[s.material as usize];

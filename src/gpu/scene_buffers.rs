@@ -453,8 +453,13 @@ impl GpuScene {
             },
             has_glossy: scene.materials.iter().any(|m| m.glossy.is_some()),
             glossy_lobes: scene.materials.iter().map(|m| m.glossy).collect(),
-            bounce_cache: std::sync::Mutex::new(ctx.storage_buffer("bounce cache", &[0u32; 4])?),
+            bounce_cache: std::sync::Mutex::new(Self::empty_bounce_cache(ctx)?),
         })
+    }
+
+    /// The empty surface bounce cache: every lookup in it is zero (its instance count).
+    pub fn empty_bounce_cache(ctx: &GpuContext) -> Result<wgpu::Buffer> {
+        ctx.storage_buffer("bounce cache", &[0u32; 4])
     }
 
     /// The surface bounce cache to bind (a handle: the buffer itself is shared).

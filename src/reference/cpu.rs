@@ -63,15 +63,10 @@ impl<'a> IndirectReference<'a> {
         }
     }
 
-    /// Emission seen by a bounce ray: zero for emitters sampled as lights, as WGSL
-    /// `indirect_emission`.
+    /// Emission seen by a bounce ray, as WGSL `indirect_emission`
+    /// ([`DirectReference::indirect_emission`]).
     pub fn indirect_emission(&self, s: &Surface) -> Vec3 {
-        let m = &self.direct.scene.materials[s.material as usize];
-        if m.sampled_light || !s.front_face {
-            Vec3::ZERO
-        } else {
-            m.emission
-        }
+        self.direct.indirect_emission(s)
     }
 
     /// Outgoing radiance of the closest hit along bounce direction `k`, as WGSL
