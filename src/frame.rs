@@ -35,6 +35,10 @@ pub struct PreparedScene {
     /// scene with the settings it was built for (none: one bounce).
     bounce_geometry: crate::bounce::BounceGeometry,
     bounce: std::sync::Mutex<Option<BuiltBounceCache>>,
+    /// The emitters VPL paths leave, and the VPLs traced for this scene with the plan they
+    /// were traced for (none: no cache gathers from VPLs).
+    emitter_powers: crate::vpl::EmitterPowers,
+    vpls: std::sync::Mutex<Option<(crate::vpl::VplPlan, crate::vpl::VplStats)>>,
 }
 
 /// A bounce cache of a prepared scene, with its settings and gather light samples.
@@ -145,6 +149,8 @@ pub struct CacheFrameStats {
     pub new_radiance_records: u32,
     /// The surface bounce cache the plane hits reflected (`--bounces` above 1).
     pub bounce: Option<crate::bounce::BounceStats>,
+    /// The VPLs the records gathered from (`--records vpl`).
+    pub vpls: Option<crate::vpl::VplStats>,
 }
 
 /// The images of one frame, row-major, top row first.
@@ -200,6 +206,7 @@ pub struct Renderer {
     resolve: OnFirstUse<ResolvePass>,
     light_maps: OnFirstUse<LightMapPass>,
     bounce: OnFirstUse<crate::bounce::BouncePass>,
+    vpl: OnFirstUse<crate::vpl::VplPass>,
     glossy: OnFirstUse<GlossyIndirectPass>,
 }
 
@@ -284,6 +291,8 @@ impl RadianceCache {
             .record_budget
             .min(RecordCache::max_records_of(ctx, r.kind()).min(u64::from(u32::MAX)) as u32);
         let record_settings = CacheSettings {
+            // Radiance records project their planes, whatever the irradiance records' source.
+            source: crate::records::RecordSource::Planes,
             accuracy: r.accuracy,
             record_budget,
             plane_resolution: r
@@ -319,6 +328,7 @@ impl Renderer {
             resolve: OnFirstUse::new(),
             light_maps: OnFirstUse::new(),
             bounce: OnFirstUse::new(),
+            vpl: OnFirstUse::new(),
             glossy: OnFirstUse::new(),
         })
     }
@@ -424,6 +434,40 @@ impl Renderer {
         )?;
         let stats = cache.stats;
         *slot = Some((wanted, light_samples, std::sync::Arc::new(cache)));
+        Ok(Some(stats))
+    }
+
+    /// Traces `scene`'s VPLs for `settings` (their paths, one VPL per bounce) and sets them
+    /// as the scene's (once per prepared scene and plan), timed as "vpl trace". None when
+    /// the records come from planes.
+    pub fn scene_vpls(
+        &self,
+        scene: &PreparedScene,
+        settings: &CacheSettings,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<Option<crate::vpl::VplStats>> {
+        if settings.source != crate::records::RecordSource::Vpl {
+            return Ok(None);
+        }
+        let plan = crate::vpl::VplPlan::new(
+            &scene.emitter_powers,
+            &settings.vpl,
+            settings.bounce.bounces,
+        );
+        let mut slot = scene
+            .vpls
+            .lock()
+            .map_err(|_| Error::Gpu("internal: VPL set poisoned".into()))?;
+        if let Some((traced, stats)) = slot.as_ref() {
+            if *traced == plan {
+                return Ok(Some(*stats));
+            }
+        }
+        let stats = self
+            .vpl
+            .get(|| crate::vpl::VplPass::new(&self.ctx))?
+            .build(&self.ctx, &scene.gpu, &plan, times)?;
+        *slot = Some((plan, stats));
         Ok(Some(stats))
     }
 
@@ -656,7 +700,15 @@ impl Renderer {
 
         // Bounces past the first: the surface cache every plane hit reflects (once per
         // prepared scene; nothing with one bounce).
-        let bounce = self.scene_bounce_cache(scene, &pass.settings, &mut times)?;
+        // VPL records carry their bounces in the VPL paths; glossy lobe rays still reflect
+        // the cache.
+        let planes = pass.settings.source == crate::records::RecordSource::Planes;
+        let bounce = if planes || scene.gpu.has_glossy {
+            self.scene_bounce_cache(scene, &pass.settings, &mut times)?
+        } else {
+            None
+        };
+        let vpls = self.scene_vpls(scene, &pass.settings, &mut times)?;
 
         // Visibility buffer and direct light (placement needs only the visibility).
         let (vis, direct) =
@@ -787,7 +839,11 @@ impl Renderer {
             None => None,
         };
 
-        let rays_per_record = pass.settings.plane_rays_per_record();
+        // A VPL record traces one ray per VPL slot.
+        let rays_per_record = match &vpls {
+            Some(v) => u64::from(v.slots),
+            None => pass.settings.plane_rays_per_record(),
+        };
         let (width, height) = (camera.width, camera.height);
         let stats = |times: &[(&'static str, f64)], uncovered_pixels| FrameStats {
             width,
@@ -799,12 +855,14 @@ impl Renderer {
             cache: Some(CacheFrameStats {
                 records: records.count,
                 reused_records,
-                plane_rays: u64::from(placement.new_records + radiance_stats.1) * rays_per_record,
+                plane_rays: u64::from(placement.new_records) * rays_per_record
+                    + u64::from(radiance_stats.1) * pass.settings.plane_rays_per_record(),
                 placement,
                 uncovered_pixels,
                 radiance_records: radiance_stats.0,
                 new_radiance_records: radiance_stats.1,
                 bounce,
+                vpls,
             }),
         };
         let mut coverage = if count_coverage {
@@ -975,6 +1033,8 @@ impl Renderer {
             light_maps: Default::default(),
             bounce_geometry: crate::bounce::BounceGeometry::new(bvh, scene),
             bounce: Default::default(),
+            emitter_powers: crate::vpl::EmitterPowers::new(scene, bvh.world_bounds()),
+            vpls: Default::default(),
             bvh_stats: BvhStats {
                 triangles: bvh.triangles.len(),
                 blas_nodes: bvh.blas_nodes.len(),

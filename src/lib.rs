@@ -36,6 +36,7 @@ pub mod scene;
 pub mod splat;
 pub mod temporal;
 pub mod visibility;
+pub mod vpl;
 
 pub use error::{Error, Result};
 pub use frame::{Frame, FrameStats, IrradianceCache, PreparedScene, Renderer};

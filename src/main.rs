@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use radsplat::commands;
 use radsplat::hsh::rotation::RotationMethod;
-use radsplat::records::CacheSettings;
+use radsplat::records::{CacheSettings, RecordSource};
 use radsplat::splat::radiance::RadianceSettings;
 use radsplat::temporal::{
     RecordAnchor, RefreshMode, Replacement, TemporalGradients, TemporalSettings,
@@ -392,6 +392,20 @@ struct CacheArgs {
     /// light.
     #[arg(long)]
     bounce_shadow_rays: bool,
+    /// Where records get their irradiance: `planes` (hemisphere planes, thesis chapter 4)
+    /// or `vpl` (instant caching, seed 003: one visibility ray per virtual point light
+    /// traced from the lights; the VPL paths carry --bounces; not with temporal caching).
+    #[arg(long = "records", value_enum, default_value_t = RecordSource::Planes)]
+    record_source: RecordSource,
+    /// Light paths of `--records vpl` (about; each light gets at least one): one VPL per
+    /// path and bounce, one visibility ray each per record.
+    #[arg(long, default_value_t = CacheSettings::default().vpl.paths, value_parser = parse_at_least_one)]
+    vpl_paths: u32,
+    /// Bounding distance of `--records vpl` (seed 003 eq. 2-3: VPLs nearer a record than
+    /// about this fade out) in units of the VPLs' mean spacing sqrt(scene area / paths);
+    /// 0: none.
+    #[arg(long, default_value_t = CacheSettings::default().vpl.clamp)]
+    vpl_clamp: f32,
     /// R_min as the validity radius a R_min in pixels at creation.
     #[arg(long, default_value_t = CacheSettings::default().r_min_pixels, value_parser = parse_positive)]
     r_min_pixels: f32,
@@ -604,6 +618,11 @@ impl CacheArgs {
                 cell_size: self.bounce_cell,
                 max_cells: self.bounce_cells,
                 shadow_maps: !self.bounce_shadow_rays,
+            },
+            source: self.record_source,
+            vpl: radsplat::vpl::VplSettings {
+                paths: self.vpl_paths,
+                clamp: self.vpl_clamp,
             },
             ..CacheSettings::default()
         }

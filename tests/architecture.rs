@@ -23,6 +23,7 @@ fn layers() -> BTreeMap<&'static str, u32> {
         ("direct", 3),
         ("light_maps", 3),
         ("bounce", 3),
+        ("vpl", 3),
         ("records", 4),
         ("glossy", 4),
         ("splat", 5),

@@ -281,6 +281,18 @@ pub struct GpuScene {
     /// bounce module, a layer above; 16 zero bytes, the empty cache, until one is set): the
     /// indirect light of this scene's surfaces, so it belongs to the scene, not to a pass.
     bounce_cache: std::sync::Mutex<wgpu::Buffer>,
+    /// The virtual point lights traced for this scene (instant caching's record source,
+    /// laid out by the vpl module, a layer above), when a cache gathers from them.
+    vpls: std::sync::Mutex<Option<SceneVpls>>,
+}
+
+/// Virtual point lights of a scene on the GPU: `count` WGSL `Vpl`s (48 bytes each; empty
+/// slots have zero power) and the bounding distance their gathers fade them out within.
+#[derive(Clone, Debug)]
+pub struct SceneVpls {
+    pub buffer: wgpu::Buffer,
+    pub count: u32,
+    pub clamp_distance: f32,
 }
 
 /// Group 0: the BVH node texture at binding 0, storage buffers at bindings
@@ -454,6 +466,7 @@ impl GpuScene {
             has_glossy: scene.materials.iter().any(|m| m.glossy.is_some()),
             glossy_lobes: scene.materials.iter().map(|m| m.glossy).collect(),
             bounce_cache: std::sync::Mutex::new(Self::empty_bounce_cache(ctx)?),
+            vpls: std::sync::Mutex::new(None),
         })
     }
 
@@ -475,6 +488,22 @@ impl GpuScene {
         match self.bounce_cache.lock() {
             Ok(mut b) => *b = cache,
             Err(poisoned) => *poisoned.into_inner() = cache,
+        }
+    }
+
+    /// The scene's virtual point lights (None until a VPL set is traced for it).
+    pub fn vpls(&self) -> Option<SceneVpls> {
+        match self.vpls.lock() {
+            Ok(v) => v.clone(),
+            Err(poisoned) => poisoned.into_inner().clone(),
+        }
+    }
+
+    /// Sets the virtual point lights record gathers read (the vpl module's trace).
+    pub fn set_vpls(&self, vpls: SceneVpls) {
+        match self.vpls.lock() {
+            Ok(mut v) => *v = Some(vpls),
+            Err(poisoned) => *poisoned.into_inner() = Some(vpls),
         }
     }
 

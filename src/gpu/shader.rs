@@ -153,6 +153,15 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/bounce_gather.wgsl"),
     ),
     (
+        "shared/vpl.wgsl",
+        include_str!("../../wgsl/shared/vpl.wgsl"),
+    ),
+    ("vpl_trace.wgsl", include_str!("../../wgsl/vpl_trace.wgsl")),
+    (
+        "vpl_gather.wgsl",
+        include_str!("../../wgsl/vpl_gather.wgsl"),
+    ),
+    (
         "plane_refine_select.wgsl",
         include_str!("../../wgsl/plane_refine_select.wgsl"),
     ),

@@ -10,7 +10,9 @@ pub mod plane_error;
 pub mod radiance_projection;
 pub mod reference;
 pub mod refine;
+pub mod source;
 pub mod stage;
+pub mod vpl_gather;
 
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
@@ -22,6 +24,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 pub use kind::RecordKind;
 pub use plane::{HemispherePlane, PlaneMode, PlanePixel, PlaneSpacing, RefineSample};
+pub use source::RecordSource;
 pub use stage::{PlaneBatch, RecordStage};
 
 /// One irradiance record (Rust mirror of WGSL `Record`, 144 bytes): p, n, R, E and the
@@ -207,8 +210,13 @@ pub struct CacheSettings {
     /// Radiance records for low-frequency glossy lobes (issue 18): order, their own
     /// accuracy, which lobes they shade, how their frames are rotated.
     pub radiance: kind::RadianceSettings,
-    /// Bounces past the first, carried by the surface bounce cache ([`crate::bounce`]).
+    /// Bounces past the first, carried by the surface bounce cache ([`crate::bounce`]) for
+    /// plane records, by the VPL paths for VPL records.
     pub bounce: crate::bounce::BounceSettings,
+    /// Where records get their irradiance ([`RecordSource`]).
+    pub source: RecordSource,
+    /// The VPLs of [`RecordSource::Vpl`].
+    pub vpl: crate::vpl::VplSettings,
 }
 
 /// How hemisphere-plane hits are shadowed (thesis section 4.4 uses shadow maps).
@@ -252,6 +260,8 @@ impl Default for CacheSettings {
             glossy_samples: 32,
             radiance: Default::default(),
             bounce: Default::default(),
+            source: RecordSource::Planes,
+            vpl: Default::default(),
         }
     }
 }
@@ -294,6 +304,7 @@ impl CacheSettings {
     /// flag that sets it.
     pub fn validate(&self) -> Result<()> {
         self.bounce.validate()?;
+        self.vpl.validate()?;
         let bad = |setting: &str, flag: &str, value: String, rule: &str| {
             Err(Error::Usage(format!(
                 "cache setting {setting} ({flag}) {value}: {rule}"
@@ -707,6 +718,8 @@ pub struct RecordPass {
     /// The kind of records computed; radiance records also project their planes.
     pub kind: RecordKind,
     projection: Option<radiance_projection::RadianceProjectionPass>,
+    /// The gather of VPL records ([`RecordSource::Vpl`]).
+    vpl: Option<vpl_gather::VplGatherPass>,
 }
 
 impl RecordPass {
@@ -720,6 +733,14 @@ impl RecordPass {
     pub fn with_kind(ctx: &GpuContext, settings: &CacheSettings, kind: RecordKind) -> Result<Self> {
         use Binding::*;
         settings.validate()?;
+        let planes = settings.source == RecordSource::Planes;
+        if !planes && kind != RecordKind::Irradiance {
+            return Err(Error::Usage(format!(
+                "{} come from hemisphere planes only (--records {} is for irradiance records)",
+                kind.describe(),
+                settings.source.name()
+            )));
+        }
         let projection = match kind {
             RecordKind::Irradiance => None,
             RecordKind::Radiance { order } => {
@@ -766,12 +787,21 @@ impl RecordPass {
                 ],
             )?,
             table: PlaneTable::new(ctx, settings.plane_resolution, settings)?,
-            refine: refine::RefinePass::new(ctx, settings)?,
+            refine: if planes {
+                refine::RefinePass::new(ctx, settings)?
+            } else {
+                None
+            },
             settings: settings.clone(),
             batch,
             no_light_maps: LightMaps::none(ctx)?,
             kind,
             projection,
+            vpl: if planes {
+                None
+            } else {
+                Some(vpl_gather::VplGatherPass::new(ctx)?)
+            },
         })
     }
 
@@ -850,6 +880,13 @@ impl RecordPass {
                     .into(),
             ));
         }
+        if self.vpl.is_some() && stage.is_some() {
+            return Err(Error::Usage(
+                "records from VPLs (--records vpl) do not work with temporal caching yet: \
+                 use --records planes or --temporal off"
+                    .into(),
+            ));
+        }
         if cache.kind != self.kind {
             return Err(Error::Usage(format!(
                 "internal: a pass for {} appends to a cache of {}",
@@ -861,7 +898,9 @@ impl RecordPass {
         let res = self.settings.plane_resolution;
         // Sized to this call's largest batch: small placement rounds stay small.
         let batch_records = self.batch.min(count.max(1));
-        let batch_samples = u64::from(batch_records) * u64::from(res * res);
+        // VPL records trace no planes.
+        let plane_pixels = if self.vpl.is_some() { 1 } else { res * res };
+        let batch_samples = u64::from(batch_records) * u64::from(plane_pixels);
         let samples = ctx.storage_buffer_sized("plane samples", batch_samples * 16)?;
         // A stage (temporal caching) reads the hit of each sample.
         let record_hits = stage.is_some();
@@ -902,6 +941,27 @@ impl RecordPass {
                 count: n,
             };
             let mut timer = crate::gpu::timer::PassTimer::new(ctx, 12);
+            if let Some(vpl) = &self.vpl {
+                // Records from VPLs: one gather writes them (RecordSource::Vpl).
+                vpl.record(
+                    ctx,
+                    &mut enc,
+                    scene,
+                    &self.settings,
+                    &batch_sites,
+                    cache.count,
+                    n,
+                    &cache.buffer,
+                    &mut timer,
+                )?;
+                timer.resolve(&mut enc);
+                ctx.queue.submit([enc.finish()]);
+                times.extend(timer.read(ctx)?);
+                cache.count += n;
+                done += n;
+                on_batch(done);
+                continue;
+            }
             let replaced = match stage.as_deref_mut() {
                 Some(st) => st.replace_tracing(
                     ctx,
