@@ -11,7 +11,7 @@ use radsplat::Renderer;
 use radsplat::bvh::SceneBvh;
 use radsplat::direct::reference::DirectReference;
 use radsplat::gpu::timer::PassTimer;
-use radsplat::records::vpl_gather::{VplGatherPass, reference_record};
+use radsplat::records::vpl_gather::{GatherTarget, VplGatherPass, reference_record};
 use radsplat::records::{CacheSettings, Record, RecordSite, RecordSource};
 use radsplat::reference::{ReferenceOptions, ReferencePass};
 use radsplat::scene::Scene;
@@ -144,6 +144,7 @@ fn vpl_gather_matches_its_cpu_mirror() {
     let records = ctx
         .storage_buffer_sized("records", (sites.len() * size_of::<Record>()) as u64)
         .expect("records");
+    let no_bits = ctx.storage_buffer("no bits", &[0u32; 4]).expect("bits");
     for (first, batch) in [(0, &sites[..half]), (half, &sites[half..])] {
         let buf = ctx.storage_buffer("sites", batch).expect("sites");
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -156,7 +157,11 @@ fn vpl_gather_matches_its_cpu_mirror() {
             &buf,
             first as u32,
             batch.len() as u32,
-            &records,
+            &GatherTarget {
+                records: &records,
+                visibility: &no_bits,
+                visibility_words: 0,
+            },
             &mut timer,
         )
         .expect("gather");

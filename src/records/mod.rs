@@ -449,6 +449,12 @@ pub struct RecordCache {
     /// Records in use (the first `count` of the buffer).
     pub count: u32,
     capacity: u32,
+    /// Records gathered from VPLs under temporal instant caching keep one visibility bit
+    /// per VPL slot (`visibility_words` u32 per record, at the record's index): which of
+    /// their rays reached their VPL, so that a later frame traces again only the rays what
+    /// moved may have changed. A 16-byte placeholder when `visibility_words` is 0.
+    pub visibility: wgpu::Buffer,
+    pub visibility_words: u32,
 }
 
 /// Bytes per record.
@@ -464,6 +470,8 @@ impl RecordCache {
             kind: self.kind,
             count: count.min(self.count),
             capacity: self.capacity,
+            visibility: self.visibility.clone(),
+            visibility_words: self.visibility_words,
         }
     }
 
@@ -484,12 +492,32 @@ impl RecordCache {
             kind,
             count: 0,
             capacity,
+            visibility: ctx.storage_buffer_sized("record vpl visibility", 16)?,
+            visibility_words: 0,
         })
+    }
+
+    /// An empty cache of irradiance records that keep a visibility bit per VPL slot
+    /// (`slots` of them; temporal instant caching).
+    pub fn with_vpl_visibility(ctx: &GpuContext, slots: u32) -> Result<Self> {
+        let mut cache = Self::with_kind(ctx, RecordKind::Irradiance)?;
+        cache.visibility_words = slots.div_ceil(32).max(1);
+        cache.visibility = ctx.storage_buffer_sized(
+            "record vpl visibility",
+            u64::from(cache.capacity) * cache.visibility_bytes(),
+        )?;
+        Ok(cache)
+    }
+
+    /// Bytes of one record's visibility bits.
+    fn visibility_bytes(&self) -> u64 {
+        u64::from(self.visibility_words) * 4
     }
 
     /// Most records of this cache's kind one binding holds on `ctx`'s device.
     pub fn max_records(&self, ctx: &GpuContext) -> u64 {
         Self::max_records_of(ctx, self.kind)
+            .min(ctx.max_binding_size() / self.visibility_bytes().max(1))
     }
 
     /// Most records of `kind` one binding holds on `ctx`'s device (the records or their
@@ -507,7 +535,9 @@ impl RecordCache {
         }
         let max_records = self.max_records(ctx);
         if needed > max_records {
-            let per = RECORD_BYTES.max(self.kind.coefficient_bytes());
+            let per = RECORD_BYTES
+                .max(self.kind.coefficient_bytes())
+                .max(self.visibility_bytes());
             let hint = match self.kind {
                 RecordKind::Irradiance => String::new(),
                 RecordKind::Radiance { .. } => {
@@ -546,10 +576,58 @@ impl RecordCache {
                 u64::from(self.count) * block,
             );
         }
+        let bits = self.visibility_bytes();
+        if bits > 0 {
+            let visibility =
+                ctx.storage_buffer_sized("record vpl visibility", u64::from(capacity) * bits)?;
+            if self.count > 0 {
+                enc.copy_buffer_to_buffer(
+                    &self.visibility,
+                    0,
+                    &visibility,
+                    0,
+                    u64::from(self.count) * bits,
+                );
+            }
+            self.visibility = visibility;
+        }
         ctx.queue.submit([enc.finish()]);
         self.buffer = buffer;
         self.coefficients = coefficients;
         self.capacity = capacity;
+        Ok(())
+    }
+
+    /// Reads the visibility bits back (`visibility_words` per record; empty without).
+    pub fn read_visibility(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
+        if self.visibility_words == 0 {
+            return Ok(Vec::new());
+        }
+        let mut all: Vec<u32> = ctx.read_buffer(&self.visibility)?;
+        all.truncate((self.count * self.visibility_words) as usize);
+        Ok(all)
+    }
+
+    /// Replaces the contents with `records` and their visibility bits
+    /// (`visibility_words` per record, in order).
+    pub fn upload_with_visibility(
+        &mut self,
+        ctx: &GpuContext,
+        records: &[Record],
+        bits: &[u32],
+    ) -> Result<()> {
+        if bits.len() != records.len() * self.visibility_words as usize {
+            return Err(Error::Usage(format!(
+                "internal: {} visibility words for {} records",
+                bits.len(),
+                records.len()
+            )));
+        }
+        self.upload(ctx, records)?;
+        if !bits.is_empty() {
+            ctx.queue
+                .write_buffer(&self.visibility, 0, bytemuck::cast_slice(bits));
+        }
         Ok(())
     }
 
@@ -951,7 +1029,7 @@ impl RecordPass {
                     &batch_sites,
                     cache.count,
                     n,
-                    &cache.buffer,
+                    &vpl_gather::GatherTarget::of(cache),
                     &mut timer,
                 )?;
                 timer.resolve(&mut enc);

@@ -50,7 +50,42 @@ struct GatherParams {
     r_max_factor: f32,
     neighbour_clamp: u32,
     clamp_distance: f32,
-    _pad: [u32; 3],
+    mode: u32,
+    visibility_words: u32,
+    moving_count: u32,
+    movers_lo: [f32; 4],
+    movers_hi: [f32; 4],
+}
+
+/// Where a gather writes: records (the cache's buffer, records from `first_record`), and
+/// their visibility bits when the cache keeps them (`words` per record; 0: none).
+pub struct GatherTarget<'a> {
+    pub records: &'a wgpu::Buffer,
+    pub visibility: &'a wgpu::Buffer,
+    pub visibility_words: u32,
+}
+
+impl<'a> GatherTarget<'a> {
+    /// The records and visibility bits of `cache`.
+    pub fn of(cache: &'a super::RecordCache) -> Self {
+        Self {
+            records: &cache.buffer,
+            visibility: &cache.visibility,
+            visibility_words: cache.visibility_words,
+        }
+    }
+}
+
+/// What changed between two frames, for an update ([`VplGatherPass::update`]).
+pub struct FrameChange<'a> {
+    /// One bit per VPL slot: set where the slot's VPL differs from the previous frame's.
+    pub changed: &'a [u32],
+    /// The instances that moved between the frames, as WGSL `MovingBounds` (160 bytes each,
+    /// `temporal::motion::MovingBounds`), and the world box around them all.
+    pub moving: &'a [u8],
+    pub moving_count: u32,
+    pub movers_lo: [f32; 4],
+    pub movers_hi: [f32; 4],
 }
 
 /// Bytes of one lane's running sums (WGSL `Partial`).
@@ -74,13 +109,17 @@ impl VplGatherPass {
                     StorageRead,
                     StorageReadWrite,
                     StorageReadWrite,
+                    StorageReadWrite,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
                 ],
             )?,
         })
     }
 
     /// Records the gather of `count` records at `sites` from `scene`'s VPLs into
-    /// `records` from index `first_record` (the records before it are the neighbours
+    /// `target` from index `first_record` (the records before it are the neighbours
     /// clamping R), timed as one span "vpl gather".
     #[allow(clippy::too_many_arguments)]
     pub fn record(
@@ -92,16 +131,95 @@ impl VplGatherPass {
         sites: &wgpu::Buffer,
         first_record: u32,
         count: u32,
-        records: &wgpu::Buffer,
+        target: &GatherTarget<'_>,
         timer: &mut PassTimer,
+    ) -> Result<()> {
+        let no_change = FrameChange {
+            changed: &[0],
+            moving: &[0; 160],
+            moving_count: 0,
+            movers_lo: [0.0; 4],
+            movers_hi: [0.0; 4],
+        };
+        self.dispatch(
+            ctx,
+            enc,
+            scene,
+            settings,
+            sites,
+            (first_record, count),
+            target,
+            &no_change,
+            MODE_GATHER,
+            &ctx.storage_buffer_sized("vpl ray counters", 16)?,
+            timer.next("vpl gather"),
+        )
+    }
+
+    /// Records the update of records `0..count` of a cache that keeps visibility bits
+    /// (temporal instant caching, seed 003 Algorithm 1) to `scene`'s VPLs at this frame:
+    /// only the rays `change` may have changed are traced again. Timed as one span "vpl
+    /// update". Returns a buffer of two u32: rays traced, rays whose bit was reused.
+    #[allow(clippy::too_many_arguments)]
+    pub fn update(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        settings: &CacheSettings,
+        count: u32,
+        target: &GatherTarget<'_>,
+        change: &FrameChange<'_>,
+        timer: &mut PassTimer,
+    ) -> Result<wgpu::Buffer> {
+        if target.visibility_words == 0 {
+            return Err(Error::Usage(
+                "internal: an update needs records that keep their visibility bits".into(),
+            ));
+        }
+        let counters = ctx.storage_buffer("vpl ray counters", &[0u32; 4])?;
+        if count > 0 {
+            let no_sites = ctx.storage_buffer("no sites", &[RecordSite::default()])?;
+            self.dispatch(
+                ctx,
+                enc,
+                scene,
+                settings,
+                &no_sites,
+                (0, count),
+                target,
+                change,
+                MODE_UPDATE,
+                &counters,
+                timer.next("vpl update"),
+            )?;
+        }
+        Ok(counters)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn dispatch(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        settings: &CacheSettings,
+        sites: &wgpu::Buffer,
+        (first_record, count): (u32, u32),
+        target: &GatherTarget<'_>,
+        change: &FrameChange<'_>,
+        mode: u32,
+        counters: &wgpu::Buffer,
+        stamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<()> {
         let vpls = scene_vpls(scene)?;
         let partials = ctx.storage_buffer_sized(
             "vpl gather partials",
-            u64::from(count) * u64::from(LANES) * PARTIAL_BYTES,
+            u64::from(count.max(1)) * u64::from(LANES) * PARTIAL_BYTES,
         )?;
+        let changed = ctx.storage_buffer("vpl changed bits", change.changed)?;
+        let moving = ctx.storage_buffer("moving bounds", change.moving)?;
         let chunks = vpls.count.div_ceil(VPLS_PER_DISPATCH).max(1);
-        let stamps = timer.next("vpl gather");
         for chunk in 0..chunks {
             let begin = chunk * VPLS_PER_DISPATCH;
             let params = ctx.uniform_buffer(
@@ -116,12 +234,27 @@ impl VplGatherPass {
                     r_max_factor: settings.r_max_factor,
                     neighbour_clamp: u32::from(settings.neighbour_clamp),
                     clamp_distance: vpls.clamp_distance,
-                    _pad: [0; 3],
+                    mode,
+                    visibility_words: target.visibility_words,
+                    moving_count: change.moving_count,
+                    movers_lo: change.movers_lo,
+                    movers_hi: change.movers_hi,
                 },
             );
-            let bind = self
-                .gather
-                .bind(ctx, &[&params, sites, &vpls.buffer, &partials, records]);
+            let bind = self.gather.bind(
+                ctx,
+                &[
+                    &params,
+                    sites,
+                    &vpls.buffer,
+                    &partials,
+                    target.records,
+                    target.visibility,
+                    &changed,
+                    &moving,
+                    counters,
+                ],
+            );
             self.gather.record(
                 enc,
                 &scene.bind_group,
@@ -133,6 +266,9 @@ impl VplGatherPass {
         Ok(())
     }
 }
+
+const MODE_GATHER: u32 = 0;
+const MODE_UPDATE: u32 = 1;
 
 /// The VPLs of `scene`, or an error saying none were traced.
 pub fn scene_vpls(scene: &GpuScene) -> Result<SceneVpls> {
@@ -190,6 +326,58 @@ impl Default for Partial {
     }
 }
 
+/// One VPL's terms at a site (the body of the WGSL loop).
+#[allow(clippy::too_many_arguments)]
+fn gather_one(
+    tracer: &CpuTracer,
+    acc: &mut Partial,
+    p: Vec3,
+    n: Vec3,
+    ng: Vec3,
+    origin: Vec3,
+    v: &Vpl,
+    min_d: f32,
+) {
+    if v.is_empty() {
+        return;
+    }
+    let y = Vec3::from(v.position);
+    let ny = Vec3::from(v.normal);
+    let power = Vec3::from(v.power);
+    let w = y - p;
+    let d2 = w.dot(w);
+    let d = d2.sqrt();
+    let dir = w / d;
+    let cos_x = n.dot(dir);
+    let cos_y = -ny.dot(dir);
+    if !(cos_x > 0.0 && cos_y > 0.0 && ng.dot(dir) > 0.0) {
+        return;
+    }
+    let to_vpl = y - origin;
+    let hit = tracer.closest_hit(origin, to_vpl, 0.0, 1.0 - 1.0e-4);
+    let t = match &hit {
+        Some(h) => h.t * to_vpl.length(),
+        None => d,
+    };
+    acc.inv_distance += cos_x / t;
+    acc.cos_sum += cos_x;
+    if hit.is_some() {
+        return;
+    }
+    let f = bound(d, min_d);
+    let g = cos_x * cos_y / d2 * f;
+    acc.irradiance += power * g;
+    let (a, b) = (cos_x * d, cos_y * d);
+    let d4 = d2 * d2;
+    let grad = (f / d4) * (ny * a - n * b + w * (4.0 * a * b / d2))
+        - w * (a * b / d4 * bound_derivative(d, min_d) / d);
+    let turn = n.cross(dir) * (g / cos_x);
+    for c in 0..3 {
+        acc.rotation[c] += turn * power[c];
+        acc.translation[c] += grad * power[c];
+    }
+}
+
 /// The record the GPU gathers at `site` from `vpls` with bounding distance `min_d`, after
 /// the records `previous` (its neighbours), on the CPU: the same terms in the same order
 /// (lanes, then lane 0's sum), rays traced by obvhs.
@@ -207,44 +395,12 @@ pub fn reference_record(
     let origin = offset_ray_origin(p, ng);
     let mut lanes = vec![Partial::default(); LANES as usize];
     for (lane, acc) in lanes.iter_mut().enumerate() {
-        for v in vpls.iter().skip(lane).step_by(LANES as usize) {
-            if v.is_empty() {
-                continue;
-            }
-            let y = Vec3::from(v.position);
-            let ny = Vec3::from(v.normal);
-            let power = Vec3::from(v.power);
-            let w = y - p;
-            let d2 = w.dot(w);
-            let d = d2.sqrt();
-            let dir = w / d;
-            let cos_x = n.dot(dir);
-            let cos_y = -ny.dot(dir);
-            if !(cos_x > 0.0 && cos_y > 0.0 && ng.dot(dir) > 0.0) {
-                continue;
-            }
-            let to_vpl = y - origin;
-            let hit = tracer.closest_hit(origin, to_vpl, 0.0, 1.0 - 1.0e-4);
-            let t = match &hit {
-                Some(h) => h.t * to_vpl.length(),
-                None => d,
-            };
-            acc.inv_distance += cos_x / t;
-            acc.cos_sum += cos_x;
-            if hit.is_some() {
-                continue;
-            }
-            let f = bound(d, min_d);
-            let g = cos_x * cos_y / d2 * f;
-            acc.irradiance += power * g;
-            let (a, b) = (cos_x * d, cos_y * d);
-            let d4 = d2 * d2;
-            let grad = (f / d4) * (ny * a - n * b + w * (4.0 * a * b / d2))
-                - w * (a * b / d4 * bound_derivative(d, min_d) / d);
-            let turn = n.cross(dir) * (g / cos_x);
-            for c in 0..3 {
-                acc.rotation[c] += turn * power[c];
-                acc.translation[c] += grad * power[c];
+        // Lane l takes the 32-slot words l, l + 64, ... (WGSL: each lane owns the words
+        // of visibility bits it writes).
+        let words = vpls.len().div_ceil(32);
+        for word in (lane..words).step_by(LANES as usize) {
+            for v in vpls.iter().skip(32 * word).take(32) {
+                gather_one(tracer, acc, p, n, ng, origin, v, min_d);
             }
         }
         if settings.neighbour_clamp {
@@ -306,5 +462,18 @@ pub fn reference_record(
         instance: site.instance,
         rotation_gradient: [v4(rot[0]), v4(rot[1]), v4(rot[2])],
         translation_gradient: [v4(tr[0]), v4(tr[1]), v4(tr[2])],
+    }
+}
+
+/// The site a record is updated at (WGSL `site_of`): its geometric normal is not kept,
+/// so its shading normal offsets the rays.
+pub fn site_of(r: &Record) -> RecordSite {
+    RecordSite {
+        position: r.position,
+        r_min: r.r_min,
+        normal: r.normal,
+        seed: 0,
+        geometric_normal: r.normal,
+        instance: r.instance,
     }
 }
