@@ -335,3 +335,91 @@ fn vpl_records_refuse_temporal_caching_and_radiance_records() {
     let err = bad.validate().expect_err("0 paths");
     assert!(err.to_string().contains("--vpl-paths"), "{err}");
 }
+
+/// Temporal instant caching's invalidation rule (seed 003 Algorithm 1): after a frame's
+/// update, the records kept from the frame before hold exactly what gathering them anew
+/// at the new frame gives (every visibility bit reused is the one a ray would find), while
+/// most rays are reused; an unchanged frame traces nothing and changes nothing.
+#[test]
+fn instant_caching_updates_records_to_what_a_new_gather_gives() {
+    use radsplat::records::vpl_gather::site_of;
+    use radsplat::temporal::instant::InstantCache;
+    let mut scene = common::load("cube-in-box-anim.toml", Some((32, 32)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let ctx = &renderer.ctx;
+    let settings = vpl_settings(1024, 1.0, 2);
+    let mut cache = InstantCache::new(&renderer, &settings).expect("cache");
+    let mut bvh = None;
+    scene.try_set_frame(0.0).expect("frame 0");
+    let p0 = renderer
+        .prepare_frame(&scene, &mut bvh, None)
+        .expect("prepare 0");
+    cache
+        .render_frame(&renderer, &p0, &scene, 0, |_| {})
+        .expect("frame 0");
+    let before = cache.records(ctx).expect("records");
+    // The same frame again: the same VPLs, nothing traced, the same records.
+    let (_, same, still) = cache
+        .render_frame(&renderer, &p0, &scene, 0, |_| {})
+        .expect("frame 0 again");
+    assert_eq!((still.changed_vpls, still.traced_rays), (0, 0), "{still:?}");
+    assert!(still.reused_rays > 0);
+    assert_eq!(same.new, 0);
+    assert!(
+        cache.records(ctx).expect("records") == before,
+        "records changed"
+    );
+    // Three frames on, the cube has moved.
+    scene.try_set_frame(3.0).expect("frame 3");
+    let p3 = renderer
+        .prepare_frame(&scene, &mut bvh, Some(&p0))
+        .expect("prepare 3");
+    let (_, moved, instant) = cache
+        .render_frame(&renderer, &p3, &scene, 3, |_| {})
+        .expect("frame 3");
+    ctx.check().expect("no wgpu errors");
+    eprintln!("{moved:?}\n{instant:?}");
+    assert!(moved.deleted > 0 && moved.kept > 20, "{moved:?}");
+    assert!(instant.changed_vpls > 0 && instant.changed_vpls < instant.vpl_slots / 4);
+    assert!(instant.traced_rays > 0 && instant.reused_rays > 3 * instant.traced_rays);
+    let updated = cache.records(ctx).expect("records");
+    let kept = &updated[..moved.kept as usize];
+    // The kept records gathered anew, at the same sites, on frame 3's VPLs.
+    let sites: Vec<RecordSite> = kept.iter().map(site_of).collect();
+    let buf = ctx.storage_buffer("sites", &sites).expect("sites");
+    let fresh = ctx
+        .storage_buffer_sized("records", std::mem::size_of_val(kept) as u64)
+        .expect("records");
+    let no_bits = ctx.storage_buffer("no bits", &[0u32; 4]).expect("bits");
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    VplGatherPass::new(ctx)
+        .expect("gather")
+        .record(
+            ctx,
+            &mut enc,
+            &p3.gpu,
+            &settings,
+            &buf,
+            0,
+            kept.len() as u32,
+            &GatherTarget {
+                records: &fresh,
+                visibility: &no_bits,
+                visibility_words: 0,
+            },
+            &mut PassTimer::new(ctx, 1),
+        )
+        .expect("gather");
+    ctx.queue.submit([enc.finish()]);
+    let fresh: Vec<Record> = ctx.read_buffer(&fresh).expect("read");
+    let mut changed = 0;
+    for (k, (u, f)) in kept.iter().zip(&fresh).enumerate() {
+        // R is kept by an update (and the translational gradient limited by it).
+        assert_eq!(u.irradiance, f.irradiance, "record {k}: E");
+        assert_eq!(u.rotation_gradient, f.rotation_gradient, "record {k}");
+        let was = before.iter().find(|b| b.position == u.position);
+        changed += usize::from(was.is_some_and(|b| b.irradiance != u.irradiance));
+    }
+    // The cube's shadow and its light moved: some kept records did change.
+    assert!(changed > 0, "no kept record changed");
+}

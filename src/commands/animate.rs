@@ -95,6 +95,13 @@ pub fn animate(mut args: AnimateArgs) -> Result<()> {
                 "--lifespan-map needs temporal caching (drop --temporal off)".into(),
             ));
         }
+        if args.cache.source == crate::records::RecordSource::Vpl {
+            return Err(Error::Usage(
+                "--lifespan-map draws record lifespans; records from VPLs (--records vpl) \
+                 have none: they live until what they stand on moves"
+                    .into(),
+            ));
+        }
         if ImageFormat::from_path(&frame_path(map, *frames.start())?)? != ImageFormat::Png {
             return Err(Error::Usage(
                 "--lifespan-map writes PNG: use a .png pattern".into(),
@@ -112,10 +119,12 @@ pub fn animate(mut args: AnimateArgs) -> Result<()> {
     };
     // Interpolated gradients: pass 1 computes the records, pass 2 renders each frame up to
     // dt_max frames behind it; the bar counts the steps of both.
-    let two_pass = args
-        .temporal
-        .as_ref()
-        .is_some_and(|t| t.gradients == TemporalGradients::Interpolated);
+    // (Temporal instant caching, `--records vpl`, runs one pass.)
+    let two_pass = args.cache.source == crate::records::RecordSource::Planes
+        && args
+            .temporal
+            .as_ref()
+            .is_some_and(|t| t.gradients == TemporalGradients::Interpolated);
     let passes = if two_pass { 2 } else { 1 };
     let bar = progress(args.quiet, u64::from(count) * passes);
     bar.set_message("rendering");

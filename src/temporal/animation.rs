@@ -4,7 +4,7 @@
 
 use super::{FrameScenes, TemporalCache, TemporalFrameStats, TemporalGradients, TemporalSettings};
 use crate::frame::{Frame, PreparedScene, Renderer};
-use crate::records::{CacheSettings, Record};
+use crate::records::{CacheSettings, Record, RecordSource};
 use crate::scene::Scene;
 use crate::{Error, Result};
 use std::collections::VecDeque;
@@ -117,6 +117,9 @@ pub fn render_animation(
     let (first, last) = (*options.frames.start(), *options.frames.end());
     if first > last {
         return Err(Error::Usage(format!("empty frame range {first}..{last}")));
+    }
+    if options.temporal.is_some() && options.cache.source == RecordSource::Vpl {
+        return render_instant(renderer, scene, options, on_frame, progress);
     }
     let dynamic = scene_is_dynamic(scene);
     let mut current = scene.clone();
@@ -356,4 +359,61 @@ impl SecondPass {
         cache.release_frames_before(t + 1);
         Ok(())
     }
+}
+
+/// [`render_animation`] with temporal instant caching (`--records vpl`,
+/// [`super::instant`]): one pass, each frame's records updated from the last frame's.
+fn render_instant(
+    renderer: &Renderer,
+    scene: &Scene,
+    options: &AnimationOptions,
+    mut on_frame: impl FnMut(AnimationFrame<'_>) -> Result<()>,
+    mut progress: impl FnMut(u32, AnimationStep),
+) -> Result<AnimationSummary> {
+    let (first, last) = (*options.frames.start(), *options.frames.end());
+    let dynamic = scene_is_dynamic(scene);
+    let mut current = scene.clone();
+    let mut bvh = None;
+    let mut cache = super::instant::InstantCache::new(renderer, &options.cache)?;
+    let mut summary = AnimationSummary::default();
+    let mut prepared: Option<PreparedScene> = None;
+    for t in first..=last {
+        let start = Instant::now();
+        current.try_set_frame(t as f32)?;
+        // A scene where nothing that lights it moves keeps its BVH and its VPLs.
+        let p = match prepared.take() {
+            Some(p) if !dynamic => p,
+            previous => renderer.prepare_frame(&current, &mut bvh, previous.as_ref())?,
+        };
+        let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
+        let (frame, mut temporal, instant) =
+            cache.render_frame(renderer, &p, &current, t, |n| {
+                progress(t, AnimationStep::Placing { new_records: n })
+            })?;
+        temporal.instant = Some(instant);
+        let stats = AnimationFrameStats {
+            frame: t,
+            wall_ms: start.elapsed().as_secs_f64() * 1e3,
+            prepare_ms,
+            frame_stats: frame.stats.clone(),
+            temporal,
+        };
+        let records = cache.records(&renderer.ctx)?;
+        let retained = (records.len(), 0);
+        on_frame(AnimationFrame {
+            frame_number: t,
+            frame: &frame,
+            scene: &current,
+            // Records from VPLs have no lifespan: they live until their instance moves.
+            lifespans: Vec::new(),
+            records,
+            stats: &stats,
+            first_pass_at: None,
+            retained_records: retained.0,
+            retained_frames: retained.1,
+        })?;
+        summary.add(&stats, retained);
+        prepared = Some(p);
+    }
+    Ok(summary)
 }

@@ -12,6 +12,7 @@
 
 pub mod animation;
 pub mod estimate_error;
+pub mod instant;
 pub mod lookahead;
 pub mod motion;
 pub mod plane_refresh;
@@ -379,6 +380,9 @@ pub struct TemporalFrameStats {
     /// The same for the radiance records of the frame (their hemisphere rays are also in
     /// `plane_rays`); None without radiance records.
     pub radiance: Option<Box<TemporalFrameStats>>,
+    /// Temporal instant caching (`--records vpl`): what the frame's update traced and
+    /// reused; None otherwise.
+    pub instant: Option<instant::InstantFrameStats>,
 }
 
 /// The scenes a temporal frame needs: frame t on the GPU and on the CPU (instance
