@@ -1,8 +1,9 @@
 //! Irradiance records (thesis chapter 4, Ward's irradiance caching underneath): what a
-//! record holds, where new ones go ([`RecordSite`]), how they are computed on the GPU from
-//! a hemisphere plane ([`RecordPass`]: sites → planes → reduction) and the cache that
-//! holds them across frames ([`RecordCache`]). [`reference`](mod@reference) mirrors the computation on
-//! the CPU.
+//! record holds, where new ones go ([`RecordSite`]), how they are computed on the GPU
+//! ([`RecordPass`]: sites → records, from hemisphere planes or from virtual point lights,
+//! [`RecordSource`] says which) and the cache that holds them across frames
+//! ([`RecordCache`]). [`reference`](mod@reference) and [`vpl_gather::reference_record`]
+//! mirror the computations on the CPU.
 
 pub mod kind;
 pub mod plane;
@@ -934,9 +935,11 @@ impl RecordPass {
 
     /// Computes records for `count` sites (a buffer of [`RecordSite`]) and appends them to
     /// `cache`; `on_batch` is called after each batch with the number done. Returns the
-    /// per-pass GPU times. A `stage` (temporal caching) runs inside each batch
-    /// ([`RecordStage`]): it may replace the tracing, read the planes and their hits, and
-    /// reduce more planes.
+    /// per-pass GPU times. Each batch goes to the settings' [`RecordSource`]: VPL records
+    /// are one gather (`vpl_gather.wgsl`); plane records are traced, refined, projected
+    /// (radiance records) and reduced. A `stage` (temporal caching of plane records) runs
+    /// inside each batch ([`RecordStage`]): it may replace the tracing, read the planes and
+    /// their hits, and reduce more planes.
     #[allow(clippy::too_many_arguments)]
     pub fn compute(
         &self,

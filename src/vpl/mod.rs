@@ -27,7 +27,7 @@
 //!   leaves the scene leaves its later slots at zero power, which gathers skip.
 //!
 //! Built once per prepared scene (VPLs depend on the scene and its lights, not on the
-//! camera), deterministically. CPU mirror: [`reference`].
+//! camera), deterministically. CPU mirror: [`reference`](mod@reference).
 
 pub mod reference;
 
