@@ -221,8 +221,8 @@ enum Command {
         #[arg(long, default_value_t = 0)]
         frame: u32,
         /// Number of records (sites at evenly strided visible pixels, or every n-th
-        /// placed record with `--sites placed`).
-        #[arg(long, default_value_t = 1000)]
+        /// placed record with `--sites placed`). (`--records` names the record source.)
+        #[arg(long = "record-count", default_value_t = 1000)]
         records: usize,
         /// Where the records lie: `even` (visible pixels evenly strided over the image,
         /// the thesis's table) or `placed` (where a frame rendered from scratch places its

@@ -284,7 +284,7 @@ fn nonsense_cache_and_table_settings_name_the_flag_and_value() {
     let exr = dir.join("out.exr");
     let exr = exr.to_str().unwrap();
     // (arguments, what the message must contain)
-    let cases: [(&[&str], &[&str]); 6] = [
+    let cases: [(&[&str], &[&str]); 8] = [
         (
             &["render", scene, "-o", exr, "-a", "0"],
             &["--accuracy", "'0'", "(0, 1]"],
@@ -306,8 +306,34 @@ fn nonsense_cache_and_table_settings_name_the_flag_and_value() {
             &["--r-max-factor", "'nan'"],
         ),
         (
-            &["temporal-error", scene, "--records", "0"],
-            &["--records 0", "at least 1"],
+            &[
+                "render",
+                scene,
+                "-o",
+                exr,
+                "--records",
+                "vpl",
+                "--vpl-paths",
+                "0",
+            ],
+            &["--vpl-paths", "'0'"],
+        ),
+        (
+            &[
+                "render",
+                scene,
+                "-o",
+                exr,
+                "--records",
+                "vpl",
+                "--vpl-clamp",
+                "nan",
+            ],
+            &["--vpl-clamp NaN", ">= 0"],
+        ),
+        (
+            &["temporal-error", scene, "--record-count", "0"],
+            &["--record-count 0", "at least 1"],
         ),
     ];
     for (args, parts) in cases {

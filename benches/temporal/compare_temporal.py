@@ -130,7 +130,7 @@ def main():
         mid = (a + b) // 2
         extra = (["--estimate-stride", args.estimate_stride] if args.estimate_stride else [])
         run([rs, "temporal-error", args.scene, "--frame", mid, "--sites", "placed",
-             "--records", 1000000, "--size", args.size, "-a", args.accuracy,
+             "--record-count", 1000000, "--size", args.size, "-a", args.accuracy,
              "--plane-resolution", args.plane_resolution, "--record-anchor",
              args.record_anchor, "--json", out / "bound.json"] + extra)
         lifespans = json.loads((out / "bound.json").read_text())["lifespans"]

@@ -27,7 +27,8 @@ pub fn temporal_error(
     // Statistics over no records would print a table of 0.00 % errors.
     if records == 0 {
         return Err(Error::Usage(
-            "--records 0: must be at least 1 (the table summarises the records' errors)".into(),
+            "--record-count 0: must be at least 1 (the table summarises the records' errors)"
+                .into(),
         ));
     }
     if stride == 0 {

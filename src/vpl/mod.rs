@@ -1,6 +1,6 @@
 //! Virtual point lights by instant radiosity (Keller 1997), the light that instant caching
 //! (Debattista et al. 2009, seed 003; `../shared/docs/algorithms-other.md` section 2) gathers
-//! its records from (`--records vpl`, [`crate::records::RecordSource::Vpl`]).
+//! its records from (`--records vpl`, `records::RecordSource::Vpl` a layer above).
 //!
 //! Light paths leave the scene's emitters with a fixed, frame-independent sequence
 //! (Owen-scrambled Sobol points, the same for every frame and run), and a VPL is deposited
