@@ -162,6 +162,14 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/vpl_gather.wgsl"),
     ),
     (
+        "vpl_update_select.wgsl",
+        include_str!("../../wgsl/vpl_update_select.wgsl"),
+    ),
+    (
+        "vpl_update_trace.wgsl",
+        include_str!("../../wgsl/vpl_update_trace.wgsl"),
+    ),
+    (
         "plane_refine_select.wgsl",
         include_str!("../../wgsl/plane_refine_select.wgsl"),
     ),

@@ -14,6 +14,7 @@ pub mod refine;
 pub mod source;
 pub mod stage;
 pub mod vpl_gather;
+pub mod vpl_update;
 
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};

@@ -21,8 +21,8 @@
 use super::TemporalFrameStats;
 use super::plane_refresh::span_bounds;
 use crate::frame::{CachedFrameOptions, Frame, PreparedScene, Renderer};
-use crate::gpu::timer::PassTimer;
-use crate::records::vpl_gather::{FrameChange, GatherTarget, VplGatherPass};
+use crate::records::vpl_gather::FrameChange;
+use crate::records::vpl_update::VplUpdatePass;
 use crate::records::{CacheSettings, RecordCache, RecordPass};
 use crate::scene::Scene;
 use crate::vpl::Vpl;
@@ -46,7 +46,7 @@ pub struct InstantFrameStats {
 pub struct InstantCache {
     settings: CacheSettings,
     pass: RecordPass,
-    update: VplGatherPass,
+    update: VplUpdatePass,
     records: Option<RecordCache>,
     /// The last frame's VPLs and instance transforms.
     previous: Option<(Vec<Vpl>, Vec<Mat4>)>,
@@ -67,7 +67,7 @@ impl InstantCache {
         Ok(Self {
             settings: settings.clone(),
             pass: RecordPass::new(&renderer.ctx, settings)?,
-            update: VplGatherPass::new(&renderer.ctx)?,
+            update: VplUpdatePass::new(&renderer.ctx)?,
             records: None,
             previous: None,
         })
@@ -153,24 +153,16 @@ impl InstantCache {
                 movers_lo: lo,
                 movers_hi: hi,
             };
-            let mut enc = ctx.device.create_command_encoder(&Default::default());
-            let mut timer = PassTimer::new(ctx, 1);
-            let counters = self.update.update(
+            let counts = self.update.run(
                 ctx,
-                &mut enc,
                 &prepared.gpu,
                 &self.settings,
-                records.count,
-                &GatherTarget::of(records),
+                records,
                 &change,
-                &mut timer,
+                &mut times,
             )?;
-            timer.resolve(&mut enc);
-            ctx.queue.submit([enc.finish()]);
-            times.extend(timer.read(ctx)?);
-            let counted: Vec<u32> = ctx.read_buffer(&counters)?;
-            stats.traced_rays = u64::from(counted[0]);
-            stats.reused_rays = u64::from(counted[1]);
+            stats.traced_rays = counts.traced;
+            stats.reused_rays = counts.reused;
         }
         let kept = records.count;
         let (mut frame, _) = renderer.render_cached_frame(
