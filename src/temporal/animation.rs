@@ -153,6 +153,8 @@ pub fn render_animation(
         scene: scene.clone(),
         prepared: None,
     };
+    // The per-frame baseline's cache (records emptied every frame).
+    let mut per_frame: Option<crate::frame::IrradianceCache> = None;
     let t0 = Instant::now();
     let mut prepared = prepare(&mut current, first, None)?;
     let mut prepare_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -191,11 +193,26 @@ pub fn render_animation(
                 (frame, stats, records, lifespans)
             }
             None => {
-                let mut cache = renderer.new_cache(&options.cache)?;
+                // A fresh cache every frame, computed by passes built once (building a
+                // record pass compiles its pipelines: ~170 ms a frame on lavapipe that
+                // recomputation itself does not need).
+                let cache = match per_frame.as_mut() {
+                    Some(cache) => {
+                        cache.records = crate::records::RecordCache::new(&renderer.ctx)?;
+                        if let Some(r) = cache.radiance.as_mut() {
+                            r.records = crate::records::RecordCache::with_kind(
+                                &renderer.ctx,
+                                r.records.kind,
+                            )?;
+                        }
+                        cache
+                    }
+                    None => per_frame.insert(renderer.new_cache(&options.cache)?),
+                };
                 let frame = renderer.render_gi_frame(
                     &prepared,
                     &current.camera,
-                    &mut cache,
+                    cache,
                     None,
                     frame_progress,
                 )?;
