@@ -142,22 +142,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             rot[c] = frame * vec3f(sum.rotation_x[c], sum.rotation_y[c], 0.0);
             tr[c] = frame * vec3f(sum.translation_x[c], sum.translation_y[c], 0.0);
         }
-        // Ward's gradient limit: where |grad_t| R would exceed E, shrink R (not below
-        // R_min), then scale down what still exceeds.
-        var limited = radius;
-        for (var c = 0u; c < 3u; c++) {
-            let g = length(tr[c]);
-            if g * limited > e[c] {
-                limited = e[c] / g;
-            }
-        }
-        radius = max(limited, site.r_min);
-        for (var c = 0u; c < 3u; c++) {
-            let g = length(tr[c]);
-            if g * radius > e[c] {
-                tr[c] *= e[c] / (g * radius);
-            }
-        }
+        radius = limit_by_gradient(radius, site.r_min, e, &tr);
     }
     out.radius = radius;
     for (var c = 0u; c < 3u; c++) {

@@ -239,21 +239,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             let g = sum.translation[c].xyz;
             tr[c] = g - n * dot(n, g);
         }
-        // Ward's gradient limit, as record_reduce.wgsl.
-        var limited = radius;
-        for (var c = 0u; c < 3u; c++) {
-            let g = length(tr[c]);
-            if g * limited > e[c] {
-                limited = e[c] / g;
-            }
-        }
-        radius = max(limited, site.r_min);
-        for (var c = 0u; c < 3u; c++) {
-            let g = length(tr[c]);
-            if g * radius > e[c] {
-                tr[c] *= e[c] / (g * radius);
-            }
-        }
+        radius = limit_by_gradient(radius, site.r_min, e, &tr);
     }
     out.radius = radius;
     for (var c = 0u; c < 3u; c++) {

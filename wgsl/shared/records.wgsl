@@ -134,3 +134,24 @@ fn record_frame(site: RecordSite) -> mat3x3f {
     let s = sin(angle);
     return mat3x3f(c * base[0] + s * base[1], c * base[1] - s * base[0], base[2]);
 }
+
+// Ward's gradient limit (decision 5): where |grad_t| R would exceed E, shrink R (not below
+// R_min), then scale down the translational gradients that still exceed. Returns R. Used
+// by every record source's reduction (record_reduce.wgsl, vpl_gather.wgsl).
+fn limit_by_gradient(radius: f32, r_min: f32, e: vec3f, tr: ptr<function, array<vec3f, 3>>) -> f32 {
+    var limited = radius;
+    for (var c = 0u; c < 3u; c++) {
+        let g = length((*tr)[c]);
+        if g * limited > e[c] {
+            limited = e[c] / g;
+        }
+    }
+    let r = max(limited, r_min);
+    for (var c = 0u; c < 3u; c++) {
+        let g = length((*tr)[c]);
+        if g * r > e[c] {
+            (*tr)[c] *= e[c] / (g * r);
+        }
+    }
+    return r;
+}
