@@ -38,6 +38,8 @@ struct SelectParams {
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) lane: u32) {
+    // Traces nothing, but includes the traversal (through shared/movers.wgsl).
+    bvh_stack_init(lane);
     let index = params.first + group.x;
     if index >= params.count {
         return;
