@@ -39,7 +39,17 @@ pub struct PreparedScene {
     /// were traced for (none: no cache gathers from VPLs).
     emitter_powers: crate::vpl::EmitterPowers,
     vpls: std::sync::Mutex<Option<(crate::vpl::VplPlan, crate::vpl::VplStats)>>,
+    /// The photon map traced for this scene, with the plan and gather it was built for
+    /// (none: no cache takes records from photons).
+    photons: std::sync::Mutex<Option<ScenePhotonMap>>,
 }
+
+/// A prepared scene's photon map and what it was built for.
+type ScenePhotonMap = (
+    crate::vpl::VplPlan,
+    u32,
+    std::sync::Arc<crate::photons::ScenePhotons>,
+);
 
 /// A bounce cache of a prepared scene, with its settings and gather light samples.
 type BuiltBounceCache = (
@@ -151,6 +161,24 @@ pub struct CacheFrameStats {
     pub bounce: Option<crate::bounce::BounceStats>,
     /// The VPLs the records gathered from (`--records vpl`).
     pub vpls: Option<crate::vpl::VplStats>,
+    /// The photon map and the records placed from it (`--records photons`; none on a
+    /// frame whose cache already held records).
+    pub photons: Option<PhotonRecordStats>,
+}
+
+/// What photon-mapped records cost and gave in a frame.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct PhotonRecordStats {
+    #[serde(flatten)]
+    pub map: crate::photons::PhotonStats,
+    /// Records placed along the photon array (Algorithm 6).
+    pub records: u32,
+    /// Photons inside the frustum that the walk visited.
+    pub walked: u32,
+    /// Uncovered photons with too few neighbours for a record.
+    pub too_sparse: u32,
+    /// Photons the records were reduced from (with repeats).
+    pub gathered: u64,
 }
 
 /// The images of one frame, row-major, top row first.
@@ -207,6 +235,8 @@ pub struct Renderer {
     light_maps: OnFirstUse<LightMapPass>,
     bounce: OnFirstUse<crate::bounce::BouncePass>,
     vpl: OnFirstUse<crate::vpl::VplPass>,
+    photon: OnFirstUse<crate::photons::PhotonPass>,
+    photon_reduce: OnFirstUse<crate::records::photon_records::PhotonReducePass>,
     glossy: OnFirstUse<GlossyIndirectPass>,
 }
 
@@ -329,6 +359,8 @@ impl Renderer {
             light_maps: OnFirstUse::new(),
             bounce: OnFirstUse::new(),
             vpl: OnFirstUse::new(),
+            photon: OnFirstUse::new(),
+            photon_reduce: OnFirstUse::new(),
             glossy: OnFirstUse::new(),
         })
     }
@@ -469,6 +501,95 @@ impl Renderer {
             .build(&self.ctx, &scene.gpu, &plan, times)?;
         *slot = Some((plan, stats));
         Ok(Some(stats))
+    }
+
+    /// Traces `scene`'s photon map for `settings` (once per prepared scene, plan and
+    /// gather), timed as "photon trace" and "photon map".
+    pub fn scene_photons(
+        &self,
+        scene: &PreparedScene,
+        settings: &CacheSettings,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<std::sync::Arc<crate::photons::ScenePhotons>> {
+        let plan = settings
+            .photons
+            .plan(&scene.emitter_powers, settings.bounce.bounces);
+        let gather = settings.photons.gather;
+        let mut slot = scene
+            .photons
+            .lock()
+            .map_err(|_| Error::Gpu("internal: photon map poisoned".into()))?;
+        if let Some((traced, g, map)) = slot.as_ref() {
+            if *traced == plan && *g == gather {
+                return Ok(map.clone());
+            }
+        }
+        let map = std::sync::Arc::new(
+            self.photon
+                .get(|| crate::photons::PhotonPass::new(&self.ctx))?
+                .build(
+                    &self.ctx,
+                    &scene.gpu,
+                    &plan,
+                    gather,
+                    scene.emitter_powers.surface_area,
+                    times,
+                )?,
+        );
+        *slot = Some((plan, gather, map.clone()));
+        Ok(map)
+    }
+
+    /// Places records along `scene`'s photon map for `camera` (thesis Algorithm 6, on the
+    /// CPU, timed as "photon placement") and reduces them from their photons on the GPU
+    /// (Algorithm 7, "photon records"), appending them to `records`.
+    pub fn photon_records(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        records: &mut RecordCache,
+        settings: &CacheSettings,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<PhotonRecordStats> {
+        let photons = self.scene_photons(scene, settings, times)?;
+        let t0 = Instant::now();
+        let placement = crate::records::photon_records::place(
+            &photons.map,
+            &crate::visibility::GpuCamera::new(camera),
+            settings,
+            settings.r_min_scene * scene.gpu.diagonal,
+        );
+        times.push(("photon placement", t0.elapsed().as_secs_f64() * 1e3));
+        let count = placement.sites.len() as u32;
+        let budget = settings.record_budget.saturating_sub(records.count);
+        if count > budget {
+            return Err(Error::DeviceLimit(format!(
+                "the photon map places {count} records, past the record budget \
+                 (--record-budget {}): use a larger --accuracy",
+                settings.record_budget
+            )));
+        }
+        records.reserve(&self.ctx, count)?;
+        self.photon_reduce
+            .get(|| crate::records::photon_records::PhotonReducePass::new(&self.ctx))?
+            .reduce(
+                &self.ctx,
+                &scene.gpu,
+                &photons.buffer,
+                &placement,
+                &records.buffer,
+                records.count,
+                settings,
+                times,
+            )?;
+        records.count += count;
+        Ok(PhotonRecordStats {
+            map: photons.stats,
+            records: count,
+            walked: placement.walked,
+            too_sparse: placement.too_sparse,
+            gathered: placement.list.len() as u64,
+        })
     }
 
     fn bounce_pass(&self) -> Result<&crate::bounce::BouncePass> {
@@ -702,13 +823,23 @@ impl Renderer {
         // prepared scene; nothing with one bounce).
         // VPL records carry their bounces in the VPL paths; glossy lobe rays still reflect
         // the cache.
-        let planes = pass.settings.source == crate::records::RecordSource::Planes;
+        let planes = pass.settings.source != crate::records::RecordSource::Vpl;
         let bounce = if planes || scene.gpu.has_glossy {
             self.scene_bounce_cache(scene, &pass.settings, &mut times)?
         } else {
             None
         };
         let vpls = self.scene_vpls(scene, &pass.settings, &mut times)?;
+        // Photon records are placed along the photon array before any pixel asks (thesis
+        // Algorithm 6), into an empty cache; the pixels they leave uncovered get plane
+        // records from the placement below.
+        let photons = if pass.settings.source == crate::records::RecordSource::Photons
+            && records.count == 0
+        {
+            Some(self.photon_records(scene, camera, records, &pass.settings, &mut times)?)
+        } else {
+            None
+        };
 
         // Visibility buffer and direct light (placement needs only the visibility).
         let (vis, direct) =
@@ -863,6 +994,7 @@ impl Renderer {
                 new_radiance_records: radiance_stats.1,
                 bounce,
                 vpls,
+                photons,
             }),
         };
         let mut coverage = if count_coverage {
@@ -1035,6 +1167,7 @@ impl Renderer {
             bounce: Default::default(),
             emitter_powers: crate::vpl::EmitterPowers::new(scene, bvh.world_bounds()),
             vpls: Default::default(),
+            photons: Default::default(),
             bvh_stats: BvhStats {
                 triangles: bvh.triangles.len(),
                 blas_nodes: bvh.blas_nodes.len(),

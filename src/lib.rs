@@ -26,6 +26,7 @@ pub mod gpu;
 pub mod hsh;
 pub mod light_maps;
 pub mod output;
+pub mod photons;
 pub mod placement;
 pub mod radiance_export;
 pub mod records;

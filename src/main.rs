@@ -394,7 +394,9 @@ struct CacheArgs {
     bounce_shadow_rays: bool,
     /// Where records get their irradiance: `planes` (hemisphere planes, thesis chapter 4)
     /// or `vpl` (instant caching, seed 003: one visibility ray per virtual point light
-    /// traced from the lights; the VPL paths carry --bounces; not with temporal caching).
+    /// traced from the lights; the VPL paths carry --bounces) or `photons` (photon-mapped
+    /// irradiance caching, thesis chapter 6: records from the photon map alone, plane
+    /// records where photons are too few; not with temporal caching).
     #[arg(long = "records", value_enum, default_value_t = RecordSource::Planes)]
     record_source: RecordSource,
     /// Light paths of `--records vpl` (about; each light gets at least one): one VPL per
@@ -406,6 +408,14 @@ struct CacheArgs {
     /// 0: none.
     #[arg(long, default_value_t = CacheSettings::default().vpl.clamp)]
     vpl_clamp: f32,
+    /// Light paths of `--records photons` (about; each light gets at least one): one
+    /// photon per path and bounce.
+    #[arg(long, default_value_t = CacheSettings::default().photons.paths, value_parser = parse_at_least_one)]
+    photon_paths: u32,
+    /// Photons of a photon record's first neighbourhood (its R, and the fewest its
+    /// irradiance is estimated from).
+    #[arg(long, default_value_t = CacheSettings::default().photons.gather)]
+    photon_gather: u32,
     /// R_min as the validity radius a R_min in pixels at creation.
     #[arg(long, default_value_t = CacheSettings::default().r_min_pixels, value_parser = parse_positive)]
     r_min_pixels: f32,
@@ -623,6 +633,10 @@ impl CacheArgs {
             vpl: radsplat::vpl::VplSettings {
                 paths: self.vpl_paths,
                 clamp: self.vpl_clamp,
+            },
+            photons: radsplat::photons::PhotonSettings {
+                paths: self.photon_paths,
+                gather: self.photon_gather,
             },
             ..CacheSettings::default()
         }

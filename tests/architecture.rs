@@ -24,6 +24,7 @@ fn layers() -> BTreeMap<&'static str, u32> {
         ("light_maps", 3),
         ("bounce", 3),
         ("vpl", 3),
+        ("photons", 3),
         ("records", 4),
         ("glossy", 4),
         ("splat", 5),

@@ -156,7 +156,19 @@ const SOURCES: &[(&str, &str)] = &[
         "shared/vpl.wgsl",
         include_str!("../../wgsl/shared/vpl.wgsl"),
     ),
+    (
+        "shared/light_paths.wgsl",
+        include_str!("../../wgsl/shared/light_paths.wgsl"),
+    ),
     ("vpl_trace.wgsl", include_str!("../../wgsl/vpl_trace.wgsl")),
+    (
+        "photon_trace.wgsl",
+        include_str!("../../wgsl/photon_trace.wgsl"),
+    ),
+    (
+        "photon_reduce.wgsl",
+        include_str!("../../wgsl/photon_reduce.wgsl"),
+    ),
     (
         "vpl_gather.wgsl",
         include_str!("../../wgsl/vpl_gather.wgsl"),

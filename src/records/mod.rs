@@ -6,6 +6,7 @@
 //! mirror the computations on the CPU.
 
 pub mod kind;
+pub mod photon_records;
 pub mod plane;
 pub mod plane_error;
 pub mod radiance_projection;
@@ -219,6 +220,8 @@ pub struct CacheSettings {
     pub source: RecordSource,
     /// The VPLs of [`RecordSource::Vpl`].
     pub vpl: crate::vpl::VplSettings,
+    /// The photon map of [`RecordSource::Photons`].
+    pub photons: crate::photons::PhotonSettings,
 }
 
 /// How hemisphere-plane hits are shadowed (thesis section 4.4 uses shadow maps).
@@ -264,6 +267,7 @@ impl Default for CacheSettings {
             bounce: Default::default(),
             source: RecordSource::Planes,
             vpl: Default::default(),
+            photons: Default::default(),
         }
     }
 }
@@ -307,6 +311,7 @@ impl CacheSettings {
     pub fn validate(&self) -> Result<()> {
         self.bounce.validate()?;
         self.vpl.validate()?;
+        self.photons.validate()?;
         let bad = |setting: &str, flag: &str, value: String, rule: &str| {
             Err(Error::Usage(format!(
                 "cache setting {setting} ({flag}) {value}: {rule}"
@@ -813,8 +818,9 @@ impl RecordPass {
     pub fn with_kind(ctx: &GpuContext, settings: &CacheSettings, kind: RecordKind) -> Result<Self> {
         use Binding::*;
         settings.validate()?;
-        let planes = settings.source == RecordSource::Planes;
-        if !planes && kind != RecordKind::Irradiance {
+        // Photon records leave holes that plane records fill.
+        let planes = settings.source != RecordSource::Vpl;
+        if settings.source != RecordSource::Planes && kind != RecordKind::Irradiance {
             return Err(Error::Usage(format!(
                 "{} come from hemisphere planes only (--records {} is for irradiance records)",
                 kind.describe(),

@@ -4,7 +4,9 @@
 //! resolve and temporal machinery use; a source differs only in how it fills them, inside
 //! [`super::RecordPass::compute`]. A new source is one more variant here, one more arm in
 //! `RecordPass::compute_batch`, and its pass beside the others in this folder: splat/ and
-//! resolve/ never hear of it.
+//! resolve/ never hear of it. Photon records are the one source that places its own
+//! records (along the photon array, before pixel placement: `Renderer::render_cached_frame`
+//! seeds an empty cache with them); placement then fills the holes with plane records.
 
 /// How records get their irradiance (`--records`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
@@ -20,6 +22,12 @@ pub enum RecordSource {
     /// the bounded geometry term (`vpl_gather.wgsl`, [`super::vpl_gather`]). VPL paths carry
     /// every bounce. Irradiance records only; radiance records keep their planes.
     Vpl,
+    /// The photon map alone (photon-mapped irradiance caching, thesis chapter 6): records
+    /// placed along the photon array before any pixel asks (Algorithm 6) and reduced from
+    /// their neighbourhood's photons (Algorithm 7, `photon_reduce.wgsl`,
+    /// [`super::photon_records`]); the pixels they leave uncovered get plane records.
+    /// Photon paths carry every bounce (plane records in the holes use the bounce cache).
+    Photons,
 }
 
 impl RecordSource {
@@ -28,6 +36,7 @@ impl RecordSource {
         match self {
             Self::Planes => "planes",
             Self::Vpl => "vpl",
+            Self::Photons => "photons",
         }
     }
 }

@@ -118,6 +118,14 @@ pub fn render_animation(
     if first > last {
         return Err(Error::Usage(format!("empty frame range {first}..{last}")));
     }
+    if options.temporal.is_some() && options.cache.source == RecordSource::Photons {
+        return Err(Error::Usage(
+            "records from photons (--records photons) do not work with temporal caching \
+             yet: use --temporal off (each frame its own photon records) or --records \
+             planes or vpl"
+                .into(),
+        ));
+    }
     if options.temporal.is_some() && options.cache.source == RecordSource::Vpl {
         return render_instant(renderer, scene, options, on_frame, progress);
     }

@@ -34,8 +34,14 @@ fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
-/// The first ray (origin, direction) and flux of path `k` of emitter `index` of `plan`.
-fn emit(direct: &DirectReference<'_>, plan: &VplPlan, index: u32, k: u32) -> (Vec3, Vec3, Vec3) {
+/// The first ray (origin, direction) and flux of path `k` of emitter `index` of `plan`
+/// (WGSL `emit`, shared/light_paths.wgsl).
+pub fn emit(
+    direct: &DirectReference<'_>,
+    plan: &VplPlan,
+    index: u32,
+    k: u32,
+) -> (Vec3, Vec3, Vec3) {
     let e = plan.emitters[index as usize];
     let u_pos = sobol_2d(k, emitter_seed(index, 0));
     let u_dir = sobol_2d(k, emitter_seed(index, 1));

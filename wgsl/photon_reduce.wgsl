@@ -1,0 +1,263 @@
+// Photon record reduction (src/records/photon_records.rs; thesis Algorithm 7, eq. 6.2 and
+// 6.5-6.11; algorithms.md section 5): one invocation per record. Its photons (the list the
+// CPU placement gathered) are projected onto the record's tangent plane: E = sum Phi / A
+// with A the area of their convex hull (gift wrapping) divided by the hull's mean shortfall
+// for that many points; their flux binned per hemisphere cell (equal projected solid angle)
+// gives L_jk = M N Phi_jk / (pi A), and Ward and Heckbert's rotational and translational
+// gradients follow (algorithms.md 1.5) with the cells' harmonic mean photon distances; then
+// Ward's gradient limit. CPU mirror: photon_records::reference_record.
+//!include shared/records.wgsl
+
+struct PhotonReduceParams {
+    count: u32,
+    first_record: u32,
+    gradients: u32,
+    _pad: u32,
+}
+
+// Rust: photons::Photon.
+struct Photon {
+    position: vec3f,
+    distance: f32,
+    direction: vec3f,
+    bounce: u32,
+    flux: vec3f,
+    _pad0: f32,
+    normal: vec3f,
+    _pad1: f32,
+}
+
+// Rust: records::photon_records::PhotonSite.
+struct PhotonSite {
+    position: vec3f,
+    radius: f32,
+    normal: vec3f,
+    r_min: f32,
+    first: u32,
+    count: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(1) @binding(0) var<uniform> params: PhotonReduceParams;
+@group(1) @binding(1) var<storage, read> sites: array<PhotonSite>;
+@group(1) @binding(2) var<storage, read> list: array<u32>;
+@group(1) @binding(3) var<storage, read> photons: array<Photon>;
+@group(1) @binding(4) var<storage, read_write> records: array<Record>;
+
+const THETA_CELLS: u32 = 4u;
+const PHI_CELLS: u32 = 8u;
+const CELLS: u32 = 32u;
+
+// Rust: photon_records::HULL_SHORTFALL (n, c(n)): the mean hull of n uniform points in a
+// disc spans 1 - c(n) n^(-2/3) of it.
+const SHORTFALL_N = array<f32, 17>(3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0, 48.0, 64.0,
+    96.0, 128.0, 192.0, 256.0, 384.0, 512.0, 1024.0);
+const SHORTFALL_C = array<f32, 17>(1.926, 2.151, 2.426, 2.575, 2.779, 2.887, 3.019, 3.074,
+    3.156, 3.200, 3.240, 3.257, 3.297, 3.311, 3.337, 3.348, 3.369);
+
+// Rust: photon_records::hull_correction.
+fn hull_correction(count: u32) -> f32 {
+    let n = f32(max(count, 3u));
+    var c = SHORTFALL_C[16];
+    if n < SHORTFALL_N[16] {
+        c = SHORTFALL_C[0];
+        for (var i = 0u; i < 16u; i++) {
+            let n0 = SHORTFALL_N[i];
+            let n1 = SHORTFALL_N[i + 1u];
+            if n >= n0 && n <= n1 {
+                let t = log(n / n0) / log(n1 / n0);
+                c = SHORTFALL_C[i] + t * (SHORTFALL_C[i + 1u] - SHORTFALL_C[i]);
+                break;
+            }
+        }
+    }
+    return 1.0 - c * pow(n, -2.0 / 3.0);
+}
+
+// Rust: photon_records::photon_cell.
+fn photon_cell(local: vec3f) -> u32 {
+    let sin2 = max(1.0 - local.z * local.z, 0.0);
+    let j = min(u32(sin2 * f32(THETA_CELLS)), THETA_CELLS - 1u);
+    var phi = atan2(local.y, local.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let k = min(u32(phi / (2.0 * PI) * f32(PHI_CELLS)), PHI_CELLS - 1u);
+    return j * PHI_CELLS + k;
+}
+
+struct Projected {
+    point: vec2f,
+    used: bool,
+}
+
+// Photon i of the site projected onto its tangent plane; unused when it arrived from
+// below the record's hemisphere.
+fn projected(site: PhotonSite, frame_t: mat3x3f, i: u32) -> Projected {
+    let ph = photons[list[site.first + i]];
+    let q = frame_t * (ph.position - site.position);
+    return Projected(q.xy, (frame_t * ph.direction).z > 0.0);
+}
+
+// Area of the convex hull of the site's used photons (gift wrapping, counter-clockwise).
+fn hull_area(site: PhotonSite, frame_t: mat3x3f) -> f32 {
+    // The lowest x (then y) point is on the hull.
+    var start = 0xffffffffu;
+    var start_point = vec2f(0.0);
+    for (var i = 0u; i < site.count; i++) {
+        let pr = projected(site, frame_t, i);
+        if pr.used && (start == 0xffffffffu || pr.point.x < start_point.x
+            || (pr.point.x == start_point.x && pr.point.y < start_point.y)) {
+            start = i;
+            start_point = pr.point;
+        }
+    }
+    if start == 0xffffffffu {
+        return 0.0;
+    }
+    var area = 0.0;
+    var current = start;
+    var current_point = start_point;
+    for (var steps = 0u; steps <= site.count; steps++) {
+        // The next hull vertex: the candidate with every other point on its left.
+        var next = 0xffffffffu;
+        var next_point = vec2f(0.0);
+        for (var i = 0u; i < site.count; i++) {
+            if i == current {
+                continue;
+            }
+            let pr = projected(site, frame_t, i);
+            if !pr.used {
+                continue;
+            }
+            if next == 0xffffffffu {
+                next = i;
+                next_point = pr.point;
+                continue;
+            }
+            let a = next_point - current_point;
+            let b = pr.point - current_point;
+            let cr = a.x * b.y - a.y * b.x;
+            if cr < 0.0 || (cr == 0.0 && dot(b, b) > dot(a, a)) {
+                next = i;
+                next_point = pr.point;
+            }
+        }
+        if next == 0xffffffffu {
+            break;
+        }
+        area += current_point.x * next_point.y - next_point.x * current_point.y;
+        current = next;
+        current_point = next_point;
+        if current == start {
+            break;
+        }
+    }
+    return 0.5 * abs(area);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3u) {
+    let s = id.x;
+    if s >= params.count {
+        return;
+    }
+    let site = sites[s];
+    let frame = orthonormal_basis(site.normal);
+    let frame_t = transpose(frame);
+    var flux = vec3f(0.0);
+    var cell_flux: array<vec3f, CELLS>;
+    var cell_inv: array<f32, CELLS>;
+    var cell_count: array<u32, CELLS>;
+    var used = 0u;
+    for (var i = 0u; i < site.count; i++) {
+        let ph = photons[list[site.first + i]];
+        let local = frame_t * ph.direction;
+        if local.z <= 0.0 {
+            continue;
+        }
+        used += 1u;
+        flux += ph.flux;
+        let c = photon_cell(local);
+        cell_flux[c] += ph.flux;
+        cell_inv[c] += 1.0 / max(ph.distance, 1.0e-12);
+        cell_count[c] += 1u;
+    }
+    let area = hull_area(site, frame_t) / hull_correction(used);
+    var out: Record;
+    out.position = site.position;
+    out.radius = site.radius;
+    out.normal = site.normal;
+    out.r_min = site.r_min;
+    out.irradiance = vec3f(0.0);
+    out.instance = 0u;
+    for (var c = 0u; c < 3u; c++) {
+        out.rotation_gradient[c] = vec4f(0.0);
+        out.translation_gradient[c] = vec4f(0.0);
+    }
+    if !(area > 0.0) {
+        records[params.first_record + s] = out;
+        return;
+    }
+    let e = flux / area; // thesis eq. 6.2
+    out.irradiance = e;
+    if params.gradients == 0u {
+        records[params.first_record + s] = out;
+        return;
+    }
+    // Cell radiance, eq. 6.11 with equal-projected-area strata: M N Phi / (pi A).
+    let scale = f32(CELLS) / (PI * area);
+    var rot_c: array<vec3f, 3>;
+    var tr: array<vec3f, 3>;
+    for (var k = 0u; k < PHI_CELLS; k++) {
+        let phi_c = 2.0 * PI * (f32(k) + 0.5) / f32(PHI_CELLS);
+        let phi_lo = 2.0 * PI * f32(k) / f32(PHI_CELLS);
+        let w_k = vec3f(-sin(phi_c), cos(phi_c), 0.0);
+        let u_k = vec3f(cos(phi_c), sin(phi_c), 0.0);
+        let v_lo = vec3f(-sin(phi_lo), cos(phi_lo), 0.0);
+        let k_prev = (k + PHI_CELLS - 1u) % PHI_CELLS;
+        for (var j = 0u; j < THETA_CELLS; j++) {
+            let sin2_c = (f32(j) + 0.5) / f32(THETA_CELLS);
+            let tan_c = sqrt(sin2_c / (1.0 - sin2_c));
+            let cj = j * PHI_CELLS + k;
+            let lj = cell_flux[cj] * scale;
+            let rj = select(site.radius, f32(cell_count[cj]) / cell_inv[cj], cell_count[cj] > 0u);
+            let sin_lo = sqrt(f32(j) / f32(THETA_CELLS));
+            let sin_hi = sqrt(f32(j + 1u) / f32(THETA_CELLS));
+            let cp = j * PHI_CELLS + k_prev;
+            let lp = cell_flux[cp] * scale;
+            let rp = select(site.radius, f32(cell_count[cp]) / cell_inv[cp], cell_count[cp] > 0u);
+            var cd = 0u;
+            var rd = 0.0;
+            var ld = vec3f(0.0);
+            if j > 0u {
+                cd = cj - PHI_CELLS;
+                ld = cell_flux[cd] * scale;
+                rd = select(site.radius, f32(cell_count[cd]) / cell_inv[cd], cell_count[cd] > 0u);
+            }
+            for (var c = 0u; c < 3u; c++) {
+                // Rotational (algorithms.md 1.5): (pi / MN) sum_k w_k sum_j tan(theta_j) L_jk.
+                rot_c[c] += w_k * (PI / f32(CELLS) * tan_c * lj[c]);
+                // Translational, azimuthal edge between cells k-1 and k.
+                tr[c] += v_lo * ((sin_hi - sin_lo) / min(rj, rp) * (lj[c] - lp[c]));
+                // Translational, altitude edge between cells j-1 and j.
+                if j > 0u {
+                    let cos2_lo = 1.0 - f32(j) / f32(THETA_CELLS);
+                    tr[c] += u_k * (2.0 * PI / f32(PHI_CELLS) * sin_lo * cos2_lo / min(rj, rd)
+                        * (lj[c] - ld[c]));
+                }
+            }
+        }
+    }
+    for (var c = 0u; c < 3u; c++) {
+        rot_c[c] = frame * rot_c[c];
+        tr[c] = frame * tr[c];
+    }
+    out.radius = limit_by_gradient(site.radius, site.r_min, e, &tr);
+    for (var c = 0u; c < 3u; c++) {
+        out.rotation_gradient[c] = vec4f(rot_c[c], 0.0);
+        out.translation_gradient[c] = vec4f(tr[c], 0.0);
+    }
+    records[params.first_record + s] = out;
+}
