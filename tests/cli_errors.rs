@@ -284,7 +284,7 @@ fn nonsense_cache_and_table_settings_name_the_flag_and_value() {
     let exr = dir.join("out.exr");
     let exr = exr.to_str().unwrap();
     // (arguments, what the message must contain)
-    let cases: [(&[&str], &[&str]); 8] = [
+    let cases: [(&[&str], &[&str]); 11] = [
         (
             &["render", scene, "-o", exr, "-a", "0"],
             &["--accuracy", "'0'", "(0, 1]"],
@@ -334,6 +334,45 @@ fn nonsense_cache_and_table_settings_name_the_flag_and_value() {
         (
             &["temporal-error", scene, "--record-count", "0"],
             &["--record-count 0", "at least 1"],
+        ),
+        (
+            &[
+                "render",
+                scene,
+                "-o",
+                exr,
+                "--records",
+                "photons",
+                "--photon-gather",
+                "2",
+            ],
+            &["--photon-gather 2", "8 to 1024"],
+        ),
+        (
+            &[
+                "render",
+                scene,
+                "-o",
+                exr,
+                "--records",
+                "photons",
+                "--photon-paths",
+                "0",
+            ],
+            &["--photon-paths", "'0'"],
+        ),
+        (
+            &[
+                "animate",
+                scene,
+                "--frames",
+                "0..1",
+                "-o",
+                "out_##.exr",
+                "--records",
+                "photons",
+            ],
+            &["--records photons", "--temporal off"],
         ),
     ];
     for (args, parts) in cases {

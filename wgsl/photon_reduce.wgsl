@@ -5,7 +5,7 @@
 // for that many points; their flux binned per hemisphere cell (equal projected solid angle)
 // gives L_jk = M N Phi_jk / (pi A), and Ward and Heckbert's rotational and translational
 // gradients follow (algorithms.md 1.5) with the cells' harmonic mean photon distances; then
-// Ward's gradient limit. CPU mirror: photon_records::reference_record.
+// Ward's gradient limit, on the gradients only. CPU mirror: photon_records::reference_record.
 //!include shared/records.wgsl
 
 struct PhotonReduceParams {
@@ -254,7 +254,10 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         rot_c[c] = frame * rot_c[c];
         tr[c] = frame * tr[c];
     }
-    out.radius = limit_by_gradient(site.radius, site.r_min, e, &tr);
+    // Ward's gradient limit scales the gradients down and keeps R: placement (on the CPU,
+    // before this pass) covered the photons with this R, and a smaller one would leave
+    // holes between the records.
+    out.radius = limit_by_gradient(site.radius, site.radius, e, &tr);
     for (var c = 0u; c < 3u; c++) {
         out.rotation_gradient[c] = vec4f(rot_c[c], 0.0);
         out.translation_gradient[c] = vec4f(tr[c], 0.0);

@@ -89,6 +89,14 @@ pub fn animate(mut args: AnimateArgs) -> Result<()> {
     // The stats JSON is written at the end; its path is checked and reserved now.
     let mut stats_output = OutputSet::new();
     stats_output.plan_opt(args.stats.as_deref())?;
+    if args.temporal.is_some() && args.cache.source == crate::records::RecordSource::Photons {
+        return Err(Error::Usage(
+            "records from photons (--records photons) do not work with temporal caching \
+             yet: use --temporal off (each frame its own photon records) or --records \
+             planes or vpl"
+                .into(),
+        ));
+    }
     if let Some(map) = &args.lifespan_map {
         if args.temporal.is_none() {
             return Err(Error::Usage(
