@@ -1,6 +1,7 @@
 //! Criterion benchmarks of the ray kernels (the same kernels `radsplat bench` reports):
 //! BVH build, GPU primary / shadow / incoherent rays, and obvhs's CPU traversal of the
-//! incoherent rays on one thread. Scene: the bundled Cornell box, or Sponza when
+//! incoherent rays on one thread; and the CPU half of photon-mapped records (indexing a
+//! photon map and Algorithm 6 placement over it, `--records photons`). Scene: the bundled Cornell box, or Sponza when
 //! `RADSPLAT_ASSET_PATH` is set (`RADSPLAT_BENCH_SCENE` picks another scene file).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -72,6 +73,39 @@ fn kernels(c: &mut Criterion) {
                         .is_some()
                 })
                 .count()
+        })
+    });
+    group.finish();
+
+    // Photon records' CPU work: the photon grid and Algorithm 6's walk, on 2^15 paths
+    // traced by the CPU mirror (the GPU trace gives the same photons).
+    let settings = radsplat::records::CacheSettings {
+        source: radsplat::records::RecordSource::Photons,
+        photons: radsplat::photons::PhotonSettings {
+            paths: 1 << 15,
+            gather: 64,
+        },
+        ..Default::default()
+    };
+    let powers = radsplat::vpl::EmitterPowers::new(&scene, bvh.world_bounds());
+    let plan = settings.photons.plan(&powers, 1);
+    let direct = radsplat::direct::reference::DirectReference::new(&scene, 1);
+    let photons = radsplat::photons::reference::trace_photons(&direct, &plan);
+    let stored = photons.iter().filter(|p| !p.is_empty()).count() as u32;
+    let cell = radsplat::photons::map::cell_for(stored, powers.surface_area, 64);
+    let camera = radsplat::visibility::GpuCamera::new(&scene.camera);
+    let mut group = c.benchmark_group("photons");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(u64::from(stored)));
+    group.bench_function("map_index", |b| {
+        b.iter(|| radsplat::photons::map::PhotonMap::new(photons.clone(), cell).len())
+    });
+    let map = radsplat::photons::map::PhotonMap::new(photons.clone(), cell);
+    group.bench_function("placement_algorithm6", |b| {
+        b.iter(|| {
+            radsplat::records::photon_records::place(&map, &camera, &settings, 0.0)
+                .sites
+                .len()
         })
     });
     group.finish();
