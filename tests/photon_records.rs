@@ -267,40 +267,17 @@ fn photon_reduction_matches_its_cpu_mirror() {
     );
 }
 
-/// The integrating sphere of tests/vpl_records.rs: radius 1, albedo 0.5, a point light of
-/// intensity 1 at its centre. Every wall point receives the same indirect irradiance, E0
-/// (rho + ... + rho^N) with E0 = 1 for N bounces, so the indirect radiance is known.
-fn integrating_sphere() -> Scene {
-    let obj = std::fs::read_to_string(common::bundled("sphere.obj")).expect("sphere.obj");
-    common::scene_from_texts(
-        "integrating-sphere",
-        &obj.replace("mtllib sphere.mtl", "mtllib scene.mtl"),
-        "newmtl sphere\nKd 0.5 0.5 0.5\n",
-        "[camera]\nposition = [0.1, -0.2, 0.3]\ntarget = [-0.3, 0.2, -1]\nfov_y = 70\n\
-         resolution = [16, 16]\n[[mesh]]\nfile = \"scene.obj\"\n\
-         [[light]]\ntype = \"point\"\nposition = [0, 0, 0]\nintensity = [1, 1, 1]\n",
-    )
-}
-
-fn render(renderer: &Renderer, scene: &Scene, settings: &CacheSettings) -> radsplat::frame::Frame {
-    let prepared = renderer.prepare(scene).expect("prepare");
-    let mut cache = renderer.new_cache(settings).expect("cache");
-    let frame = renderer
-        .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
-        .expect("frame");
-    renderer.ctx.check().expect("no wgpu errors");
-    frame
-}
-
+/// The integrating sphere (`common::integrating_sphere`): every wall point receives the
+/// same indirect irradiance, so the photon density estimate has a closed form to meet.
 #[test]
 fn integrating_sphere_gets_the_closed_form_at_every_bounce_count() {
     const RHO: f32 = 0.5;
-    let scene = integrating_sphere();
+    let scene = common::integrating_sphere();
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     for bounces in 1..=3u32 {
         let radiance: f32 =
             (1..=bounces).map(|k| RHO.powi(k as i32)).sum::<f32>() * RHO / std::f32::consts::PI;
-        let frame = render(&renderer, &scene, &photon_settings(1 << 15, bounces));
+        let frame = common::render_gi(&renderer, &scene, &photon_settings(1 << 15, bounces));
         let photons = frame
             .stats
             .cache
@@ -350,11 +327,11 @@ fn photon_records_follow_the_reference_on_the_cornell_box_and_are_deterministic(
         .expect("reference");
     let reference = reference.indirect;
     let settings = photon_settings(1 << 15, 1);
-    let frame = render(&renderer, &scene, &settings);
+    let frame = common::render_gi(&renderer, &scene, &settings);
     let stats = frame.stats.cache.clone().expect("cache stats");
     let photons = stats.photons.expect("photon stats");
     let indirect = frame.indirect.expect("indirect");
-    let (ratio, rel) = compare(&indirect, &reference, 32, 4);
+    let (ratio, rel) = common::compare_blocks(&indirect, &reference, 32, 4);
     eprintln!(
         "photon records: {} of {} records from photons; mean indirect {ratio} of the \
          reference's, relative RMS {rel}",
@@ -370,7 +347,7 @@ fn photon_records_follow_the_reference_on_the_cornell_box_and_are_deterministic(
     );
     // Measured: 8.0 % (32x32, 2^15 paths, 256-spp reference).
     assert!(rel < 0.12, "photon records off the reference by {rel}");
-    let again = render(&renderer, &scene, &settings);
+    let again = common::render_gi(&renderer, &scene, &settings);
     assert!(
         frame.beauty == again.beauty && Some(&indirect) == again.indirect.as_ref(),
         "two photon renders differ"
@@ -394,32 +371,6 @@ fn photon_records_follow_the_reference_on_the_cornell_box_and_are_deterministic(
 /// reference (4x4 box filter), mean 1.002 of the reference's.
 const GOLDEN_CORNELL_PHOTONS: &str =
     "40fe9054093c71734100ab0870504f09cfaf06a5cf3fad16bea230a4917fcf51";
-
-/// Mean of the green channel of `indirect` against `reference`'s, and the relative RMS
-/// difference after averaging both over `block` x `block` pixels.
-fn compare(indirect: &[[f32; 4]], reference: &[[f32; 4]], w: usize, block: usize) -> (f32, f32) {
-    let h = indirect.len() / w;
-    let (mut diff, mut norm) = (0.0f64, 0.0f64);
-    for by in 0..h / block {
-        for bx in 0..w / block {
-            let (mut a, mut b) = (Vec3::ZERO, Vec3::ZERO);
-            for y in 0..block {
-                for x in 0..block {
-                    let i = (by * block + y) * w + bx * block + x;
-                    a += Vec3::from_slice(&indirect[i][..3]);
-                    b += Vec3::from_slice(&reference[i][..3]);
-                }
-            }
-            diff += f64::from((a - b).length_squared());
-            norm += f64::from(b.length_squared());
-        }
-    }
-    let mean = |v: &[[f32; 4]]| v.iter().map(|p| p[1]).sum::<f32>();
-    (
-        mean(indirect) / mean(reference),
-        (diff / norm).sqrt() as f32,
-    )
-}
 
 #[test]
 fn photon_records_refuse_bad_settings_and_temporal_caching() {

@@ -196,41 +196,18 @@ fn vpl_gather_matches_its_cpu_mirror() {
     assert!(worst < 1e-3, "GPU VPL gather off its CPU mirror by {worst}");
 }
 
-/// A closed sphere of radius 1 and albedo `RHO` with a point light of intensity 1 at its
-/// centre, the camera inside. On a sphere cos_x = cos_y = d / 2, so every VPL gives every
-/// wall point `power / 4` of irradiance wherever it lies: the VPL estimate is exact, and
-/// N bounces give indirect radiance rho / pi * E0 (rho + ... + rho^N) with E0 = I / r^2.
-fn integrating_sphere() -> Scene {
-    let obj = std::fs::read_to_string(common::bundled("sphere.obj")).expect("sphere.obj");
-    common::scene_from_texts(
-        "integrating-sphere",
-        &obj.replace("mtllib sphere.mtl", "mtllib scene.mtl"),
-        "newmtl sphere\nKd 0.5 0.5 0.5\n",
-        "[camera]\nposition = [0.1, -0.2, 0.3]\ntarget = [-0.3, 0.2, -1]\nfov_y = 70\n\
-         resolution = [16, 16]\n[[mesh]]\nfile = \"scene.obj\"\n\
-         [[light]]\ntype = \"point\"\nposition = [0, 0, 0]\nintensity = [1, 1, 1]\n",
-    )
-}
-
-fn render(renderer: &Renderer, scene: &Scene, settings: &CacheSettings) -> radsplat::frame::Frame {
-    let prepared = renderer.prepare(scene).expect("prepare");
-    let mut cache = renderer.new_cache(settings).expect("cache");
-    let frame = renderer
-        .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
-        .expect("frame");
-    renderer.ctx.check().expect("no wgpu errors");
-    frame
-}
-
+/// The integrating sphere (`common::integrating_sphere`): on a sphere cos_x = cos_y = d / 2,
+/// so every VPL gives every wall point `power / 4` of irradiance wherever it lies: the VPL
+/// estimate is exact at every bounce count.
 #[test]
 fn integrating_sphere_gets_the_closed_form_at_every_bounce_count() {
     const RHO: f32 = 0.5;
-    let scene = integrating_sphere();
+    let scene = common::integrating_sphere();
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     for bounces in 1..=3u32 {
         let radiance: f32 =
             (1..=bounces).map(|k| RHO.powi(k as i32)).sum::<f32>() * RHO / std::f32::consts::PI;
-        let frame = render(&renderer, &scene, &vpl_settings(1024, 0.0, bounces));
+        let frame = common::render_gi(&renderer, &scene, &vpl_settings(1024, 0.0, bounces));
         let indirect = frame.indirect.expect("indirect");
         let mean = indirect.iter().map(|p| p[1]).sum::<f32>() / indirect.len() as f32;
         let worst = indirect
@@ -246,32 +223,6 @@ fn integrating_sphere_gets_the_closed_form_at_every_bounce_count() {
             100.0 * worst
         );
     }
-}
-
-/// Mean of the green channel of `indirect`, and the relative RMS difference to `reference`
-/// after averaging both over `block` x `block` pixels.
-fn compare(indirect: &[[f32; 4]], reference: &[[f32; 4]], w: usize, block: usize) -> (f32, f32) {
-    let h = indirect.len() / w;
-    let (mut diff, mut norm) = (0.0f64, 0.0f64);
-    for by in 0..h / block {
-        for bx in 0..w / block {
-            let (mut a, mut b) = (Vec3::ZERO, Vec3::ZERO);
-            for y in 0..block {
-                for x in 0..block {
-                    let i = (by * block + y) * w + bx * block + x;
-                    a += Vec3::from_slice(&indirect[i][..3]);
-                    b += Vec3::from_slice(&reference[i][..3]);
-                }
-            }
-            diff += f64::from((a - b).length_squared());
-            norm += f64::from(b.length_squared());
-        }
-    }
-    let mean = |v: &[[f32; 4]]| v.iter().map(|p| p[1]).sum::<f32>();
-    (
-        mean(indirect) / mean(reference),
-        (diff / norm).sqrt() as f32,
-    )
 }
 
 #[test]
@@ -291,9 +242,9 @@ fn vpl_records_follow_the_reference_on_the_cornell_box_and_are_deterministic() {
         .expect("reference");
     let reference = reference.indirect;
     let settings = vpl_settings(1024, 1.0, 1);
-    let frame = render(&renderer, &scene, &settings);
+    let frame = common::render_gi(&renderer, &scene, &settings);
     let indirect = frame.indirect.expect("indirect");
-    let (ratio, rel) = compare(&indirect, &reference, 32, 4);
+    let (ratio, rel) = common::compare_blocks(&indirect, &reference, 32, 4);
     eprintln!("VPL records: mean indirect {ratio} of the reference's, relative RMS {rel}");
     // Measured at 128x128 against 1024 spp: 9.5 % (docs/results.md); the bounding
     // distance darkens corners by a few per cent.
@@ -303,13 +254,13 @@ fn vpl_records_follow_the_reference_on_the_cornell_box_and_are_deterministic() {
     );
     assert!(rel < 0.2, "VPL records off the reference by {rel}");
     // The same bytes twice.
-    let again = render(&renderer, &scene, &settings);
+    let again = common::render_gi(&renderer, &scene, &settings);
     assert!(
         frame.beauty == again.beauty && Some(&indirect) == again.indirect.as_ref(),
         "two VPL renders differ"
     );
     // And plane records are not what rendered it: the sources differ.
-    let planes = render(&renderer, &scene, &CacheSettings::default());
+    let planes = common::render_gi(&renderer, &scene, &CacheSettings::default());
     assert!(planes.indirect.as_ref() != Some(&indirect));
 }
 

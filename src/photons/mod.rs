@@ -26,8 +26,7 @@ pub mod reference;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
-use crate::gpu::timer::PassTimer;
-use crate::vpl::{EmitterPowers, VplEmitter, VplPlan, VplSettings};
+use crate::vpl::{EmitterPowers, VplPlan, VplSettings};
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -127,17 +126,6 @@ impl Photon {
     }
 }
 
-/// Mirror of WGSL `PhotonTraceParams`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct TraceParams {
-    paths: u32,
-    bounces: u32,
-    emitters: u32,
-    _pad: u32,
-    sphere: [f32; 4],
-}
-
 /// The photon tracing pass.
 pub struct PhotonPass {
     trace: ComputePass,
@@ -164,6 +152,18 @@ impl PhotonPass {
         plan: &VplPlan,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<Vec<Photon>> {
+        Ok(self.trace_on_gpu(ctx, scene, plan, times)?.1)
+    }
+
+    /// As [`PhotonPass::trace`], also returning the GPU buffer the photons were traced
+    /// into (what the record reduction reads: no second upload).
+    fn trace_on_gpu(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        plan: &VplPlan,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<(wgpu::Buffer, Vec<Photon>)> {
         let slots = u64::from(plan.slots());
         let bytes = slots.max(1) * std::mem::size_of::<Photon>() as u64;
         if bytes > ctx.max_binding_size() {
@@ -177,39 +177,11 @@ impl PhotonPass {
             )));
         }
         let photons = ctx.storage_buffer_sized("photons", bytes)?;
-        let (c, r) = plan.sphere;
-        let params = ctx.uniform_buffer(
-            "photon trace params",
-            &TraceParams {
-                paths: plan.paths,
-                bounces: plan.bounces,
-                emitters: plan.emitters.len() as u32,
-                _pad: 0,
-                sphere: [c.x, c.y, c.z, r],
-            },
-        );
-        let emitters = if plan.emitters.is_empty() {
-            ctx.storage_buffer("photon emitters", &[VplEmitter::default()])?
-        } else {
-            ctx.storage_buffer("photon emitters", &plan.emitters)?
-        };
-        let bind = self.trace.bind(ctx, &[&params, &emitters, &photons]);
-        let mut timer = PassTimer::new(ctx, 1);
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        self.trace.record(
-            &mut enc,
-            &scene.bind_group,
-            &bind,
-            [plan.paths.div_ceil(64), 1, 1],
-            timer.next("photon trace"),
-        );
-        timer.resolve(&mut enc);
-        ctx.queue.submit([enc.finish()]);
-        times.extend(timer.read(ctx)?);
+        plan.dispatch(ctx, &self.trace, scene, &photons, "photon trace", times)?;
         let mut all: Vec<Photon> = ctx.read_buffer(&photons)?;
         ctx.check()?;
         all.truncate(plan.slots() as usize);
-        Ok(all)
+        Ok((photons, all))
     }
 }
 
@@ -245,15 +217,10 @@ impl PhotonPass {
         surface_area: f32,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<ScenePhotons> {
-        let photons = self.trace(ctx, scene, plan, times)?;
+        let (buffer, photons) = self.trace_on_gpu(ctx, scene, plan, times)?;
         let t0 = std::time::Instant::now();
         let stored = photons.iter().filter(|p| !p.is_empty()).count() as u32;
         let cell = map::cell_for(stored, surface_area, gather);
-        let buffer = if photons.is_empty() {
-            ctx.storage_buffer("photon map", &[Photon::default()])?
-        } else {
-            ctx.storage_buffer("photon map", &photons)?
-        };
         let map = map::PhotonMap::new(photons, cell);
         times.push(("photon map", t0.elapsed().as_secs_f64() * 1e3));
         Ok(ScenePhotons {

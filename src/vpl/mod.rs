@@ -245,6 +245,50 @@ impl VplPlan {
     pub fn slots(&self) -> u32 {
         self.paths * self.bounces
     }
+
+    /// Runs `pass` (a light-path trace: `vpl_trace.wgsl`, `photon_trace.wgsl`, bound to
+    /// the plan's params, its emitters and `out`) over the plan's paths, one invocation
+    /// per path, timed as `name`.
+    pub fn dispatch(
+        &self,
+        ctx: &GpuContext,
+        pass: &ComputePass,
+        scene: &GpuScene,
+        out: &wgpu::Buffer,
+        name: &'static str,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<()> {
+        let (c, r) = self.sphere;
+        let params = ctx.uniform_buffer(
+            "light path params",
+            &TraceParams {
+                paths: self.paths,
+                bounces: self.bounces,
+                emitters: self.emitters.len() as u32,
+                _pad: 0,
+                sphere: [c.x, c.y, c.z, r],
+            },
+        );
+        let emitters = if self.emitters.is_empty() {
+            ctx.storage_buffer("light path emitters", &[VplEmitter::default()])?
+        } else {
+            ctx.storage_buffer("light path emitters", &self.emitters)?
+        };
+        let bind = pass.bind(ctx, &[&params, &emitters, out]);
+        let mut timer = PassTimer::new(ctx, 1);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        pass.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            [self.paths.div_ceil(64), 1, 1],
+            timer.next(name),
+        );
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        Ok(())
+    }
 }
 
 /// What building a VPL set cost and gave.
@@ -257,7 +301,7 @@ pub struct VplStats {
     pub clamp_distance: f32,
 }
 
-/// Mirror of WGSL `VplTraceParams`.
+/// Mirror of WGSL `VplTraceParams` and `PhotonTraceParams` (the same layout).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 struct TraceParams {
@@ -297,35 +341,7 @@ impl VplPass {
         let slots = plan.slots().max(1);
         let vpls =
             ctx.storage_buffer_sized("vpls", u64::from(slots) * std::mem::size_of::<Vpl>() as u64)?;
-        let (c, r) = plan.sphere;
-        let params = ctx.uniform_buffer(
-            "vpl trace params",
-            &TraceParams {
-                paths: plan.paths,
-                bounces: plan.bounces,
-                emitters: plan.emitters.len() as u32,
-                _pad: 0,
-                sphere: [c.x, c.y, c.z, r],
-            },
-        );
-        let emitters = if plan.emitters.is_empty() {
-            ctx.storage_buffer("vpl emitters", &[VplEmitter::default()])?
-        } else {
-            ctx.storage_buffer("vpl emitters", &plan.emitters)?
-        };
-        let bind = self.trace.bind(ctx, &[&params, &emitters, &vpls]);
-        let mut timer = PassTimer::new(ctx, 1);
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        self.trace.record(
-            &mut enc,
-            &scene.bind_group,
-            &bind,
-            [plan.paths.div_ceil(64), 1, 1],
-            timer.next("vpl trace"),
-        );
-        timer.resolve(&mut enc);
-        ctx.queue.submit([enc.finish()]);
-        times.extend(timer.read(ctx)?);
+        plan.dispatch(ctx, &self.trace, scene, &vpls, "vpl trace", times)?;
         let all: Vec<Vpl> = ctx.read_buffer(&vpls)?;
         ctx.check()?;
         let filled = all

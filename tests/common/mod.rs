@@ -108,3 +108,65 @@ pub fn scene_from_texts(tag: &str, obj: &str, mtl: &str, toml: &str) -> Scene {
     let _ = std::fs::remove_dir_all(&dir);
     scene
 }
+
+/// A closed sphere of radius 1 and albedo 0.5 with a point light of intensity 1 at its
+/// centre, the camera inside. Every wall point receives the same indirect irradiance,
+/// E0 (rho + ... + rho^N) with E0 = I / r^2 = 1 for N bounces, so the indirect radiance
+/// rho / pi E0 (rho + ... + rho^N) is known in closed form (VPL and photon records).
+pub fn integrating_sphere() -> Scene {
+    let obj = std::fs::read_to_string(bundled("sphere.obj")).expect("sphere.obj");
+    scene_from_texts(
+        "integrating-sphere",
+        &obj.replace("mtllib sphere.mtl", "mtllib scene.mtl"),
+        "newmtl sphere\nKd 0.5 0.5 0.5\n",
+        "[camera]\nposition = [0.1, -0.2, 0.3]\ntarget = [-0.3, 0.2, -1]\nfov_y = 70\n\
+         resolution = [16, 16]\n[[mesh]]\nfile = \"scene.obj\"\n\
+         [[light]]\ntype = \"point\"\nposition = [0, 0, 0]\nintensity = [1, 1, 1]\n",
+    )
+}
+
+/// One GI frame of `scene` from a new cache with `settings`, checked for wgpu errors.
+pub fn render_gi(
+    renderer: &radsplat::Renderer,
+    scene: &Scene,
+    settings: &radsplat::records::CacheSettings,
+) -> radsplat::frame::Frame {
+    let prepared = renderer.prepare(scene).expect("prepare");
+    let mut cache = renderer.new_cache(settings).expect("cache");
+    let frame = renderer
+        .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
+        .expect("frame");
+    renderer.ctx.check().expect("no wgpu errors");
+    frame
+}
+
+/// Mean of the green channel of `indirect` against `reference`'s, and the relative RMS
+/// difference after averaging both over `block` x `block` pixels (image width `w`).
+pub fn compare_blocks(
+    indirect: &[[f32; 4]],
+    reference: &[[f32; 4]],
+    w: usize,
+    block: usize,
+) -> (f32, f32) {
+    let h = indirect.len() / w;
+    let (mut diff, mut norm) = (0.0f64, 0.0f64);
+    for by in 0..h / block {
+        for bx in 0..w / block {
+            let (mut a, mut b) = (Vec3::ZERO, Vec3::ZERO);
+            for y in 0..block {
+                for x in 0..block {
+                    let i = (by * block + y) * w + bx * block + x;
+                    a += Vec3::from_slice(&indirect[i][..3]);
+                    b += Vec3::from_slice(&reference[i][..3]);
+                }
+            }
+            diff += f64::from((a - b).length_squared());
+            norm += f64::from(b.length_squared());
+        }
+    }
+    let mean = |v: &[[f32; 4]]| v.iter().map(|p| p[1]).sum::<f32>();
+    (
+        mean(indirect) / mean(reference),
+        (diff / norm).sqrt() as f32,
+    )
+}
