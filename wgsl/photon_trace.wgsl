@@ -12,14 +12,6 @@
 //!include shared/shading.wgsl
 //!include shared/light_paths.wgsl
 
-struct PhotonTraceParams {
-    paths: u32,
-    bounces: u32,
-    emitters: u32,
-    _pad: u32,
-    sphere: vec4f,   // the scene's bounding sphere: centre, radius
-}
-
 // One photon (64 bytes; Rust: photons::Photon). Zero flux: an empty slot.
 struct Photon {
     position: vec3f,   // on its surface
@@ -32,7 +24,7 @@ struct Photon {
     _pad1: f32,
 }
 
-@group(1) @binding(0) var<uniform> params: PhotonTraceParams;
+@group(1) @binding(0) var<uniform> params: LightPathParams;
 @group(1) @binding(1) var<storage, read> emitters: array<VplEmitter>;
 @group(1) @binding(2) var<storage, read_write> photons: array<Photon>;
 
@@ -46,12 +38,7 @@ fn main(
     if p >= params.paths {
         return;
     }
-    var index = 0u;
-    for (var i = 1u; i < params.emitters; i++) {
-        if emitters[i].first_path <= p {
-            index = i;
-        }
-    }
+    let index = path_emitter(p);
     let e = emitters[index];
     let k = p - e.first_path;
     let em = emit(e, index, k, params.sphere);

@@ -10,15 +10,7 @@
 //!include shared/light_paths.wgsl
 //!include shared/vpl.wgsl
 
-struct VplTraceParams {
-    paths: u32,
-    bounces: u32,
-    emitters: u32,
-    _pad: u32,
-    sphere: vec4f,   // the scene's bounding sphere: centre, radius
-}
-
-@group(1) @binding(0) var<uniform> params: VplTraceParams;
+@group(1) @binding(0) var<uniform> params: LightPathParams;
 @group(1) @binding(1) var<storage, read> emitters: array<VplEmitter>;
 @group(1) @binding(2) var<storage, read_write> vpls: array<Vpl>;
 
@@ -32,12 +24,7 @@ fn main(
     if p >= params.paths {
         return;
     }
-    var index = 0u;
-    for (var i = 1u; i < params.emitters; i++) {
-        if emitters[i].first_path <= p {
-            index = i;
-        }
-    }
+    let index = path_emitter(p);
     let e = emitters[index];
     let k = p - e.first_path;
     let em = emit(e, index, k, params.sphere);

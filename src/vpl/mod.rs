@@ -301,7 +301,7 @@ pub struct VplStats {
     pub clamp_distance: f32,
 }
 
-/// Mirror of WGSL `VplTraceParams` and `PhotonTraceParams` (the same layout).
+/// Mirror of WGSL `LightPathParams` (shared/light_paths.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 struct TraceParams {

@@ -1,7 +1,17 @@
 // Light paths leaving the scene's emitters (src/vpl: the VPL trace; src/photons: the photon
 // trace): which emitter a path leaves, and its first ray and flux, from Owen-scrambled Sobol
 // sequences seeded by the emitter (the same every frame and run). Rust mirror:
-// vpl::reference::emit. Needs shared/shading.wgsl.
+// vpl::reference::emit. Needs shared/shading.wgsl; a pass including it declares
+// `params: LightPathParams` and `emitters: array<VplEmitter>` (Rust: VplPlan::dispatch).
+
+// Rust: vpl::TraceParams.
+struct LightPathParams {
+    paths: u32,
+    bounces: u32,
+    emitters: u32,
+    _pad: u32,
+    sphere: vec4f,   // the scene's bounding sphere: centre, radius
+}
 
 // One emitter's run of paths (Rust: vpl::VplEmitter).
 struct VplEmitter {
@@ -9,6 +19,17 @@ struct VplEmitter {
     first_path: u32,
     paths: u32,
     _pad: u32,
+}
+
+// The emitter whose run of paths holds path p (runs are in order of their first path).
+fn path_emitter(p: u32) -> u32 {
+    var index = 0u;
+    for (var i = 1u; i < params.emitters; i++) {
+        if emitters[i].first_path <= p {
+            index = i;
+        }
+    }
+    return index;
 }
 
 // Seeds of an emitter's sequences. Rust: vpl::reference::emitter_seed.
