@@ -84,6 +84,7 @@ fn kernels(c: &mut Criterion) {
         photons: radsplat::photons::PhotonSettings {
             paths: 1 << 15,
             gather: 64,
+            ..Default::default()
         },
         ..Default::default()
     };

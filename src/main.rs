@@ -416,6 +416,11 @@ struct CacheArgs {
     /// irradiance is estimated from).
     #[arg(long, default_value_t = CacheSettings::default().photons.gather)]
     photon_gather: u32,
+    /// The area a photon record divides its photons' flux by: `hull`, their convex hull
+    /// (the thesis's); `probed`, the hull less its part with no surface under it (probe
+    /// rays; gaps between coplanar pieces no longer darken the record).
+    #[arg(long, value_enum, default_value_t = CacheSettings::default().photons.area)]
+    photon_area: radsplat::photons::PhotonArea,
     /// R_min as the validity radius a R_min in pixels at creation.
     #[arg(long, default_value_t = CacheSettings::default().r_min_pixels, value_parser = parse_positive)]
     r_min_pixels: f32,
@@ -637,6 +642,7 @@ impl CacheArgs {
             photons: radsplat::photons::PhotonSettings {
                 paths: self.photon_paths,
                 gather: self.photon_gather,
+                area: self.photon_area,
             },
             ..CacheSettings::default()
         }

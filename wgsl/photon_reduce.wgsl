@@ -5,14 +5,19 @@
 // for that many points; their flux binned per hemisphere cell (equal projected solid angle)
 // gives L_jk = M N Phi_jk / (pi A), and Ward and Heckbert's rotational and translational
 // gradients follow (algorithms.md 1.5) with the cells' harmonic mean photon distances; then
-// Ward's gradient limit, on the gradients only. CPU mirror: photon_records::reference_record.
+// Ward's gradient limit, on the gradients only. With the probed area (`area` 1,
+// photons::PhotonArea::Probed) the hull is scaled by the share of its probe points that
+// find the record's surface under them: a hull spanning gaps between coplanar pieces
+// (chair seats, a wall between windows) otherwise counts surface that is not there.
+// CPU mirror: photon_records::reference_record.
 //!include shared/records.wgsl
+//!include shared/shading.wgsl
 
 struct PhotonReduceParams {
     count: u32,
     first_record: u32,
     gradients: u32,
-    _pad: u32,
+    area: u32,       // 0: the hull; 1: the probed hull
 }
 
 // Rust: photons::Photon.
@@ -44,6 +49,12 @@ struct PhotonSite {
 @group(1) @binding(2) var<storage, read> list: array<u32>;
 @group(1) @binding(3) var<storage, read> photons: array<Photon>;
 @group(1) @binding(4) var<storage, read_write> records: array<Record>;
+
+// Rust: photon_records::PROBES, MIN_PROBES_INSIDE; photons::map::SAME_SURFACE_*.
+const PROBES: u32 = 64u;
+const MIN_PROBES_INSIDE: u32 = 8u;
+const SAME_SURFACE_COS: f32 = 0.9;
+const SAME_SURFACE_SLOPE: f32 = 0.25;
 
 const THETA_CELLS: u32 = 4u;
 const PHI_CELLS: u32 = 8u;
@@ -100,8 +111,22 @@ fn projected(site: PhotonSite, frame_t: mat3x3f, i: u32) -> Projected {
     return Projected(q.xy, (frame_t * ph.direction).z > 0.0);
 }
 
-// Area of the convex hull of the site's used photons (gift wrapping, counter-clockwise).
-fn hull_area(site: PhotonSite, frame_t: mat3x3f) -> f32 {
+// Rust: photon_records::probe_point (a sunflower spiral over the unit disc).
+fn probe_point(i: u32) -> vec2f {
+    let r = sqrt((f32(i) + 0.5) / f32(PROBES));
+    let theta = f32(i) * 2.3999632;
+    return vec2f(r * cos(theta), r * sin(theta));
+}
+
+// The convex hull of the site's used photons: its area, and which of the probe points
+// (over the disc of radius `rho`) lie outside it (bit i of outside[i / 32]).
+struct Hull {
+    area: f32,
+    outside: vec2u,
+}
+
+// The hull by gift wrapping, counter-clockwise; each edge marks the probes on its right.
+fn hull_of(site: PhotonSite, frame_t: mat3x3f, rho: f32) -> Hull {
     // The lowest x (then y) point is on the hull.
     var start = 0xffffffffu;
     var start_point = vec2f(0.0);
@@ -113,9 +138,11 @@ fn hull_area(site: PhotonSite, frame_t: mat3x3f) -> f32 {
             start_point = pr.point;
         }
     }
+    var out = Hull(0.0, vec2u(0xffffffffu));
     if start == 0xffffffffu {
-        return 0.0;
+        return out;
     }
+    out.outside = vec2u(0u);
     var area = 0.0;
     var current = start;
     var current_point = start_point;
@@ -147,6 +174,14 @@ fn hull_area(site: PhotonSite, frame_t: mat3x3f) -> f32 {
         if next == 0xffffffffu {
             break;
         }
+        // Probes strictly right of this edge are outside (Rust: inside_hull).
+        let edge = next_point - current_point;
+        for (var i = 0u; i < PROBES; i++) {
+            let b = probe_point(i) * rho - current_point;
+            if edge.x * b.y - edge.y * b.x < 0.0 {
+                out.outside[i / 32u] |= 1u << (i % 32u);
+            }
+        }
         area += current_point.x * next_point.y - next_point.x * current_point.y;
         current = next;
         current_point = next_point;
@@ -154,11 +189,45 @@ fn hull_area(site: PhotonSite, frame_t: mat3x3f) -> f32 {
             break;
         }
     }
-    return 0.5 * abs(area);
+    out.area = 0.5 * abs(area);
+    return out;
+}
+
+// The share of the hull's probes that find the record's surface under them (Rust:
+// photon_records::probed_share, probe_ray): a ray down along -n from above the tangent
+// plane through the band the photons' slope bound admits; found if what it hits first has
+// the photons' normal bound. 1 with fewer than MIN_PROBES_INSIDE probes inside the hull.
+fn probed_share(site: PhotonSite, frame: mat3x3f, outside: vec2u, rho: f32) -> f32 {
+    let n = site.normal;
+    let p = site.position;
+    let margin = max(1.0e-3 * rho, 1.0e-5 * max(max(abs(p.x), abs(p.y)), abs(p.z)));
+    var inside = 0u;
+    var found = 0u;
+    for (var i = 0u; i < PROBES; i++) {
+        if (outside[i / 32u] & (1u << (i % 32u))) != 0u {
+            continue;
+        }
+        inside += 1u;
+        let q = probe_point(i) * rho;
+        let h = SAME_SURFACE_SLOPE * length(q) + margin;
+        let ray = Ray(p + frame * vec3f(q, h), 0.0, -n, 2.0 * h);
+        let hit = trace_closest(ray);
+        if hit.instance != NO_HIT {
+            let s = surface_at(hit, -n);
+            if dot(s.shading_normal, n) >= SAME_SURFACE_COS {
+                found += 1u;
+            }
+        }
+    }
+    if inside < MIN_PROBES_INSIDE {
+        return 1.0;
+    }
+    return f32(max(found, 1u)) / f32(inside);
 }
 
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3u) {
+fn main(@builtin(global_invocation_id) id: vec3u, @builtin(local_invocation_index) li: u32) {
+    bvh_stack_init(li);
     let s = id.x;
     if s >= params.count {
         return;
@@ -171,6 +240,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     var cell_inv: array<f32, CELLS>;
     var cell_count: array<u32, CELLS>;
     var used = 0u;
+    var rho = 0.0;
     for (var i = 0u; i < site.count; i++) {
         let ph = photons[list[site.first + i]];
         let local = frame_t * ph.direction;
@@ -178,13 +248,19 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             continue;
         }
         used += 1u;
+        let q = frame_t * (ph.position - site.position);
+        rho = max(rho, sqrt(q.x * q.x + q.y * q.y));
         flux += ph.flux;
         let c = photon_cell(local);
         cell_flux[c] += ph.flux;
         cell_inv[c] += 1.0 / max(ph.distance, 1.0e-12);
         cell_count[c] += 1u;
     }
-    let area = hull_area(site, frame_t) / hull_correction(used);
+    let hull = hull_of(site, frame_t, rho);
+    var area = hull.area / hull_correction(used);
+    if params.area == 1u && area > 0.0 {
+        area *= probed_share(site, frame, hull.outside, rho);
+    }
     var out: Record;
     out.position = site.position;
     out.radius = site.radius;

@@ -41,9 +41,27 @@ pub struct PhotonSettings {
     /// `bounces` photons.
     pub paths: u32,
     /// Photons of the first neighbourhood query of a record (Algorithm 7 step 1): the
-    /// nearest this many on the record's surface estimate its harmonic mean distance, and
-    /// a record's irradiance is estimated over at least these many.
+    /// nearest this many on the record's surface estimate its harmonic mean distance R;
+    /// the record's irradiance comes from the photons within `a R` (step 3).
     pub gather: u32,
+    /// How a record measures the area its photons cover (`--photon-area`).
+    pub area: PhotonArea,
+}
+
+/// The area a photon record divides its photons' flux by (E = sum Phi / A, thesis eq. 6.2).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
+pub enum PhotonArea {
+    /// The thesis's: the convex hull of the photons in the tangent plane, divided by the
+    /// mean shortfall of a hull of that many uniform points. Where the neighbourhood spans
+    /// gaps (coplanar pieces: chair seats and legs, a wall between windows) the hull covers
+    /// surface that is not there and E comes out low.
+    Hull,
+    /// The hull, less its part with no surface under it: 64 probe points spread over the
+    /// photons' disc, each inside the hull looks for the record's surface (a short ray
+    /// along -n, the same normal and slope bounds as the photons); A = hull x the share
+    /// of those probes that find it (records/photon_records.rs, `probe_points`).
+    #[default]
+    Probed,
 }
 
 impl Default for PhotonSettings {
@@ -51,6 +69,7 @@ impl Default for PhotonSettings {
         Self {
             paths: 1 << 17,
             gather: 64,
+            area: PhotonArea::default(),
         }
     }
 }
