@@ -64,7 +64,10 @@ impl Default for VplSettings {
     fn default() -> Self {
         Self {
             paths: 1024,
-            clamp: 1.0,
+            // 0.5 x the spacing: lower error than 1 (the first default) on the Cornell box,
+            // cube in a box, conference room and Sponza at 1,024, 4,096 and 16,384 paths,
+            // two bounces (docs/results.md, "The VPL bounding distance").
+            clamp: 0.5,
         }
     }
 }
