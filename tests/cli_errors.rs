@@ -284,7 +284,7 @@ fn nonsense_cache_and_table_settings_name_the_flag_and_value() {
     let exr = dir.join("out.exr");
     let exr = exr.to_str().unwrap();
     // (arguments, what the message must contain)
-    let cases: [(&[&str], &[&str]); 11] = [
+    let cases: [(&[&str], &[&str]); 12] = [
         (
             &["render", scene, "-o", exr, "-a", "0"],
             &["--accuracy", "'0'", "(0, 1]"],
