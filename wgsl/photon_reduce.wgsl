@@ -226,8 +226,8 @@ fn probed_share(site: PhotonSite, frame: mat3x3f, outside: vec2u, rho: f32) -> f
 }
 
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3u, @builtin(local_invocation_index) li: u32) {
-    bvh_stack_init(li);
+fn main(@builtin(global_invocation_id) id: vec3u, @builtin(local_invocation_index) lane: u32) {
+    bvh_stack_init(lane);
     let s = id.x;
     if s >= params.count {
         return;

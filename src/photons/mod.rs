@@ -42,7 +42,8 @@ pub struct PhotonSettings {
     pub paths: u32,
     /// Photons of the first neighbourhood query of a record (Algorithm 7 step 1): the
     /// nearest this many on the record's surface estimate its harmonic mean distance R;
-    /// the record's irradiance comes from the photons within `a R` (step 3).
+    /// the record's irradiance comes from the photons within `a R` (step 3), and only
+    /// where those are at least this many (elsewhere plane records fill in).
     pub gather: u32,
     /// How a record measures the area its photons cover (`--photon-area`).
     pub area: PhotonArea,
