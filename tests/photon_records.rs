@@ -17,7 +17,6 @@ use radsplat::records::photon_records::{
     PhotonReducePass, convex_hull_area, hull_correction, place, reference_record,
 };
 use radsplat::records::{CacheSettings, RecordCache, RecordSource};
-use radsplat::reference::{ReferenceOptions, ReferencePass};
 use radsplat::scene::Scene;
 use radsplat::visibility::GpuCamera;
 use radsplat::vpl::{EmitterPowers, VplPlan};
@@ -318,18 +317,7 @@ fn integrating_sphere_gets_the_closed_form_at_every_bounce_count() {
 fn photon_records_follow_the_reference_on_the_cornell_box_and_are_deterministic() {
     let scene = common::load("cornell-box.toml", Some((32, 32)));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
-    let prepared = renderer.prepare(&scene).expect("prepare");
-    let reference = ReferencePass::new(&renderer.ctx)
-        .expect("reference pass")
-        .render(
-            &renderer,
-            &prepared,
-            &scene.camera,
-            &ReferenceOptions::new(256),
-            &mut |_, _| {},
-        )
-        .expect("reference");
-    let reference = reference.indirect;
+    let reference = common::reference_indirect(&renderer, &scene, 256);
     let settings = photon_settings(1 << 15, 1);
     let frame = common::render_gi(&renderer, &scene, &settings);
     let stats = frame.stats.cache.clone().expect("cache stats");
@@ -451,18 +439,7 @@ fn slatted_room() -> Scene {
 fn probed_area_keeps_photon_records_on_slats_as_bright_as_the_reference() {
     let scene = slatted_room();
     let renderer = Renderer::new(common::gpu()).expect("renderer");
-    let prepared = renderer.prepare(&scene).expect("prepare");
-    let reference = ReferencePass::new(&renderer.ctx)
-        .expect("reference pass")
-        .render(
-            &renderer,
-            &prepared,
-            &scene.camera,
-            &ReferenceOptions::new(256),
-            &mut |_, _| {},
-        )
-        .expect("reference")
-        .indirect;
+    let reference = common::reference_indirect(&renderer, &scene, 256);
     let mut settings = photon_settings(1 << 15, 1);
     let mut ratios = Vec::new();
     for area in [PhotonArea::Probed, PhotonArea::Hull] {

@@ -13,7 +13,6 @@ use radsplat::direct::reference::DirectReference;
 use radsplat::gpu::timer::PassTimer;
 use radsplat::records::vpl_gather::{GatherTarget, VplGatherPass, reference_record};
 use radsplat::records::{CacheSettings, Record, RecordSite, RecordSource};
-use radsplat::reference::{ReferenceOptions, ReferencePass};
 use radsplat::scene::Scene;
 use radsplat::vpl::reference::trace_vpls;
 use radsplat::vpl::{EmitterPowers, Vpl, VplPass, VplPlan, VplSettings};
@@ -229,18 +228,7 @@ fn integrating_sphere_gets_the_closed_form_at_every_bounce_count() {
 fn vpl_records_follow_the_reference_on_the_cornell_box_and_are_deterministic() {
     let scene = common::load("cornell-box.toml", Some((32, 32)));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
-    let prepared = renderer.prepare(&scene).expect("prepare");
-    let reference = ReferencePass::new(&renderer.ctx)
-        .expect("reference pass")
-        .render(
-            &renderer,
-            &prepared,
-            &scene.camera,
-            &ReferenceOptions::new(256),
-            &mut |_, _| {},
-        )
-        .expect("reference");
-    let reference = reference.indirect;
+    let reference = common::reference_indirect(&renderer, &scene, 256);
     let settings = vpl_settings(1024, 1.0, 1);
     let frame = common::render_gi(&renderer, &scene, &settings);
     let indirect = frame.indirect.expect("indirect");

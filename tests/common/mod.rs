@@ -125,6 +125,22 @@ pub fn integrating_sphere() -> Scene {
     )
 }
 
+/// The indirect light of `scene`'s path-traced reference at `spp` samples per pixel.
+pub fn reference_indirect(renderer: &radsplat::Renderer, scene: &Scene, spp: u32) -> Vec<[f32; 4]> {
+    let prepared = renderer.prepare(scene).expect("prepare");
+    radsplat::reference::ReferencePass::new(&renderer.ctx)
+        .expect("reference pass")
+        .render(
+            renderer,
+            &prepared,
+            &scene.camera,
+            &radsplat::reference::ReferenceOptions::new(spp),
+            &mut |_, _| {},
+        )
+        .expect("reference")
+        .indirect
+}
+
 /// One GI frame of `scene` from a new cache with `settings`, checked for wgpu errors.
 pub fn render_gi(
     renderer: &radsplat::Renderer,
