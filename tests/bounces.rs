@@ -56,14 +56,11 @@ fn cache_settings(bounces: u32) -> CacheSettings {
     }
 }
 
+/// The indirect light of one GI frame of `scene` with `settings`.
 fn render_indirect(renderer: &Renderer, scene: &Scene, settings: &CacheSettings) -> Vec<[f32; 4]> {
-    let prepared = renderer.prepare(scene).expect("prepare");
-    let mut cache = renderer.new_cache(settings).expect("cache");
-    let frame = renderer
-        .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
-        .expect("frame");
-    renderer.ctx.check().expect("no wgpu errors");
-    frame.indirect.expect("indirect")
+    common::render_gi(renderer, scene, settings)
+        .indirect
+        .expect("indirect")
 }
 
 fn assert_uniform(what: &str, indirect: &[[f32; 4]], expected: f32, tolerance: f32) {

@@ -174,9 +174,10 @@ fn hull_of(site: PhotonSite, frame_t: mat3x3f, rho: f32) -> Hull {
         if next == 0xffffffffu {
             break;
         }
-        // Probes strictly right of this edge are outside (Rust: inside_hull).
+        // Probes strictly right of this edge are outside (Rust: inside_hull); only the
+        // probed area reads them.
         let edge = next_point - current_point;
-        for (var i = 0u; i < PROBES; i++) {
+        for (var i = 0u; i < PROBES && params.area == 1u; i++) {
             let b = probe_point(i) * rho - current_point;
             if edge.x * b.y - edge.y * b.x < 0.0 {
                 out.outside[i / 32u] |= 1u << (i % 32u);
