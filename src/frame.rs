@@ -601,11 +601,12 @@ impl Renderer {
         self.resolve.get(|| ResolvePass::new(&self.ctx))
     }
 
-    /// An empty irradiance cache with `settings`.
+    /// An empty irradiance cache with `settings` as a still frame uses them
+    /// ([`CacheSettings::resolved`]).
     pub fn new_cache(&self, settings: &CacheSettings) -> Result<IrradianceCache> {
         Ok(IrradianceCache {
             records: RecordCache::new(&self.ctx)?,
-            pass: RecordPass::new(&self.ctx, settings)?,
+            pass: RecordPass::new(&self.ctx, &settings.resolved(false))?,
             radiance: None,
         })
     }

@@ -355,9 +355,11 @@ struct CacheArgs {
     /// record's own plane noise shows more. Lower a only together with a larger
     /// --plane-resolution: on the Cornell box 128x128 a = 0.1 gave 1.9 % indirect error with
     /// 16x16 planes, 1.0 % with 32x32 and 0.87 % with 48x48 (a = 0.2: 2.1 %, 1.7 % with the
-    /// default 24x24, 1.4 % with 32x32); a = 0.3-0.5 gets by with 16x16.
-    #[arg(short, long, default_value_t = CacheSettings::default().accuracy, value_parser = parse_accuracy)]
-    accuracy: f32,
+    /// default 24x24, 1.4 % with 32x32, split-sphere records); a = 0.3-0.5 gets by with
+    /// 16x16. Default: 0.25 (with --record-radius hessian), 0.2 for `animate` and for
+    /// `--records vpl|photons` (their records are sized by the split sphere).
+    #[arg(short, long, value_parser = parse_accuracy)]
+    accuracy: Option<f32>,
     /// Hemisphere plane resolution P (P x P rays per record, plus --plane-refine's): the
     /// noise of each record's irradiance. Goes with -a: fewer plane rays need a larger a
     /// (fewer, wider records average the plane noise over more pixels), see -a.
@@ -460,6 +462,16 @@ struct CacheArgs {
     /// Do not compute or use irradiance gradients.
     #[arg(long)]
     no_gradients: bool,
+    /// What a record's R measures: `split-sphere` (Ward's harmonic mean distance) or
+    /// `hessian` (second-order error control from the irradiance's Hessian, scaled by
+    /// --hessian-scale).
+    /// `animate` and `--records vpl|photons` keep split-sphere records at -a 0.2 when
+    /// neither this nor -a is given.
+    #[arg(long, value_enum, default_value = "hessian")]
+    record_radius: RecordRadiusArg,
+    /// With --record-radius hessian: R = scale sqrt(E / lambda).
+    #[arg(long, default_value_t = CacheSettings::HESSIAN_SCALE)]
+    hessian_scale: f32,
     /// Turn neighbour clamping off (Krivanek et al. 2006, on by default: a new record's R is
     /// at most R_j + |p - p_j| over the records placed before it; quadratic in the record
     /// count).
@@ -598,10 +610,25 @@ fn parse_record_budget(s: &str) -> std::result::Result<u32, String> {
     }
 }
 
+/// `--record-radius` (records::RecordRadius without its scale).
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum RecordRadiusArg {
+    SplitSphere,
+    Hessian,
+}
+
 impl CacheArgs {
-    fn settings(&self) -> CacheSettings {
+    /// The cache settings of these flags for a still frame or an animation (`animated`:
+    /// the default accuracy differs).
+    fn settings(&self, animated: bool) -> CacheSettings {
         CacheSettings {
-            accuracy: self.accuracy,
+            accuracy: self.accuracy.unwrap_or(
+                if animated || self.record_source != radsplat::records::RecordSource::Planes {
+                    CacheSettings::ANIMATION_ACCURACY
+                } else {
+                    CacheSettings::default().accuracy
+                },
+            ),
             plane_resolution: self.plane_resolution,
             plane_fov_degrees: self.plane_fov,
             plane_spacing: self.plane_spacing,
@@ -609,6 +636,12 @@ impl CacheArgs {
             r_min_pixels: self.r_min_pixels,
             r_min_scene: self.r_min_scene,
             r_max_factor: self.r_max_factor,
+            record_radius: match self.record_radius {
+                RecordRadiusArg::SplitSphere => radsplat::records::RecordRadius::SplitSphere,
+                RecordRadiusArg::Hessian => radsplat::records::RecordRadius::Hessian {
+                    scale: self.hessian_scale,
+                },
+            },
             record_budget: self.record_budget,
             gradients: !self.no_gradients,
             neighbour_clamp: !self.no_neighbour_clamp,
@@ -694,7 +727,7 @@ fn main() -> ExitCode {
             size,
             light_samples,
             stats,
-            cache: (!direct_only).then(|| cache.settings()),
+            cache: (!direct_only).then(|| cache.settings(false)),
             record_map,
             quiet,
         }),
@@ -724,7 +757,7 @@ fn main() -> ExitCode {
             output,
             size,
             light_samples,
-            cache: cache.settings(),
+            cache: cache.settings(true),
             temporal_accuracy,
             max_lifespan,
             max_new_records,
@@ -772,7 +805,7 @@ fn main() -> ExitCode {
             frame,
             (records, &sites),
             size,
-            &cache.settings(),
+            &cache.settings(true),
             (&record_anchor, estimate_stride),
             json.as_deref(),
         ),

@@ -24,6 +24,8 @@ use radsplat::vpl::{EmitterPowers, VplPlan};
 fn photon_settings(paths: u32, bounces: u32) -> CacheSettings {
     let mut s = CacheSettings {
         source: RecordSource::Photons,
+        // What `radsplat render --records photons` runs with.
+        accuracy: CacheSettings::ANIMATION_ACCURACY,
         photons: PhotonSettings {
             paths,
             ..PhotonSettings::default()

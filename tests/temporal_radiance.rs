@@ -70,7 +70,10 @@ fn kept_radiance_records_reproduce_the_static_render() {
     let scene = glossy_cube_in_box(40, 32);
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let prepared = renderer.prepare(&scene).expect("prepare");
-    let mut cache = renderer.new_cache(&settings()).expect("cache");
+    // The still frame with the records an animation makes (CacheSettings::for_animation).
+    let mut cache = renderer
+        .new_cache(&settings().for_animation())
+        .expect("cache");
     let still = renderer
         .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
         .expect("static frame");

@@ -21,6 +21,8 @@ fn vpl_settings(paths: u32, clamp: f32, bounces: u32) -> CacheSettings {
     let mut s = CacheSettings {
         source: RecordSource::Vpl,
         vpl: VplSettings { paths, clamp },
+        // What `radsplat render --records vpl` runs with.
+        accuracy: CacheSettings::ANIMATION_ACCURACY,
         ..CacheSettings::default()
     };
     s.bounce.bounces = bounces;

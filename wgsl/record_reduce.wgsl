@@ -3,9 +3,14 @@
 // gradients straight from the plane (algorithms.md 3.3), then clamps R (decision 5, and
 // optionally by its neighbours).
 //!include shared/records.wgsl
+//!include shared/record_hessian.wgsl
 //!include shared/sampling.wgsl
 
 const THREADS: u32 = 128u;
+
+// 1: records::RecordRadius::Hessian (R from the irradiance's curvature); 0: the split
+// sphere. A pipeline constant, so each pipeline carries only its rule's code.
+override RECORD_RADIUS_HESSIAN: bool = false;
 
 struct ReduceParams {
     resolution: u32,
@@ -15,7 +20,7 @@ struct ReduceParams {
     r_max_factor: f32,      // R_max = r_max_factor * R_min (Ward: 64)
     cos_weight_sum: f32,    // sum of the plane's cosine weights (pi when stretched)
     neighbour_clamp: u32,   // 1: R <= R_j + |p - p_j| over the records before this batch
-    _pad1: u32,
+    hessian_scale: f32,     // > 0: R = hessian_scale sqrt(E / lambda) (records::RecordRadius)
 }
 
 @group(1) @binding(0) var<uniform> params: ReduceParams;
@@ -31,6 +36,7 @@ struct Partial {
     rotation_y: vec3f,
     translation_x: vec3f,
     translation_y: vec3f,
+    hessian: vec3f,         // luminance Hessian (xx, xy, yy), record_hessian.wgsl
 }
 
 var<workgroup> partials: array<Partial, THREADS>;
@@ -44,6 +50,7 @@ fn add(a: Partial, b: Partial) -> Partial {
         a.rotation_y + b.rotation_y,
         a.translation_x + b.translation_x,
         a.translation_y + b.translation_y,
+        a.hessian + b.hessian,
     );
 }
 
@@ -53,9 +60,13 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     let res = params.resolution;
     let count = res * res;
     let base = record * count;
-    var acc = Partial(vec3f(0.0), 0.0, vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0));
+    var acc = Partial(vec3f(0.0), 0.0, vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0));
     if record < params.count {
+        let far = HESSIAN_MISS_DISTANCE * sites[record].r_min * params.r_max_factor;
         for (var k = lane; k < count; k += THREADS) {
+            if RECORD_RADIUS_HESSIAN {
+                acc.hessian += hessian_edges_at(base, k, res, far);
+            }
             let s = samples[base + k];
             let px = plane[k];
             let w = px.weights;
@@ -129,7 +140,16 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     let r_max = site.r_min * params.r_max_factor;
     // Harmonic mean distance, cosine-weighted (misses add 0 to the sum of 1/r).
     var radius = r_max;
-    if sum.inv_distance > 0.0 {
+    if RECORD_RADIUS_HESSIAN {
+        // Second-order error control (records::RecordRadius::Hessian): the relative
+        // curvature lambda / E of the irradiance sets R, so that the error left after the
+        // gradients, lambda d^2 / 2E, is (a hessian_scale)^2 / 2 at d = a R.
+        let lum = dot(sum.irradiance, LUMINANCE) * INV_PI;
+        let lambda = largest_eigenvalue(sum.hessian);
+        if lum > 0.0 && lambda > 0.0 {
+            radius = clamp(params.hessian_scale * sqrt(lum / lambda), site.r_min, r_max);
+        }
+    } else if sum.inv_distance > 0.0 {
         radius = clamp(params.cos_weight_sum / sum.inv_distance, site.r_min, r_max);
     }
     radius = max(min(radius, neighbour_bounds[0]), site.r_min);

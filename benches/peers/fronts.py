@@ -47,7 +47,8 @@ from compare_peers import (  # noqa: E402  (shared pieces of the single-setting 
 
 # Settings per scene (the scene file's stem). Every list gets its side's defaults point
 # added in front ("defaults": no cache flags); labels name the points in tables, files, plot.
-# radsplat's defaults are CacheSettings::default() (-a 0.2, 24 x 24 planes); rpict's are -aa 0.2 -ad 512 -as 128
+# radsplat's defaults are CacheSettings::default() (-a 0.25, Hessian record radii, 24 x 24 planes;
+# "split-sphere-a0.2" is the previous defaults); rpict's are -aa 0.2 -ad 512 -as 128
 # -ar 64 (`rpict -defaults`). "spp": reference bounce samples per pixel; "dj": rpict's
 # source jitter (0: fixed points on each source, as for a sun); "light_samples": radsplat's
 # light samples (None: the scene file's); "ref_light_samples": the references' light samples
@@ -60,6 +61,7 @@ SETTINGS = {
         "spp": 4096, "dj": 0.7, "light_samples": None, "ref_light_samples": 2,
         "size": "128x128",
         "radsplat": [
+            ("split-sphere-a0.2", ["--record-radius", "split-sphere", "-a", "0.2"]),
             ("a0.3-P16", ["-a", "0.3", "--plane-resolution", "16"]),
             ("a0.2-P32", ["-a", "0.2", "--plane-resolution", "32"]),
             ("a0.15-P32", ["-a", "0.15", "--plane-resolution", "32"]),
@@ -80,6 +82,7 @@ SETTINGS = {
         "spp": 128, "dj": 0.0, "light_samples": None, "ref_light_samples": None,
         "size": "1000x1000",
         "radsplat": [
+            ("split-sphere-a0.2", ["--record-radius", "split-sphere", "-a", "0.2"]),
             ("a0.7-P12", ["-a", "0.7", "--plane-resolution", "12"]),
             ("a0.5-P16", ["-a", "0.5", "--plane-resolution", "16"]),
             ("a0.3-P16", ["-a", "0.3", "--plane-resolution", "16"]),
@@ -99,6 +102,7 @@ SETTINGS = {
         "spp": 8192, "dj": 0.7, "light_samples": None, "ref_light_samples": 1,
         "size": "160x120",
         "radsplat": [
+            ("split-sphere-a0.2", ["--record-radius", "split-sphere", "-a", "0.2"]),
             ("a0.5-P16", ["-a", "0.5", "--plane-resolution", "16"]),
             ("a0.3-P24", ["-a", "0.3", "--plane-resolution", "24"]),
             ("a0.15-P24", ["-a", "0.15", "--plane-resolution", "24"]),
@@ -233,6 +237,10 @@ def main():
                          "at the same size) as reference A")
     ap.add_argument("--reference2", type=Path, default=None,
                     help="reuse this EXR as reference B (another seed than A's)")
+    ap.add_argument("--reference2-spp", type=int, default=None,
+                    help="B's samples per pixel when they differ from A's (--spp): A's noise "
+                         "is then RMSE(A, B) / sqrt(1 + spp_A / spp_B), since B's variance "
+                         "is spp_A / spp_B times A's")
     ap.add_argument("--downsample", type=int, default=4,
                     help="compare after an N x N box filter (default 4)")
     ap.add_argument("--dj", type=float, default=None, help="rpict -dj (default: the table's)")
@@ -348,7 +356,8 @@ def main():
     ref_a, ref_b = Path(refs[0]["image"]), Path(refs[1]["image"])
     c = compare_indirect(radsplat, ref_b, ref_a, out, env, args.downsample)
     ref_pair = c["indirect"]["relative_rmse"]
-    noise = ref_pair / math.sqrt(2)
+    # Variances add: RMSE(A, B)^2 = n_A^2 (1 + spp_A / spp_B).
+    noise = ref_pair / math.sqrt(1.0 + spp / (args.reference2_spp or spp))
     print(f"reference noise: A vs B indirect relative RMSE {100 * ref_pair:.3f} % -> one "
           f"reference {100 * noise:.3f} % ({spp} spp, seeds {args.seeds}, "
           f"{args.downsample}x{args.downsample} box filter)", file=sys.stderr)
@@ -427,7 +436,7 @@ def main():
     say(f"{args.scene} at {w}x{h}; error = indirect relative RMSE after a "
         f"{args.downsample}x{args.downsample} box filter, against reference A "
         f"({spp} spp, seed {refs[0]['seed']})")
-    say(f"reference noise (A vs B / sqrt 2): {100 * noise:.3f} %  "
+    say(f"reference noise (A vs B / sqrt(1 + spp_A / spp_B)): {100 * noise:.3f} %  "
         f"(A vs B: {100 * ref_pair:.3f} %)")
     for name, pts, front in [("radsplat", rad_pts, rad_front), ("rpict", rp_pts, rp_front)]:
         say()

@@ -34,6 +34,17 @@ pub struct ComputePass {
 impl ComputePass {
     /// Compiles `wgsl/<name>` (entry point `main`) with the given group-1 bindings.
     pub fn new(ctx: &GpuContext, name: &'static str, bindings: &[Binding]) -> Result<Self> {
+        Self::with_constants(ctx, name, bindings, &[])
+    }
+
+    /// [`Self::new`] with values for the shader's pipeline-overridable constants
+    /// (`override` in WGSL): the driver compiles the branches they turn off away.
+    pub fn with_constants(
+        ctx: &GpuContext,
+        name: &'static str,
+        bindings: &[Binding],
+        constants: &[(&str, f64)],
+    ) -> Result<Self> {
         let device = &ctx.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = shader::module(device, name)?;
@@ -74,7 +85,10 @@ impl ComputePass {
             layout: Some(&layout),
             module: &module,
             entry_point: Some("main"),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                ..Default::default()
+            },
             cache: ctx.pipeline_cache.as_ref().map(|c| &c.cache),
         });
         if let Some(e) = pollster::block_on(scope.pop()) {

@@ -77,6 +77,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/shared/records.wgsl"),
     ),
     (
+        "shared/record_hessian.wgsl",
+        include_str!("../../wgsl/shared/record_hessian.wgsl"),
+    ),
+    (
         "record_sites.wgsl",
         include_str!("../../wgsl/record_sites.wgsl"),
     ),

@@ -5,6 +5,7 @@
 //! ([`RecordCache`]). [`reference`](mod@reference) and [`vpl_gather::reference_record`]
 //! mirror the computations on the CPU.
 
+pub mod hessian;
 pub mod kind;
 pub mod photon_records;
 pub mod plane;
@@ -183,6 +184,8 @@ pub struct CacheSettings {
     pub r_min_scene: f32,
     /// R_max / R_min (Ward: 64).
     pub r_max_factor: f32,
+    /// What R (the distance that `accuracy` scales into a record's validity) measures.
+    pub record_radius: RecordRadius,
     /// Neighbour clamping on insertion (Krivanek et al. 2006): a new record's R is at most
     /// R_j + |p - p_j| over the records placed before its batch. On by default (Cornell
     /// box 128x128: indirect error 2.03 % -> 1.72 % for 12 % more records; Sponza sun
@@ -224,6 +227,36 @@ pub struct CacheSettings {
     pub photons: crate::photons::PhotonSettings,
 }
 
+/// What a record's R measures: the distance over which its irradiance may be extrapolated,
+/// which `accuracy` scales into its validity radius `a R`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub enum RecordRadius {
+    /// Ward's split sphere: the cosine-weighted harmonic mean distance of the plane's hits
+    /// (algorithms.md 1.3). Near geometry shrinks a record whether or not the light changes
+    /// there.
+    SplitSphere,
+    /// Second-order error control (Schwarzhaupt et al. 2012, Radiance 5's `ambcomp.c`):
+    /// `R = scale sqrt(E / lambda)`, lambda the largest absolute eigenvalue of the
+    /// tangent-plane Hessian of the irradiance's luminance read from the plane
+    /// ([`hessian`]), so the relative error left after the gradients, `lambda d^2 / 2 E`,
+    /// is `(a scale)^2 / 2` at the validity radius `d = a R`. Records grow where the light is
+    /// smooth and shrink at bright occlusion boundaries, whatever the geometry's distance.
+    Hessian {
+        /// `scale` above.
+        scale: f32,
+    },
+}
+
+impl RecordRadius {
+    /// The scale the GPU reduction reads (0: split sphere).
+    pub fn hessian_scale(self) -> f32 {
+        match self {
+            RecordRadius::SplitSphere => 0.0,
+            RecordRadius::Hessian { scale } => scale,
+        }
+    }
+}
+
 /// How hemisphere-plane hits are shadowed (thesis section 4.4 uses shadow maps).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
 pub enum PlaneShadows {
@@ -243,7 +276,7 @@ pub enum PlaneShadows {
 impl Default for CacheSettings {
     fn default() -> Self {
         Self {
-            accuracy: 0.2,
+            accuracy: 0.25,
             plane_resolution: 24,
             plane_fov_degrees: Self::PLANE_FOV_REFINED,
             plane_mode: PlaneMode::Stretched,
@@ -252,6 +285,9 @@ impl Default for CacheSettings {
             r_min_pixels: 3.0,
             r_min_scene: 1.0 / 32.0,
             r_max_factor: 64.0,
+            record_radius: RecordRadius::Hessian {
+                scale: Self::HESSIAN_SCALE,
+            },
             neighbour_clamp: true,
             record_budget: 200_000,
             gradients: true,
@@ -293,6 +329,38 @@ impl CacheSettings {
     pub const PLANE_FOV_REFINED: f32 = 170.0;
     /// The best field of view of plain (unrefined) stretched planes (thesis Table 4.1).
     pub const PLANE_FOV_PLAIN: f32 = 130.0;
+
+    /// The default [`RecordRadius::Hessian`] scale, chosen with the default accuracy 0.25
+    /// on the peer harness's scenes (docs/results.md, "Records sized by the irradiance's
+    /// Hessian"): Cornell box 128x128 indirect error 1.72 % (split sphere, a 0.2) -> 1.34 %
+    /// for 3 % more records; Sponza sun 1000x1000 9.71 % -> 10.19 % for 28 % fewer.
+    pub const HESSIAN_SCALE: f32 = 0.8;
+
+    /// The CLI's default accuracy for animations and for VPL and photon records (the
+    /// static default, 0.25, is chosen with Hessian-sized plane records).
+    pub const ANIMATION_ACCURACY: f32 = 0.2;
+
+    /// These settings as a frame uses them: animations (`animated`) and the VPL and photon
+    /// record sources size their records by Ward's split sphere, the sizing they were
+    /// measured with and their tests hold (temporal caching and its per-frame baseline,
+    /// instant caching, photon records and their plane fallback: docs/results.md); Hessian
+    /// sizing is measured on plane records of still frames only. The CLI also gives them
+    /// their measured accuracy, [`Self::ANIMATION_ACCURACY`], when `-a` is not given.
+    pub fn resolved(&self, animated: bool) -> CacheSettings {
+        if animated || self.source != RecordSource::Planes {
+            CacheSettings {
+                record_radius: RecordRadius::SplitSphere,
+                ..self.clone()
+            }
+        } else {
+            self.clone()
+        }
+    }
+
+    /// [`Self::resolved`] for an animation.
+    pub fn for_animation(&self) -> CacheSettings {
+        self.resolved(true)
+    }
 
     /// Pixels refined per record: `round(plane_refine * P^2)` (0: refinement off).
     pub fn refined_pixels(&self) -> u32 {
@@ -403,6 +471,16 @@ impl CacheSettings {
                 "r_min_pixels",
                 "--r-min-pixels",
                 self.r_min_pixels.to_string(),
+                "must be a positive number",
+            );
+        }
+        if let RecordRadius::Hessian { scale } = self.record_radius
+            && !(scale > 0.0 && scale.is_finite())
+        {
+            return bad(
+                "record_radius",
+                "--hessian-scale",
+                scale.to_string(),
                 "must be a positive number",
             );
         }
@@ -737,7 +815,7 @@ struct ReduceParams {
     r_max_factor: f32,
     cos_weight_sum: f32,
     neighbour_clamp: u32,
-    _pad: u32,
+    hessian_scale: f32,
 }
 
 /// Planes traced and refined by [`RecordPass::trace_planes_refined`].
@@ -861,7 +939,9 @@ impl RecordPass {
                     StorageRead,
                 ],
             )?,
-            reduce: ComputePass::new(
+            // The Hessian's mesh sum only in the pipeline that uses it (lavapipe ran the
+            // split-sphere reduction slower with the unused branch compiled in).
+            reduce: ComputePass::with_constants(
                 ctx,
                 "record_reduce.wgsl",
                 &[
@@ -871,6 +951,13 @@ impl RecordPass {
                     StorageRead,
                     StorageReadWrite,
                 ],
+                &[(
+                    "RECORD_RADIUS_HESSIAN",
+                    f64::from(u8::from(matches!(
+                        settings.record_radius,
+                        RecordRadius::Hessian { .. }
+                    ))),
+                )],
             )?,
             table: PlaneTable::new(ctx, settings.plane_resolution, settings)?,
             refine: if planes {
@@ -1235,7 +1322,7 @@ impl RecordPass {
                 r_max_factor: self.settings.r_max_factor,
                 cos_weight_sum: table.cos_weight_sum,
                 neighbour_clamp: u32::from(self.settings.neighbour_clamp),
-                _pad: 0,
+                hessian_scale: self.settings.record_radius.hessian_scale(),
             },
         );
         let bind = self.reduce.bind(

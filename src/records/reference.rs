@@ -176,10 +176,27 @@ pub fn reduce_plane(
     }
     let r_min = f64::from(site.r_min);
     let r_max = r_min * f64::from(settings.r_max_factor);
-    let mut radius = if inv_distance > 0.0 {
-        (weight_sum / inv_distance).clamp(r_min, r_max)
-    } else {
-        r_max
+    let mut radius = match settings.record_radius {
+        super::RecordRadius::SplitSphere if inv_distance > 0.0 => {
+            (weight_sum / inv_distance).clamp(r_min, r_max)
+        }
+        super::RecordRadius::SplitSphere => r_max,
+        super::RecordRadius::Hessian { scale } => {
+            let far = super::hessian::MISS_DISTANCE * r_max;
+            let h = super::hessian::plane_hessian(plane, samples, far);
+            let lambda = super::hessian::largest_eigenvalue(h);
+            let lum = super::hessian::LUMINANCE
+                .iter()
+                .zip(e.to_array())
+                .map(|(w, c)| w * c)
+                .sum::<f64>()
+                / std::f64::consts::PI;
+            if lum > 0.0 && lambda > 0.0 {
+                (f64::from(scale) * (lum / lambda).sqrt()).clamp(r_min, r_max)
+            } else {
+                r_max
+            }
+        }
     };
     let frame = record_frame(site.normal.into(), site.seed).as_dmat3();
     let mut rot = [DVec3::ZERO; 3];

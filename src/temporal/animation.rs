@@ -118,6 +118,11 @@ pub fn render_animation(
     if first > last {
         return Err(Error::Usage(format!("empty frame range {first}..{last}")));
     }
+    // Animations keep the record sizing they were measured with (CacheSettings::resolved).
+    let options = &AnimationOptions {
+        cache: options.cache.for_animation(),
+        ..options.clone()
+    };
     if options.temporal.is_some() && options.cache.source == RecordSource::Photons {
         return Err(Error::Usage(
             "records from photons (--records photons) do not work with temporal caching \

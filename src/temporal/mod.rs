@@ -557,7 +557,8 @@ impl TemporalCache {
     /// hits into an even grid of cells), records are not neighbour-clamped, and so the
     /// refined planes' default field of
     /// view ([`CacheSettings::PLANE_FOV_REFINED`]) becomes the plain planes' best
-    /// ([`CacheSettings::PLANE_FOV_PLAIN`], thesis Table 4.1).
+    /// ([`CacheSettings::PLANE_FOV_PLAIN`], thesis Table 4.1); the static defaults' record
+    /// sizing becomes the animation's ([`CacheSettings::for_animation`]).
     pub fn record_settings(cache: &CacheSettings) -> CacheSettings {
         let refined_default_fov =
             cache.plane_refine > 0.0 && cache.plane_fov_degrees == CacheSettings::PLANE_FOV_REFINED;
@@ -574,7 +575,7 @@ impl TemporalCache {
             } else {
                 cache.plane_fov_degrees
             },
-            ..cache.clone()
+            ..cache.for_animation()
         }
     }
 
