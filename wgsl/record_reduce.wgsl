@@ -20,7 +20,7 @@ struct ReduceParams {
     r_max_factor: f32,      // R_max = r_max_factor * R_min (Ward: 64)
     cos_weight_sum: f32,    // sum of the plane's cosine weights (pi when stretched)
     neighbour_clamp: u32,   // 1: R <= R_j + |p - p_j| over the records before this batch
-    hessian_scale: f32,     // > 0: R = hessian_scale sqrt(E / lambda) (records::RecordRadius)
+    hessian_scale: f32,     // with RECORD_RADIUS_HESSIAN: R = hessian_scale sqrt(E / lambda)
 }
 
 @group(1) @binding(0) var<uniform> params: ReduceParams;

@@ -45,7 +45,6 @@ pub fn animate(mut args: AnimateArgs) -> Result<()> {
     use crate::output::{frame_path, lifespan_map};
     use crate::temporal::animation::{AnimationOptions, AnimationStep, render_animation};
     args.cache.validate()?;
-    args.cache = args.cache.for_animation();
     match (args.max_new_records, args.temporal.as_mut()) {
         (Some(0), _) => {
             return Err(Error::Usage(

@@ -22,7 +22,6 @@ pub fn temporal_error(
 ) -> Result<()> {
     use crate::temporal::estimate_error::{RecordSites, estimate_error_table};
     settings.validate()?;
-    let settings = &settings.for_animation();
     let mut outputs = OutputSet::new();
     outputs.plan_opt(json)?;
     // Statistics over no records would print a table of 0.00 % errors.

@@ -99,37 +99,40 @@ pub fn sample_point(plane: &HemispherePlane, samples: &[PlaneSample], k: usize, 
 /// Luminance weights of the radiance channels (Rec. 709, as Radiance's `bright`).
 pub const LUMINANCE: [f64; 3] = [0.2126, 0.7152, 0.0722];
 
+/// The luminance of the mesh triangle with vertices `ks` (plane sample indices): its
+/// farthest vertex's, the first of equals in the given order (the background of an
+/// occlusion edge; misses are farthest).
+pub fn triangle_luminance(
+    plane: &HemispherePlane,
+    samples: &[PlaneSample],
+    far: f64,
+    ks: [usize; 3],
+) -> f64 {
+    let distance = |k: usize| {
+        if samples[k].depth > 0.0 {
+            sample_point(plane, samples, k, far).length()
+        } else {
+            f64::INFINITY
+        }
+    };
+    let mut best = ks[0];
+    for &k in &ks[1..] {
+        if distance(k) > distance(best) {
+            best = k;
+        }
+    }
+    let l = samples[best].radiance;
+    LUMINANCE[0] * f64::from(l[0]) + LUMINANCE[1] * f64::from(l[1]) + LUMINANCE[2] * f64::from(l[2])
+}
+
 /// The tangent-plane Hessian `(xx, xy, yy)` of the irradiance's luminance over `pi` (the
 /// mesh's `sum L_T F_T`) at a record whose traced plane is `samples`; `far` is where misses
 /// go.
 pub fn plane_hessian(plane: &HemispherePlane, samples: &[PlaneSample], far: f64) -> [f64; 3] {
     let res = plane.resolution as usize;
     let point = |k: usize| sample_point(plane, samples, k, far);
-    let value = |k: usize| {
-        let l = samples[k].radiance;
-        LUMINANCE[0] * f64::from(l[0])
-            + LUMINANCE[1] * f64::from(l[1])
-            + LUMINANCE[2] * f64::from(l[2])
-    };
-    let distance = |k: usize| {
-        let d = f64::from(samples[k].depth);
-        if d > 0.0 {
-            point(k).length()
-        } else {
-            f64::INFINITY
-        }
-    };
-    // The radiance of triangle 1 (a, b, c) or 2 (d, c, b) of the quad at (i, j): its
-    // farthest vertex's (the first of equals in that order).
-    let farthest = |ks: [usize; 3]| {
-        let mut best = ks[0];
-        for &k in &ks[1..] {
-            if distance(k) > distance(best) {
-                best = k;
-            }
-        }
-        value(best)
-    };
+    // Triangle 1 (a, b, c) or 2 (d, c, b) of the quad at (i, j).
+    let farthest = |ks: [usize; 3]| triangle_luminance(plane, samples, far, ks);
     let at = |i: usize, j: usize| j * res + i;
     let t1 = |i: usize, j: usize| farthest([at(i, j), at(i + 1, j), at(i, j + 1)]);
     let t2 = |i: usize, j: usize| farthest([at(i + 1, j + 1), at(i, j + 1), at(i + 1, j)]);
@@ -242,23 +245,7 @@ mod tests {
         let far = 1.0e3;
         let h = plane_hessian(&plane, &samples, far);
         let point = |k: usize| sample_point(&plane, &samples, k, far);
-        let value = |k: usize| f64::from(samples[k].radiance[1]);
-        let dist = |k: usize| {
-            if samples[k].depth > 0.0 {
-                point(k).length()
-            } else {
-                f64::INFINITY
-            }
-        };
-        let farthest = |ks: [usize; 3]| {
-            let mut best = ks[0];
-            for &k in &ks[1..] {
-                if dist(k) > dist(best) {
-                    best = k;
-                }
-            }
-            value(best)
-        };
+        let farthest = |ks: [usize; 3]| triangle_luminance(&plane, &samples, far, ks);
         let irradiance = |x: DVec3| {
             let mut e = 0.0;
             let at = |i: usize, j: usize| j * res + i;

@@ -254,6 +254,8 @@ pub fn estimate_error_table(
     placement: RecordSites,
 ) -> Result<EstimateErrorTable> {
     let ctx = &renderer.ctx;
+    // The records an animation would make (CacheSettings::for_animation).
+    let settings = &settings.for_animation();
     let prepared = renderer.prepare(at_t)?;
     let prepared_next = renderer.prepare(next)?;
     let mut cache = renderer.new_cache(settings)?;
