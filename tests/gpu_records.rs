@@ -458,3 +458,110 @@ fn gpu_refined_planes_and_records_match_the_cpu_reference() {
         );
     }
 }
+
+/// Neighbour clamping past `neighbour_grid::MIN_RECORDS` earlier records searches a grid
+/// ring by ring instead of every record: the new records' R must still be exactly
+/// `max(min(R, min_j R_j + |p - p_j|), R_min)` over all earlier records (the full loop, on
+/// the CPU), including earlier records outside the scene's bounds (the grid's border cells)
+/// and with the clamp binding for most records (so a missed neighbour would show).
+#[test]
+fn neighbour_grid_clamp_matches_the_full_loop() {
+    let settings = CacheSettings {
+        plane_refine: 0.0,
+        gradients: false,
+        record_radius: RecordRadius::SplitSphere,
+        accuracy: 0.2,
+        // R_min below the bounds, so that the bound itself is what a record keeps.
+        r_min_pixels: 0.05,
+        r_min_scene: 0.0,
+        ..CacheSettings::default()
+    };
+    assert!(settings.neighbour_clamp);
+    let scene = common::load("cornell-box.toml", Some((32, 32)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let sites = sites(&scene, &renderer, &settings, 12);
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    let reference = RecordReference::new(&scene, &settings);
+
+    // Earlier records: most spread over the sites' bounds grown by half their size (some
+    // outside the scene), the rest close to the sites; small radii, so they bind.
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for s in &sites {
+        lo = lo.min(Vec3::from(s.position));
+        hi = hi.max(Vec3::from(s.position));
+    }
+    let size = (hi - lo).length();
+    let (lo, hi) = (lo - Vec3::splat(0.5 * size), hi + Vec3::splat(0.5 * size));
+    let mut state = 0x2545_f491_u32;
+    let mut unit = move || {
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (state >> 8) as f32 / (1u32 << 24) as f32
+    };
+    let earlier_count = radsplat::records::neighbour_grid::MIN_RECORDS as usize + 1000;
+    let earlier: Vec<Record> = (0..earlier_count)
+        .map(|k| {
+            let position = if k % 5 == 0 {
+                let s = Vec3::from(sites[k % sites.len()].position);
+                s + (Vec3::new(unit(), unit(), unit()) - 0.5) * 0.1 * size
+            } else {
+                lo + (hi - lo) * Vec3::new(unit(), unit(), unit())
+            };
+            Record {
+                position: position.into(),
+                radius: size * (0.002 + 0.03 * unit()),
+                normal: [0.0, 1.0, 0.0],
+                r_min: size * 0.002,
+                ..Default::default()
+            }
+        })
+        .collect();
+    let mut cache = RecordCache::new(&renderer.ctx).expect("cache");
+    cache.upload(&renderer.ctx, &earlier).expect("upload");
+    let gpu_samples = pass
+        .trace_planes(&renderer.ctx, &prepared.gpu, &sites)
+        .expect("planes");
+    let site_buf = renderer.ctx.storage_buffer("sites", &sites).expect("sites");
+    pass.compute(
+        &renderer.ctx,
+        &prepared.gpu,
+        &site_buf,
+        sites.len() as u32,
+        &mut cache,
+        None,
+        None,
+        |_| {},
+    )
+    .expect("records");
+    let records = cache.read(&renderer.ctx).expect("read");
+    renderer.ctx.check().expect("no wgpu errors");
+    assert_eq!(records.len(), earlier_count + sites.len());
+    let per = (settings.plane_resolution * settings.plane_resolution) as usize;
+    let mut clamped = 0;
+    for (i, site) in sites.iter().enumerate() {
+        let unclamped = reduce_plane(
+            &reference.plane,
+            &settings,
+            site,
+            &gpu_samples[i * per..(i + 1) * per],
+        )
+        .radius;
+        let p = Vec3::from(site.position);
+        let bound = earlier
+            .iter()
+            .map(|q| q.radius + (q.position() - p).length())
+            .fold(f32::MAX, f32::min);
+        let expected = unclamped.min(bound).max(site.r_min);
+        clamped += usize::from(bound < unclamped && bound > site.r_min);
+        let gpu = records[earlier_count + i].radius;
+        assert!(
+            (gpu - expected).abs() <= 1e-4 * expected,
+            "R {i}: GPU {gpu}, expected {expected} (unclamped {unclamped}, bound {bound})"
+        );
+    }
+    assert!(
+        clamped * 2 >= sites.len(),
+        "only {clamped} of {} records clamped: the test does not exercise the search",
+        sites.len()
+    );
+}

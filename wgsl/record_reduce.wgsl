@@ -5,6 +5,7 @@
 //!include shared/records.wgsl
 //!include shared/record_hessian.wgsl
 //!include shared/sampling.wgsl
+//!include shared/neighbour_grid.wgsl
 
 const THREADS: u32 = 128u;
 
@@ -28,6 +29,9 @@ struct ReduceParams {
 @group(1) @binding(2) var<storage, read> plane: array<PlanePixel>;
 @group(1) @binding(3) var<storage, read> samples: array<PlaneSample>;
 @group(1) @binding(4) var<storage, read_write> records: array<Record>;
+@group(1) @binding(5) var<uniform> grid: NeighbourGrid;
+@group(1) @binding(6) var<storage, read> grid_offsets: array<u32>;   // cells + 1
+@group(1) @binding(7) var<storage, read> grid_records: array<u32>;
 
 struct Partial {
     irradiance: vec3f,
@@ -41,6 +45,7 @@ struct Partial {
 
 var<workgroup> partials: array<Partial, THREADS>;
 var<workgroup> neighbour_bounds: array<f32, THREADS>;
+var<workgroup> shared_radius: f32;
 
 fn add(a: Partial, b: Partial) -> Partial {
     return Partial(
@@ -52,6 +57,83 @@ fn add(a: Partial, b: Partial) -> Partial {
         a.translation_y + b.translation_y,
         a.hessian + b.hessian,
     );
+}
+
+// R in [R_min, R_max] from the reduced plane, before neighbour clamping.
+fn unclamped_radius(sum: Partial, site: RecordSite) -> f32 {
+    let r_max = site.r_min * params.r_max_factor;
+    // Harmonic mean distance, cosine-weighted (misses add 0 to the sum of 1/r).
+    var radius = r_max;
+    if RECORD_RADIUS_HESSIAN {
+        // Second-order error control (records::RecordRadius::Hessian): the relative
+        // curvature lambda / E of the irradiance sets R, so that the error left after the
+        // gradients, lambda d^2 / 2E, is (a hessian_scale)^2 / 2 at d = a R.
+        let lum = dot(sum.irradiance, LUMINANCE) * INV_PI;
+        let lambda = largest_eigenvalue(sum.hessian);
+        if lum > 0.0 && lambda > 0.0 {
+            radius = clamp(params.hessian_scale * sqrt(lum / lambda), site.r_min, r_max);
+        }
+    } else if sum.inv_distance > 0.0 {
+        radius = clamp(params.cos_weight_sum / sum.inv_distance, site.r_min, r_max);
+    }
+    return radius;
+}
+
+// The minimum of `v` over the workgroup's lanes (every lane gets it).
+fn workgroup_min(lane: u32, v: f32) -> f32 {
+    neighbour_bounds[lane] = v;
+    workgroupBarrier();
+    for (var stride = THREADS / 2u; stride > 0u; stride /= 2u) {
+        if lane < stride {
+            neighbour_bounds[lane] = min(neighbour_bounds[lane], neighbour_bounds[lane + stride]);
+        }
+        workgroupBarrier();
+    }
+    let m = workgroupUniformLoad(&neighbour_bounds[0]);
+    // Nobody writes the array again before every lane has read it.
+    workgroupBarrier();
+    return m;
+}
+
+// min over earlier records j of R_j + |p - p_j|, searched in the grid ring by ring
+// (Chebyshev distance k from p's cell), stopping once the rings left (all at least k
+// cells away, so at least k cell_size from p) cannot beat what was found or `limit`
+// (the record's R before clamping: bounds above it change nothing). Exact where it
+// matters: it returns the brute-force minimum whenever that is below `limit`, else a
+// value at least `limit`. The 1e-3 cell margin covers the rounding of positions into
+// cells.
+fn grid_neighbour_bound(p: vec3f, limit: f32, lane: u32) -> f32 {
+    let h = grid.cell_size;
+    let c = vec3i(neighbour_grid_cell(grid, p));
+    let top = vec3i(grid.dims) - vec3i(1);
+    let reach = max(max(max(c.x, top.x - c.x), max(c.y, top.y - c.y)), max(c.z, top.z - c.z));
+    var best = 1.0e30;
+    var k = 0;
+    loop {
+        let lo = max(c - vec3i(k), vec3i(0));
+        let hi = min(c + vec3i(k), top);
+        let size = vec3u(hi - lo + vec3i(1));
+        let total = size.x * size.y * size.z;
+        for (var t = lane; t < total; t += THREADS) {
+            let o = lo + vec3i(vec3u(t % size.x, (t / size.x) % size.y, t / (size.x * size.y)));
+            let d = abs(o - c);
+            if max(d.x, max(d.y, d.z)) != k {
+                continue;     // an inner ring's cell, already searched
+            }
+            let cell = neighbour_grid_index(grid, vec3u(o));
+            let end = grid_offsets[cell + 1u];
+            for (var i = grid_offsets[cell]; i < end; i++) {
+                let j = grid_records[i];
+                best = min(best, records[j].radius + length(records[j].position - p));
+            }
+        }
+        let found = workgroup_min(lane, best);
+        if k >= reach || (f32(k) - 1.0e-3) * h >= min(found, limit) {
+            break;
+        }
+        k += 1;
+    }
+    return best;
 }
 
 @compute @workgroup_size(128)
@@ -105,27 +187,30 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         }
         workgroupBarrier();
     }
+    // R before its neighbours bound it (lane 0; the grid search below stops by it).
+    if lane == 0u && record < params.count {
+        shared_radius = unclamped_radius(partials[0], sites[record]);
+    }
+    let unclamped = workgroupUniformLoad(&shared_radius);
     // Neighbour clamping on insertion (Krivanek et al. 2006, algorithms.md 1.8): R_new <=
     // R_j + |p_new - p_j| for every record j placed before this batch, the triangle
     // inequality of the distance to the nearest surface, so a record cannot claim a wider
     // validity than its neighbours' distances allow (records are never shrunk after they
-    // are placed, so coverage stays exact). Each lane takes a strided subset; the minimum
-    // does not depend on the order.
+    // are placed, so coverage stays exact). The minimum does not depend on the order in
+    // which records are visited, so both searches give the same bytes.
     var bound = 1.0e30;
     if params.neighbour_clamp != 0u && record < params.count {
         let p = sites[record].position;
-        for (var j = lane; j < params.first_record; j += THREADS) {
-            bound = min(bound, records[j].radius + length(records[j].position - p));
+        if grid.enabled != 0u {
+            bound = grid_neighbour_bound(p, unclamped, lane);
+        } else {
+            // Every earlier record, each lane a strided subset.
+            for (var j = lane; j < params.first_record; j += THREADS) {
+                bound = min(bound, records[j].radius + length(records[j].position - p));
+            }
         }
     }
-    neighbour_bounds[lane] = bound;
-    workgroupBarrier();
-    for (var stride = THREADS / 2u; stride > 0u; stride /= 2u) {
-        if lane < stride {
-            neighbour_bounds[lane] = min(neighbour_bounds[lane], neighbour_bounds[lane + stride]);
-        }
-        workgroupBarrier();
-    }
+    bound = workgroup_min(lane, bound);
     if lane != 0u || record >= params.count {
         return;
     }
@@ -137,22 +222,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     out.r_min = site.r_min;
     out.irradiance = sum.irradiance;
     out.instance = site.instance;
-    let r_max = site.r_min * params.r_max_factor;
-    // Harmonic mean distance, cosine-weighted (misses add 0 to the sum of 1/r).
-    var radius = r_max;
-    if RECORD_RADIUS_HESSIAN {
-        // Second-order error control (records::RecordRadius::Hessian): the relative
-        // curvature lambda / E of the irradiance sets R, so that the error left after the
-        // gradients, lambda d^2 / 2E, is (a hessian_scale)^2 / 2 at d = a R.
-        let lum = dot(sum.irradiance, LUMINANCE) * INV_PI;
-        let lambda = largest_eigenvalue(sum.hessian);
-        if lum > 0.0 && lambda > 0.0 {
-            radius = clamp(params.hessian_scale * sqrt(lum / lambda), site.r_min, r_max);
-        }
-    } else if sum.inv_distance > 0.0 {
-        radius = clamp(params.cos_weight_sum / sum.inv_distance, site.r_min, r_max);
-    }
-    radius = max(min(radius, neighbour_bounds[0]), site.r_min);
+    var radius = max(min(unclamped, bound), site.r_min);
     let frame = record_frame(site);
     let e = sum.irradiance;
     var rot = array<vec3f, 3>(vec3f(0.0), vec3f(0.0), vec3f(0.0));

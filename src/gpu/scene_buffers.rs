@@ -272,6 +272,8 @@ pub struct GpuScene {
     pub bytes: u64,
     /// Length of the diagonal of the scene's world bounds (`SceneBvh::world_bounds`).
     pub diagonal: f32,
+    /// The scene's world bounds (min, max corners).
+    pub bounds: ([f32; 3], [f32; 3]),
     /// Whether any material has a glossy lobe (passes for glossy pixels run only then).
     pub has_glossy: bool,
     /// Each material's glossy lobe (index: material), for the tables radiance records
@@ -462,6 +464,10 @@ impl GpuScene {
             diagonal: {
                 let (lo, hi) = bvh.world_bounds();
                 (hi - lo).length()
+            },
+            bounds: {
+                let (lo, hi) = bvh.world_bounds();
+                (lo.to_array(), hi.to_array())
             },
             has_glossy: scene.materials.iter().any(|m| m.glossy.is_some()),
             glossy_lobes: scene.materials.iter().map(|m| m.glossy).collect(),

@@ -206,6 +206,22 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/splat_bin_count.wgsl"),
     ),
     (
+        "shared/neighbour_grid.wgsl",
+        include_str!("../../wgsl/shared/neighbour_grid.wgsl"),
+    ),
+    (
+        "neighbour_grid_count.wgsl",
+        include_str!("../../wgsl/neighbour_grid_count.wgsl"),
+    ),
+    (
+        "neighbour_grid_scan.wgsl",
+        include_str!("../../wgsl/neighbour_grid_scan.wgsl"),
+    ),
+    (
+        "neighbour_grid_scatter.wgsl",
+        include_str!("../../wgsl/neighbour_grid_scatter.wgsl"),
+    ),
+    (
         "splat_bin_scan.wgsl",
         include_str!("../../wgsl/splat_bin_scan.wgsl"),
     ),

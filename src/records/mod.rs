@@ -7,6 +7,7 @@
 
 pub mod hessian;
 pub mod kind;
+pub mod neighbour_grid;
 pub mod photon_records;
 pub mod plane;
 pub mod plane_error;
@@ -189,9 +190,9 @@ pub struct CacheSettings {
     /// Neighbour clamping on insertion (Krivanek et al. 2006): a new record's R is at most
     /// R_j + |p - p_j| over the records placed before its batch. On by default (Cornell
     /// box 128x128: indirect error 2.03 % -> 1.72 % for 12 % more records; Sponza sun
-    /// 1000x1000: 9.3 % -> 8.3 % for 55 % more). Costs new x old record pairs per round,
-    /// quadratic in the record count, which the world-space R_min bound caps per scene
-    /// (Sponza: about 1 s of a 20 s frame).
+    /// 1000x1000: 9.3 % -> 8.3 % for 55 % more). Past a few thousand earlier records the
+    /// bound is searched in a grid ([`neighbour_grid`]), the same bytes as a loop over
+    /// every earlier record, whose cost grew with the square of the record count.
     pub neighbour_clamp: bool,
     /// Most records the cache may hold.
     pub record_budget: u32,
@@ -869,6 +870,8 @@ pub struct RecordPass {
     sites: ComputePass,
     plane: ComputePass,
     reduce: ComputePass,
+    /// The grid over earlier records that neighbour clamping searches.
+    neighbour_grid: neighbour_grid::NeighbourGridPass,
     /// The plane table for `settings`.
     table: PlaneTable,
     /// Adaptive plane refinement, when `settings.plane_refine` selects any pixel.
@@ -950,6 +953,9 @@ impl RecordPass {
                     StorageRead,
                     StorageRead,
                     StorageReadWrite,
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
                 ],
                 &[(
                     "RECORD_RADIUS_HESSIAN",
@@ -959,6 +965,7 @@ impl RecordPass {
                     ))),
                 )],
             )?,
+            neighbour_grid: neighbour_grid::NeighbourGridPass::new(ctx)?,
             table: PlaneTable::new(ctx, settings.plane_resolution, settings)?,
             refine: if planes {
                 refine::RefinePass::new(ctx, settings)?
@@ -1202,7 +1209,7 @@ impl RecordPass {
                 &samples,
                 &cache.buffer,
                 &mut timer,
-            );
+            )?;
             if let Some(st) = stage.as_deref_mut() {
                 st.reduced(ctx, &mut enc, scene, self, &batch, &mut timer)?;
             }
@@ -1311,7 +1318,19 @@ impl RecordPass {
         samples: &wgpu::Buffer,
         records: &wgpu::Buffer,
         timer: &mut crate::gpu::timer::PassTimer,
-    ) {
+    ) -> Result<()> {
+        let grid = if self.settings.neighbour_clamp {
+            self.neighbour_grid.record(
+                ctx,
+                enc,
+                scene,
+                records,
+                batch.first_record,
+                timer.next("neighbour grid"),
+            )?
+        } else {
+            neighbour_grid::NeighbourGridPass::disabled(ctx)?
+        };
         let params = ctx.uniform_buffer(
             "reduce params",
             &ReduceParams {
@@ -1327,7 +1346,16 @@ impl RecordPass {
         );
         let bind = self.reduce.bind(
             ctx,
-            &[&params, batch.sites, &table.pixels, samples, records],
+            &[
+                &params,
+                batch.sites,
+                &table.pixels,
+                samples,
+                records,
+                &grid.params,
+                &grid.offsets,
+                &grid.records,
+            ],
         );
         self.reduce.record(
             enc,
@@ -1336,6 +1364,7 @@ impl RecordPass {
             [batch.count, 1, 1],
             timer.next("record reduction"),
         );
+        Ok(())
     }
 
     /// Traces the planes of `sites` and refines them as the settings say: the traced

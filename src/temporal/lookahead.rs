@@ -142,7 +142,7 @@ impl RecordStage for Lookahead<'_> {
             estimate,
             &self.next.buffer,
             timer,
-        );
+        )?;
         // Radiance records: the estimated plane projected onto HSH too, into the blocks at
         // t+1 (stride 1 only: the projection's basis is the record plane's).
         if self.next.kind.coefficient_floats() > 0 {
@@ -173,7 +173,7 @@ impl RecordStage for Lookahead<'_> {
                 subset,
                 &self.subset.buffer,
                 timer,
-            );
+            )?;
         }
         Ok(())
     }
