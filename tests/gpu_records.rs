@@ -33,6 +33,31 @@ fn sites(
         .collect()
 }
 
+/// Computes records for `sites` with `pass`, appended to `cache`; returns all of `cache`.
+fn compute_records(
+    renderer: &Renderer,
+    prepared: &radsplat::PreparedScene,
+    pass: &RecordPass,
+    sites: &[RecordSite],
+    cache: &mut RecordCache,
+) -> Vec<Record> {
+    let site_buf = renderer.ctx.storage_buffer("sites", sites).expect("sites");
+    pass.compute(
+        &renderer.ctx,
+        &prepared.gpu,
+        &site_buf,
+        sites.len() as u32,
+        cache,
+        None,
+        None,
+        |_| {},
+    )
+    .expect("records");
+    let records = cache.read(&renderer.ctx).expect("read");
+    renderer.ctx.check().expect("no wgpu errors");
+    records
+}
+
 fn rgb(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
 }
@@ -126,20 +151,7 @@ fn planes_and_records_match_the_cpu_reference(settings: &CacheSettings) -> Vec<R
 
     // Reduction: the GPU's records against the CPU reduction of the GPU's own samples.
     let mut cache = RecordCache::new(&renderer.ctx).expect("cache");
-    let site_buf = renderer.ctx.storage_buffer("sites", &sites).expect("sites");
-    pass.compute(
-        &renderer.ctx,
-        &prepared.gpu,
-        &site_buf,
-        sites.len() as u32,
-        &mut cache,
-        None,
-        None,
-        |_| {},
-    )
-    .expect("records");
-    let records = cache.read(&renderer.ctx).expect("read");
-    renderer.ctx.check().expect("no wgpu errors");
+    let records = compute_records(&renderer, &prepared, &pass, &sites, &mut cache);
     assert_eq!(records.len(), sites.len());
     for (i, (site, gpu)) in sites.iter().zip(&records).enumerate() {
         let cpu = reduce_plane(
@@ -334,19 +346,7 @@ fn refinement_off_gives_todays_records() {
     let prepared = renderer.prepare(&scene).expect("prepare");
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let mut cache = RecordCache::new(&renderer.ctx).expect("cache");
-    let site_buf = renderer.ctx.storage_buffer("sites", &sites).expect("sites");
-    pass.compute(
-        &renderer.ctx,
-        &prepared.gpu,
-        &site_buf,
-        sites.len() as u32,
-        &mut cache,
-        None,
-        None,
-        |_| {},
-    )
-    .expect("records");
-    let records = cache.read(&renderer.ctx).expect("read");
+    let records = compute_records(&renderer, &prepared, &pass, &sites, &mut cache);
     let hash = radsplat::output::sha256_hex(bytemuck::cast_slice(&records));
     common::assert_golden(
         &renderer.ctx,
@@ -424,21 +424,10 @@ fn gpu_refined_planes_and_records_match_the_cpu_reference() {
     let mut runs = Vec::new();
     for _ in 0..2 {
         let mut cache = RecordCache::new(&renderer.ctx).expect("cache");
-        let site_buf = renderer.ctx.storage_buffer("sites", &sites).expect("sites");
-        pass.compute(
-            &renderer.ctx,
-            &prepared.gpu,
-            &site_buf,
-            sites.len() as u32,
-            &mut cache,
-            None,
-            None,
-            |_| {},
-        )
-        .expect("records");
-        runs.push(cache.read(&renderer.ctx).expect("read"));
+        runs.push(compute_records(
+            &renderer, &prepared, &pass, &sites, &mut cache,
+        ));
     }
-    renderer.ctx.check().expect("no wgpu errors");
     assert!(runs[0] == runs[1], "refined records differ between runs");
     for (i, (site, rec)) in sites.iter().zip(&runs[0]).enumerate() {
         let cpu = reduce_plane(
@@ -521,20 +510,7 @@ fn neighbour_grid_clamp_matches_the_full_loop() {
     let gpu_samples = pass
         .trace_planes(&renderer.ctx, &prepared.gpu, &sites)
         .expect("planes");
-    let site_buf = renderer.ctx.storage_buffer("sites", &sites).expect("sites");
-    pass.compute(
-        &renderer.ctx,
-        &prepared.gpu,
-        &site_buf,
-        sites.len() as u32,
-        &mut cache,
-        None,
-        None,
-        |_| {},
-    )
-    .expect("records");
-    let records = cache.read(&renderer.ctx).expect("read");
-    renderer.ctx.check().expect("no wgpu errors");
+    let records = compute_records(&renderer, &prepared, &pass, &sites, &mut cache);
     assert_eq!(records.len(), earlier_count + sites.len());
     let per = (settings.plane_resolution * settings.plane_resolution) as usize;
     let mut clamped = 0;

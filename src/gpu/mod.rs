@@ -4,6 +4,7 @@
 mod buffers;
 pub mod context;
 pub mod pipeline;
+pub mod prefix_sum;
 pub mod scene_buffers;
 pub mod shader;
 pub mod timer;

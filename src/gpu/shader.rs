@@ -214,16 +214,12 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/neighbour_grid_count.wgsl"),
     ),
     (
-        "neighbour_grid_scan.wgsl",
-        include_str!("../../wgsl/neighbour_grid_scan.wgsl"),
+        "prefix_sum.wgsl",
+        include_str!("../../wgsl/prefix_sum.wgsl"),
     ),
     (
         "neighbour_grid_scatter.wgsl",
         include_str!("../../wgsl/neighbour_grid_scatter.wgsl"),
-    ),
-    (
-        "splat_bin_scan.wgsl",
-        include_str!("../../wgsl/splat_bin_scan.wgsl"),
     ),
     (
         "splat_bin_scatter.wgsl",

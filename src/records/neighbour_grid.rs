@@ -2,15 +2,16 @@
 //! (Krivanek et al. 2006, algorithms.md 1.8; `record_reduce.wgsl`) searches instead of
 //! every earlier record: the bound `min_j R_j + |p - p_j|` was a loop over all of them for
 //! each new record, quadratic in the record count (Sponza sun 1000x1000 at the defaults:
-//! 2.9 s of a 5.0 s reduction, 14,500 records; 32,000 records at a 0.15: about 12 s).
+//! about 2 s of a 5.0 s reduction, 14,500 records; 32,000 records at a 0.15: about 8 s of
+//! 15.4 s).
 //!
 //! The grid is rebuilt for each batch on the GPU: count the records per cell, scan, scatter
-//! (`neighbour_grid_{count,scan,scatter}.wgsl`). The reduction then visits the cells ring
-//! by ring around the new record and stops once no farther cell can hold a smaller bound
-//! (or one below the record's own R, which is all the clamp needs). The search is exact
-//! where it matters, and a minimum does not depend on the order it visits records in, so
-//! the records are byte for byte those of the full loop (tests/gpu_cache.rs compares both
-//! with the CPU reference's full loop).
+//! (`neighbour_grid_count.wgsl`, `prefix_sum.wgsl`, `neighbour_grid_scatter.wgsl`). The
+//! reduction then visits the cells ring by ring around the new record and stops once no
+//! farther cell can hold a smaller bound (or one below the record's own R, which is all the
+//! clamp needs). The search is exact where it matters, and a minimum does not depend on the
+//! order it visits records in, so the records are byte for byte those of the full loop
+//! (tests/gpu_records.rs compares them with the CPU's full loop).
 
 use crate::Result;
 use crate::gpu::GpuContext;
@@ -74,7 +75,7 @@ impl GridParams {
 /// The grid's passes (one set per record pass).
 pub struct NeighbourGridPass {
     count: ComputePass,
-    scan: ComputePass,
+    scan: crate::gpu::prefix_sum::PrefixSumPass,
     scatter: ComputePass,
 }
 
@@ -102,11 +103,7 @@ impl NeighbourGridPass {
                 "neighbour_grid_count.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite],
             )?,
-            scan: ComputePass::new(
-                ctx,
-                "neighbour_grid_scan.wgsl",
-                &[Uniform, StorageReadWrite, StorageReadWrite],
-            )?,
+            scan: crate::gpu::prefix_sum::PrefixSumPass::new(ctx)?,
             scatter: ComputePass::new(
                 ctx,
                 "neighbour_grid_scatter.wgsl",
@@ -155,9 +152,17 @@ impl NeighbourGridPass {
             dispatch(count),
             spanning(timestamps.as_ref(), true, false),
         );
-        let bind = self.scan.bind(ctx, &[&params, &counts, &offsets]);
-        self.scan
-            .record(enc, &scene.bind_group, &bind, [1, 1, 1], None);
+        self.scan.record(
+            ctx,
+            enc,
+            &scene.bind_group,
+            &counts,
+            &offsets,
+            grid.cells(),
+            None,
+        );
+        // Each cell's write cursor starts at its offset.
+        enc.copy_buffer_to_buffer(&offsets, 0, &counts, 0, cells * 4);
         let bind = self
             .scatter
             .bind(ctx, &[&params, records, &counts, &by_cell]);

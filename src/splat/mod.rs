@@ -160,7 +160,7 @@ pub struct SplatStats {
     pub tile_entries: u32,
 }
 
-/// The splat passes (`splat_bin_count`, `splat_bin_scan`, `splat_bin_scatter`,
+/// The splat passes (`splat_bin_count`, `prefix_sum` over the tiles, `splat_bin_scatter`,
 /// `splat_bin_sort`, `splat_gather`, and placement's `splat_cover`).
 /// What a splat, a cover or a binning reads: the frame's visible surfaces and their per-tile
 /// bounds, and records `first..records.count` with the accuracy they splat at.
@@ -181,7 +181,7 @@ pub struct SplatSource<'a> {
 
 pub struct SplatPass {
     count: ComputePass,
-    scan: ComputePass,
+    scan: crate::gpu::prefix_sum::PrefixSumPass,
     scatter: ComputePass,
     sort: ComputePass,
     gather: ComputePass,
@@ -217,11 +217,7 @@ impl SplatPass {
                     StorageRead,
                 ],
             )?,
-            scan: ComputePass::new(
-                ctx,
-                "splat_bin_scan.wgsl",
-                &[Uniform, StorageRead, StorageReadWrite],
-            )?,
+            scan: crate::gpu::prefix_sum::PrefixSumPass::new(ctx)?,
             scatter: ComputePass::new(
                 ctx,
                 "splat_bin_scatter.wgsl",
@@ -400,12 +396,13 @@ impl SplatPass {
                 timer.next("splat: bin count"),
             );
         }
-        let bind = self.scan.bind(ctx, &[&params, &tile_counts, &tile_offsets]);
         self.scan.record(
+            ctx,
             &mut enc,
             &scene.bind_group,
-            &bind,
-            [1, 1, 1],
+            &tile_counts,
+            &tile_offsets,
+            tiles,
             timer.next("splat: bin scan"),
         );
         timer.resolve(&mut enc);

@@ -1,6 +1,6 @@
 // The uniform grid over earlier records that neighbour clamping searches (record_reduce.wgsl;
-// built by neighbour_grid_{count,scan,scatter}.wgsl; Rust: records::neighbour_grid). Cells
-// are cubes of side `cell_size` from `origin`; a position outside the grid belongs to the
+// built by neighbour_grid_count.wgsl, prefix_sum.wgsl and neighbour_grid_scatter.wgsl;
+// Rust: records::neighbour_grid). Cells are cubes of side `cell_size` from `origin`; a position outside the grid belongs to the
 // border cell it is clamped to (border cells extend outwards), so a record in a cell k
 // cells away (Chebyshev) from a point's cell is at least (k - 1) cell_size away from it.
 
