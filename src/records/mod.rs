@@ -1122,7 +1122,7 @@ impl RecordPass {
                 first_site: done,
                 count: n,
             };
-            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 12);
+            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 16);
             if let Some(vpl) = &self.vpl {
                 // Records from VPLs: one gather writes them (RecordSource::Vpl).
                 vpl.record(
