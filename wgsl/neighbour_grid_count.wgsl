@@ -2,15 +2,15 @@
 // exact, in any order).
 //!include shared/records.wgsl
 //!include shared/neighbour_grid.wgsl
+//!include shared/linear_dispatch.wgsl
 
 @group(1) @binding(0) var<uniform> grid: NeighbourGrid;
 @group(1) @binding(1) var<storage, read> records: array<Record>;
 @group(1) @binding(2) var<storage, read_write> cell_counts: array<atomic<u32>>;
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3u) {
-    // Rows of 65,535 workgroups (records::neighbour_grid::dispatch).
-    let j = id.x + id.y * 4194240u;
+@compute @workgroup_size(256)
+fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
+    let j = flat_index(id, groups);
     if j >= grid.records {
         return;
     }

@@ -210,3 +210,15 @@ impl ComputePass {
 pub fn image_groups(width: u32, height: u32) -> [u32; 3] {
     [width.div_ceil(8), height.div_ceil(8), 1]
 }
+
+/// Workgroups for `n` invocations of 256, split over y past the per-dimension limit
+/// (`flat_index`, wgsl/shared/linear_dispatch.wgsl).
+pub fn linear_groups(ctx: &GpuContext, n: u32) -> [u32; 3] {
+    let groups = n.div_ceil(256).max(1);
+    let max = ctx.device.limits().max_compute_workgroups_per_dimension;
+    if groups <= max {
+        [groups, 1, 1]
+    } else {
+        [max, groups.div_ceil(max), 1]
+    }
+}

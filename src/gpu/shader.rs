@@ -206,6 +206,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/splat_bin_count.wgsl"),
     ),
     (
+        "shared/linear_dispatch.wgsl",
+        include_str!("../../wgsl/shared/linear_dispatch.wgsl"),
+    ),
+    (
         "shared/neighbour_grid.wgsl",
         include_str!("../../wgsl/shared/neighbour_grid.wgsl"),
     ),

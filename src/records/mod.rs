@@ -1319,7 +1319,7 @@ impl RecordPass {
         records: &wgpu::Buffer,
         timer: &mut crate::gpu::timer::PassTimer,
     ) -> Result<()> {
-        let grid = if self.settings.neighbour_clamp {
+        let built = if self.settings.neighbour_clamp {
             self.neighbour_grid.record(
                 ctx,
                 enc,
@@ -1329,8 +1329,9 @@ impl RecordPass {
                 timer.next("neighbour grid"),
             )?
         } else {
-            neighbour_grid::NeighbourGridPass::disabled(ctx)?
+            None
         };
+        let grid = built.as_ref().unwrap_or(&self.neighbour_grid.disabled);
         let params = ctx.uniform_buffer(
             "reduce params",
             &ReduceParams {

@@ -77,6 +77,8 @@ pub struct NeighbourGridPass {
     count: ComputePass,
     scan: crate::gpu::prefix_sum::PrefixSumPass,
     scatter: ComputePass,
+    /// What a reduction binds when it searches no grid (made once).
+    pub(crate) disabled: NeighbourGrid,
 }
 
 /// What the reduction binds for its neighbour search: the grid's parameters, its cell
@@ -85,13 +87,6 @@ pub struct NeighbourGrid {
     pub params: wgpu::Buffer,
     pub offsets: wgpu::Buffer,
     pub records: wgpu::Buffer,
-}
-
-/// Workgroups of 64 for `n` invocations, in rows of at most 65,535 (the shaders' index is
-/// `x + y * 65,535 * 64`).
-fn dispatch(n: u32) -> [u32; 3] {
-    let groups = n.div_ceil(64).max(1);
-    [groups.min(65_535), groups.div_ceil(65_535), 1]
 }
 
 impl NeighbourGridPass {
@@ -109,20 +104,17 @@ impl NeighbourGridPass {
                 "neighbour_grid_scatter.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite, StorageReadWrite],
             )?,
+            // A grid the reduction does not search (it loops over every earlier record).
+            disabled: NeighbourGrid {
+                params: ctx.uniform_buffer("neighbour grid", &GridParams::zeroed()),
+                offsets: ctx.storage_buffer_sized("neighbour grid offsets", 16)?,
+                records: ctx.storage_buffer_sized("neighbour grid records", 16)?,
+            },
         })
     }
 
-    /// A grid the reduction does not search (it loops over every earlier record).
-    pub fn disabled(ctx: &GpuContext) -> Result<NeighbourGrid> {
-        Ok(NeighbourGrid {
-            params: ctx.uniform_buffer("neighbour grid", &GridParams::zeroed()),
-            offsets: ctx.storage_buffer_sized("neighbour grid offsets", 16)?,
-            records: ctx.storage_buffer_sized("neighbour grid records", 16)?,
-        })
-    }
-
-    /// Records the building of the grid over `records[..count]` into `enc`, or a disabled
-    /// grid below [`MIN_RECORDS`].
+    /// Records the building of the grid over `records[..count]` into `enc`; None below
+    /// [`MIN_RECORDS`] (then bind [`Self::disabled`]).
     pub fn record(
         &self,
         ctx: &GpuContext,
@@ -131,9 +123,9 @@ impl NeighbourGridPass {
         records: &wgpu::Buffer,
         count: u32,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) -> Result<NeighbourGrid> {
+    ) -> Result<Option<NeighbourGrid>> {
         if count < MIN_RECORDS {
-            return Self::disabled(ctx);
+            return Ok(None);
         }
         let (lo, hi) = scene.bounds;
         let grid = GridParams::over(lo, hi, count);
@@ -149,7 +141,7 @@ impl NeighbourGridPass {
             enc,
             &scene.bind_group,
             &bind,
-            dispatch(count),
+            crate::gpu::pipeline::linear_groups(ctx, count),
             spanning(timestamps.as_ref(), true, false),
         );
         self.scan.record(
@@ -170,14 +162,14 @@ impl NeighbourGridPass {
             enc,
             &scene.bind_group,
             &bind,
-            dispatch(count),
+            crate::gpu::pipeline::linear_groups(ctx, count),
             spanning(timestamps.as_ref(), false, true),
         );
-        Ok(NeighbourGrid {
+        Ok(Some(NeighbourGrid {
             params,
             offsets,
             records: by_cell,
-        })
+        }))
     }
 }
 

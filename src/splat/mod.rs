@@ -189,18 +189,6 @@ pub struct SplatPass {
     bounds: ComputePass,
 }
 
-/// Workgroups for `n` invocations of 256, split over y past the per-dimension limit
-/// (`flat_index` in WGSL).
-fn linear_groups(ctx: &GpuContext, n: u32) -> [u32; 3] {
-    let groups = n.div_ceil(256).max(1);
-    let max = ctx.device.limits().max_compute_workgroups_per_dimension;
-    if groups <= max {
-        [groups, 1, 1]
-    } else {
-        [max, groups.div_ceil(max), 1]
-    }
-}
-
 impl SplatPass {
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         use Binding::*;
@@ -392,7 +380,7 @@ impl SplatPass {
                 &mut enc,
                 &scene.bind_group,
                 &bind,
-                linear_groups(ctx, records),
+                crate::gpu::pipeline::linear_groups(ctx, records),
                 timer.next("splat: bin count"),
             );
         }
@@ -447,7 +435,7 @@ impl SplatPass {
                 &mut enc,
                 &scene.bind_group,
                 &bind,
-                linear_groups(ctx, records),
+                crate::gpu::pipeline::linear_groups(ctx, records),
                 timer.next("splat: bin scatter"),
             );
             if sorted {
@@ -458,7 +446,7 @@ impl SplatPass {
                     &mut enc,
                     &scene.bind_group,
                     &bind,
-                    linear_groups(ctx, total),
+                    crate::gpu::pipeline::linear_groups(ctx, total),
                     timer.next("splat: bin sort"),
                 );
             }

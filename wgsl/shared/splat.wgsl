@@ -3,6 +3,7 @@
 // bound on screen, in 16 x 16-pixel tiles, is where it is splatted.
 //!include shared/ray.wgsl
 //!include shared/camera.wgsl
+//!include shared/linear_dispatch.wgsl
 
 const TILE_SIZE: u32 = 8u;
 const NO_TILES: vec4u = vec4u(1u, 1u, 0u, 0u);   // empty: min > max
@@ -21,11 +22,6 @@ struct SplatParams {
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
-}
-
-// Index of a 1-D invocation in a dispatch that may be split over y (groups of 256).
-fn flat_index(id: vec3u, groups: vec3u) -> u32 {
-    return id.y * groups.x * 256u + id.x;
 }
 
 // Screen-space tile rectangle (inclusive min.xy, max.zw) covered by a sphere, from the
