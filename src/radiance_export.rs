@@ -1,9 +1,7 @@
 //! Export of a loaded scene to Radiance (Ward 1994), for comparisons with `rpict`
 //! (`benches/peers/`). Only what both renderers model the same way is exported:
 //!
-//! - every triangle, in world space, as a `polygon`, with its vertex normals (when they are not
-//!   the face's) as a `texfunc` of Radiance's `tmesh.cal`, as `obj2rad` writes them, so that
-//!   curved surfaces are smooth on both sides ([`normal_interpolation`]); materials as `plastic` with the MTL
+//! - every triangle, in world space, as a `polygon`; materials as `plastic` with the MTL
 //!   `Kd` colour, specularity 0 and roughness 0 (a Lambertian reflector of reflectance
 //!   `Kd`); **textures are ignored**, and [`notex_scene_toml`] makes a radsplat scene
 //!   variant without them so that both sides render the same thing;
@@ -21,7 +19,7 @@
 //!   `-vh` = 2 atan(tan(vv/2) · width/height).
 
 use crate::scene::asset_path::resolve_asset;
-use crate::scene::{Light, Scene, normal_matrix};
+use crate::scene::{Light, Scene};
 use crate::{Error, Result};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -109,31 +107,14 @@ pub fn scene_rad(scene: &Scene) -> String {
             n += 1;
             continue;
         }
-        let normal_to_world = normal_matrix(inst.transform);
         for (t, tri) in mesh.indices.iter().enumerate() {
             let mi = mesh.material_ids[t] as usize;
-            let mut id = ident("m", mi, &scene.materials[mi].name);
-            let world = tri.map(|k| inst.transform.transform_point3(mesh.positions[k as usize]));
-            let normals = tri.map(|k| normal_to_world * mesh.normals[k as usize]);
-            if let Some((axis, m)) = normal_interpolation(world, normals) {
-                // The triangle's own modifier: its vertex normals, interpolated by Radiance's
-                // tmesh.cal (as obj2rad writes them), so that rpict shades the same smooth
-                // surface as radsplat. Flat polygons here made Sponza's arches and columns
-                // faceted in rpict only: its indirect error was 18-20 % at every setting,
-                // most of it along curved surfaces.
-                let tex = format!("n{n}");
-                let rows: Vec<String> = m
-                    .iter()
-                    .map(|r| format!("{} {} {}", r[0], r[1], r[2]))
-                    .collect();
-                let _ = writeln!(
-                    out,
-                    "{id} texfunc {tex} 4 dx dy dz tmesh.cal 0 10 {axis} {}",
-                    rows.join(" ")
-                );
-                id = tex;
-            }
-            let p = |k: usize| v3(world[k]);
+            let id = ident("m", mi, &scene.materials[mi].name);
+            let p = |k: usize| {
+                v3(inst
+                    .transform
+                    .transform_point3(mesh.positions[tri[k] as usize]))
+            };
             let _ = writeln!(out, "{id} polygon t{n} 0 0 9 {} {} {}", p(0), p(1), p(2));
             n += 1;
         }
@@ -203,67 +184,6 @@ pub fn scene_rad(scene: &Scene) -> String {
         let _ = writeln!(out, "sky_mat source sky 0 0 4 0 0 1 360");
     }
     out
-}
-
-/// Radiance's `tmesh.cal` normal interpolation for a triangle with world-space vertices `p`
-/// and vertex normals `n` (radsplat's interpolation: barycentric, then normalised; radsplat
-/// interpolates object-space normals and transforms the sum, the same linear map). Returns
-/// the major axis of the face normal (0 x, 1 y, 2 z) and the 3x3 matrix `M` (rows: x, y, z)
-/// with `M (bu, bv, 1) = n_i` at each vertex, `(bu, bv)` the position's two coordinates
-/// other than the major axis, in tmesh.cal's order (x: (y, z), y: (z, x), z: (x, y)).
-/// `None` when the vertex normals all equal the face normal's direction (a flat
-/// triangle), when any is unusable (radsplat then shades the face normal too) or when the
-/// projection is degenerate.
-pub fn normal_interpolation(
-    p: [glam::Vec3; 3],
-    n: [glam::Vec3; 3],
-) -> Option<(usize, [[f64; 3]; 3])> {
-    use glam::DVec3;
-    let p = p.map(|v| v.as_dvec3());
-    let n = n.map(|v| v.as_dvec3());
-    let face = (p[1] - p[0]).cross(p[2] - p[0]);
-    if face.length_squared() == 0.0 || !face.is_finite() {
-        return None;
-    }
-    let unit = face.normalize();
-    // radsplat uses the geometric normal when any vertex normal is zero (or not finite).
-    if n.iter()
-        .any(|v| !v.is_finite() || v.length_squared() == 0.0)
-    {
-        return None;
-    }
-    let flat = n.iter().all(|v| v.normalize().cross(unit).length() < 1e-6);
-    if flat {
-        return None;
-    }
-    let a = face.abs();
-    let axis = if a.x >= a.y && a.x >= a.z {
-        0
-    } else if a.y >= a.z {
-        1
-    } else {
-        2
-    };
-    let uv = |v: DVec3| match axis {
-        0 => (v.y, v.z),
-        1 => (v.z, v.x),
-        _ => (v.x, v.y),
-    };
-    // B has the vertices' (bu, bv, 1) as columns; M = N B^-1, N the normals as columns.
-    let cols = p.map(|v| {
-        let (u, w) = uv(v);
-        DVec3::new(u, w, 1.0)
-    });
-    let b = glam::DMat3::from_cols(cols[0], cols[1], cols[2]);
-    if b.determinant().abs() < 1e-300 {
-        return None;
-    }
-    let m = glam::DMat3::from_cols(n[0], n[1], n[2]) * b.inverse();
-    let rows = [m.row(0), m.row(1), m.row(2)].map(|r| [r.x, r.y, r.z]);
-    if rows.iter().flatten().any(|x| !x.is_finite()) {
-        return None;
-    }
-    Some((axis, rows))
 }
 
 fn point_light_radius(scene: &Scene) -> f32 {
@@ -372,72 +292,4 @@ pub fn notex_scene_toml(scene_path: &Path, scene: &Scene) -> Result<String> {
         "# {} without textures, written by radsplat export-rad\n{body}",
         scene_path.display()
     ))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use glam::Vec3;
-
-    /// What tmesh.cal computes at `q` from the texfunc's arguments (before normalising).
-    fn tmesh(axis: usize, m: &[[f64; 3]; 3], q: glam::DVec3) -> glam::DVec3 {
-        let (bu, bv) = match axis {
-            0 => (q.y, q.z),
-            1 => (q.z, q.x),
-            _ => (q.x, q.y),
-        };
-        let r = |k: usize| bu * m[k][0] + bv * m[k][1] + m[k][2];
-        glam::DVec3::new(r(0), r(1), r(2))
-    }
-
-    #[test]
-    fn interpolated_normals_match_radsplats_at_vertices_and_inside() {
-        // A tilted triangle (every axis's major case) with distinct vertex normals.
-        for (rot, axis) in [
-            (glam::Mat3::IDENTITY, 2),
-            (glam::Mat3::from_rotation_y(1.4), 0),
-            (glam::Mat3::from_rotation_x(-1.3), 1),
-        ] {
-            let p = [
-                Vec3::new(1.0, 2.0, 3.0),
-                Vec3::new(3.0, 2.5, 3.2),
-                Vec3::new(1.5, 4.0, 2.9),
-            ]
-            .map(|v| rot * v);
-            let n = [
-                Vec3::new(0.2, 0.0, 1.0),
-                Vec3::new(-0.3, 0.1, 1.0),
-                Vec3::new(0.0, 0.4, 0.9),
-            ]
-            .map(|v| rot * v);
-            let (got_axis, m) = normal_interpolation(p, n).expect("smooth triangle");
-            assert_eq!(got_axis, axis);
-            let bary = [
-                (1.0, 0.0, 0.0),
-                (0.0, 1.0, 0.0),
-                (0.0, 0.0, 1.0),
-                (0.2, 0.3, 0.5),
-            ];
-            for (a, b, c) in bary {
-                let q = (p[0] * a + p[1] * b + p[2] * c).as_dvec3();
-                let want = (n[0] * a + n[1] * b + n[2] * c).as_dvec3().normalize();
-                let got = tmesh(axis, &m, q).normalize();
-                assert!((got - want).length() < 1e-5, "{got} vs {want}");
-            }
-        }
-    }
-
-    #[test]
-    fn flat_or_unusable_normals_write_no_texfunc() {
-        let p = [Vec3::ZERO, Vec3::X, Vec3::Y];
-        assert!(normal_interpolation(p, [Vec3::Z, Vec3::Z * 2.0, -Vec3::Z]).is_none());
-        assert!(normal_interpolation(p, [Vec3::Z, Vec3::ZERO, Vec3::new(0.1, 0.0, 1.0)]).is_none());
-        assert!(
-            normal_interpolation(
-                [Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
-                [Vec3::Z, Vec3::X, Vec3::Y]
-            )
-            .is_none()
-        );
-    }
 }
