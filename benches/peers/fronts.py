@@ -83,6 +83,10 @@ SETTINGS = {
         "size": "1000x1000",
         "radsplat": [
             ("split-sphere-a0.2", ["--record-radius", "split-sphere", "-a", "0.2"]),
+            # The two cheapest reach rpict's range of error (18-27 %), so that the ratio at
+            # matched error can be read (stop 32).
+            ("a1.0-P12", ["-a", "1.0", "--plane-resolution", "12"]),
+            ("a1.0-P16", ["-a", "1.0", "--plane-resolution", "16"]),
             ("a0.7-P12", ["-a", "0.7", "--plane-resolution", "12"]),
             ("a0.5-P16", ["-a", "0.5", "--plane-resolution", "16"]),
             ("a0.3-P16", ["-a", "0.3", "--plane-resolution", "16"]),
