@@ -1,7 +1,8 @@
 #!/bin/sh
-# Creates benches/peers/.venv with pyradiance (Radiance binaries in a PyPI wheel) and
-# matplotlib (fronts.py's plot) and OpenEXR (error_split.py) on first use, then runs compare_peers.py with the given
-# arguments (or, as fronts.sh, fronts.py). See README.md here.
+# Creates benches/peers/.venv with pyradiance (Radiance binaries in a PyPI wheel),
+# matplotlib (fronts.py's plot) and OpenEXR (error_split.py) on first use, then runs
+# compare_peers.py with the given arguments (or, as fronts.sh, fronts.py; as
+# error_split.sh, error_split.py). See README.md here.
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 venv="$here/.venv"
