@@ -325,6 +325,8 @@ impl RadianceCache {
             source: crate::records::RecordSource::Planes,
             accuracy: r.accuracy,
             record_budget,
+            // The radiance gather has no tail tier (`radiance_gather.wgsl`): unmeasured.
+            tail_share: 0.0,
             plane_resolution: r
                 .plane_resolution_for(settings.plane_resolution, tables.sharpest_exponent()),
             ..settings.clone()
@@ -639,12 +641,15 @@ impl Renderer {
     }
 
     /// The visibility buffer of `camera` and the splat sums `(sum w E', sum w)` of every
-    /// record in `cache` (no placement, no resolve): for tests and tools.
+    /// record in `cache` (no placement, no resolve): for tests and tools. With `tail`, the
+    /// pixels no record reaches then take the records that reach them at the cache's tail
+    /// accuracy, as a frame's gather after tail fill.
     pub fn splat_cache(
         &self,
         scene: &PreparedScene,
         camera: &Camera,
         cache: &IrradianceCache,
+        tail: bool,
     ) -> Result<(Vec<VisSample>, Vec<[f32; 4]>)> {
         let ctx = &self.ctx;
         let mut times = Vec::new();
@@ -660,6 +665,13 @@ impl Renderer {
             accuracy: cache.settings().accuracy,
         };
         splat_pass.splat(ctx, src, &splat, false, &mut times)?;
+        if tail {
+            let tail = SplatSource {
+                accuracy: cache.settings().tail_accuracy(),
+                ..src
+            };
+            splat_pass.fill_empty(ctx, tail, &splat, &mut times)?;
+        }
         let sums = ctx.read_buffer(&splat.sums)?;
         let visibility = vis.read(ctx)?;
         ctx.check()?;
@@ -906,6 +918,18 @@ impl Renderer {
                 accuracy,
             };
             splat_pass.splat(ctx, all, &splat, false, &mut times)?;
+            // Tail fill: the pixels no record reaches at a take every record that reaches
+            // them at the tail's accuracy (placement made one reach each of them). Only
+            // the tail's records are sure to, but the others make a smoother mean
+            // (Cornell box 128x128: 1.46 % indirect error with the tail's alone, 1.41 %
+            // with all, for 0.5 s more binning on Sponza 1000x1000).
+            if placement.tail_from_record.is_some() {
+                let tail = SplatSource {
+                    accuracy: pass.settings.tail_accuracy(),
+                    ..all
+                };
+                splat_pass.fill_empty(ctx, tail, &splat, &mut times)?;
+            }
         }
 
         // Radiance records: their own placement over the pixels with lobes they shade, at

@@ -436,6 +436,16 @@ struct CacheArgs {
     /// Most records the cache may hold.
     #[arg(long, default_value_t = CacheSettings::default().record_budget, value_parser = parse_record_budget)]
     record_budget: u32,
+    /// Tail fill: once at most this share of the visible pixels is uncovered, placement
+    /// covers the rest at --tail-factor x a, interpolating a pixel that a record reaches
+    /// there from those records instead of placing one of its own (the last pixels are
+    /// slivers between records); 0: off. Not used by `animate`.
+    #[arg(long, default_value_t = CacheSettings::default().tail_share, value_parser = parse_fraction)]
+    tail_share: f32,
+    /// Tail fill's accuracy factor (>= 1): the tail is covered and interpolated at this
+    /// times -a.
+    #[arg(long, default_value_t = CacheSettings::default().tail_factor, value_parser = parse_tail_factor)]
+    tail_factor: f32,
     /// Lobe directions per pixel for the indirect light of glossy materials (Monte Carlo
     /// through the lobe, each hit shaded with direct light).
     #[arg(long, default_value_t = CacheSettings::default().glossy_samples, value_parser = parse_at_least_one)]
@@ -588,6 +598,15 @@ fn parse_fraction(s: &str) -> std::result::Result<f32, String> {
     }
 }
 
+fn parse_tail_factor(s: &str) -> std::result::Result<f32, String> {
+    let x: f32 = parse_number(s)?;
+    if (1.0..=16.0).contains(&x) {
+        Ok(x)
+    } else {
+        Err("must be a number in [1, 16]".into())
+    }
+}
+
 fn parse_refine_split(s: &str) -> std::result::Result<u32, String> {
     let n: u32 = parse_number(s)?;
     if (1..=8).contains(&n) {
@@ -643,6 +662,8 @@ impl CacheArgs {
                 },
             },
             record_budget: self.record_budget,
+            tail_share: self.tail_share,
+            tail_factor: self.tail_factor,
             gradients: !self.no_gradients,
             neighbour_clamp: !self.no_neighbour_clamp,
             plane_shadows: self.plane_shadows,

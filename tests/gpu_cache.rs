@@ -8,7 +8,7 @@ use radsplat::output::{exr_out, sha256_hex};
 use radsplat::placement::sequential::sequential_placement;
 use radsplat::records::{CacheSettings, Record, RecordRadius};
 use radsplat::scene::Scene;
-use radsplat::splat::reference::{record_coverage, splat_records};
+use radsplat::splat::reference::{record_coverage, splat_records, splat_records_with_tail};
 use radsplat::visibility::GpuCamera;
 use radsplat::{Frame, IrradianceCache, Renderer};
 
@@ -30,30 +30,47 @@ fn render(renderer: &Renderer, scene: &Scene, cache: &mut IrradianceCache) -> Fr
     frame
 }
 
-/// A 48 x 40 Cornell box rendered with a fresh cache: the renderer, the scene, the cache
-/// and its records read back.
-fn cornell_cache() -> (Renderer, Scene, IrradianceCache, Vec<Record>) {
+/// A 48 x 40 Cornell box rendered with a fresh cache of `settings`: the renderer, the
+/// scene, the cache, its records read back and where its tail fill began.
+fn cornell_cache(
+    settings: &CacheSettings,
+) -> (Renderer, Scene, IrradianceCache, Vec<Record>, Option<u32>) {
     let scene = common::load("cornell-box.toml", Some((48, 40)));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
-    let mut cache = renderer.new_cache(&settings()).expect("cache");
-    render(&renderer, &scene, &mut cache);
+    let mut cache = renderer.new_cache(settings).expect("cache");
+    let frame = render(&renderer, &scene, &mut cache);
+    let tail_from = frame.stats.cache.and_then(|c| c.placement.tail_from_record);
     let records = cache.read(&renderer.ctx).expect("records");
-    (renderer, scene, cache, records)
+    (renderer, scene, cache, records, tail_from)
 }
 
 #[test]
 fn gpu_splat_matches_cpu_splat() {
-    let (renderer, scene, cache, records) = cornell_cache();
+    // Records at least 8 pixels wide on screen: large enough for tail fill at 48 x 40.
+    let (renderer, scene, cache, records, tail_from) = cornell_cache(&CacheSettings {
+        r_min_pixels: 8.0,
+        ..settings()
+    });
     // Splat the records again from another camera, on the GPU and on the CPU.
     let mut camera = scene.camera.clone();
     camera.position.x += 0.05;
     camera.position.z += 0.1;
     let prepared = renderer.prepare(&scene).expect("prepare");
     let (vis, gpu) = renderer
-        .splat_cache(&prepared, &camera, &cache)
+        .splat_cache(&prepared, &camera, &cache, true)
         .expect("splat");
-    let mut cpu = vec![[0.0f32; 4]; vis.len()];
-    splat_records(&records, 0, &vis, cache.settings().accuracy, &mut cpu);
+    // The defaults fill the tail: pixels no record reaches at a take the records that
+    // reach them at the tail's accuracy.
+    let settings = cache.settings();
+    assert!(tail_from.is_some(), "tail fill began");
+    let cpu = splat_records_with_tail(&records, &vis, settings.accuracy, settings.tail_accuracy());
+    let mut strict = vec![[0.0f32; 4]; vis.len()];
+    splat_records(&records, 0, &vis, settings.accuracy, &mut strict);
+    let tail_pixels = strict
+        .iter()
+        .zip(&cpu)
+        .filter(|(s, c)| s[3] == 0.0 && c[3] > 0.0)
+        .count();
     let mut covered = 0;
     for (i, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
         assert_eq!(g[3] > 0.0, c[3] > 0.0, "coverage differs at pixel {i}");
@@ -70,10 +87,72 @@ fn gpu_splat_matches_cpu_splat() {
     }
     let visible = vis.iter().filter(|v| v.is_hit()).count();
     eprintln!(
-        "{} records; {covered} of {visible} visible pixels covered",
+        "{} records; {covered} of {visible} visible pixels covered, {tail_pixels} by the tail tier",
         records.len()
     );
     assert!(covered > visible / 2);
+    // The moved camera leaves pixels that only the tail tier reaches: both tiers checked.
+    assert!(tail_pixels > 0);
+}
+
+/// Tail fill: every visible pixel is still covered (at the tail's accuracy), the pixels no
+/// record reaches at a are at most the tail's share of the visible ones, and the tail saves
+/// records against placement without it (Cornell box 96 x 96, records at least 8 pixels
+/// wide); with records as small on screen as the defaults make them at this size, it does
+/// not begin.
+#[test]
+fn tail_fill_covers_every_pixel_and_leaves_at_most_its_share_to_the_wider_accuracy() {
+    let scene = common::load("cornell-box.toml", Some((96, 96)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let run = |tail_share: f32, r_min_pixels: f32| {
+        let settings = CacheSettings {
+            tail_share,
+            r_min_pixels,
+            ..settings()
+        };
+        let mut cache = renderer.new_cache(&settings).expect("cache");
+        let frame = render(&renderer, &scene, &mut cache);
+        let stats = frame.stats.cache.clone().expect("cache stats");
+        assert!(!stats.placement.limit_reached);
+        assert_eq!(
+            stats.uncovered_pixels, 0,
+            "uncovered pixels (tail share {tail_share})"
+        );
+        let records = cache.read(&renderer.ctx).expect("records");
+        (frame, stats, records, settings)
+    };
+    let (frame, stats, records, settings) = run(0.1, 8.0);
+    let tail_from = stats.placement.tail_from_record.expect("tail fill began");
+    let mut strict = vec![[0.0f32; 4]; frame.visibility.len()];
+    splat_records(
+        &records,
+        0,
+        &frame.visibility,
+        settings.accuracy,
+        &mut strict,
+    );
+    let visible = frame.visibility.iter().filter(|v| v.is_hit()).count();
+    let tail_pixels = frame
+        .visibility
+        .iter()
+        .zip(&strict)
+        .filter(|(v, s)| v.is_hit() && s[3] == 0.0)
+        .count();
+    let (_, off, _, _) = run(0.0, 8.0);
+    assert!(off.placement.tail_from_record.is_none());
+    let (_, small, _, _) = run(0.1, CacheSettings::default().r_min_pixels);
+    assert!(
+        small.placement.tail_from_record.is_none(),
+        "tail fill with small records"
+    );
+    eprintln!(
+        "{} records ({tail_from} before the tail) against {} without tail fill; {tail_pixels} of \
+         {visible} pixels from the tail tier",
+        stats.records, off.records
+    );
+    assert!(tail_pixels > 0);
+    assert!(tail_pixels as f64 <= f64::from(settings.tail_share) * visible as f64);
+    assert!(stats.records < off.records);
 }
 
 /// Coverage counts that decide temporal replacement: per record, the pixels it covers
@@ -81,7 +160,7 @@ fn gpu_splat_matches_cpu_splat() {
 /// cover (`Replacement::Needed`), on the GPU against the CPU.
 #[test]
 fn gpu_record_coverage_matches_cpu() {
-    let (renderer, scene, cache, records) = cornell_cache();
+    let (renderer, scene, cache, records, _) = cornell_cache(&settings());
     let expiring: Vec<bool> = (0..records.len()).map(|k| k % 4 == 0).collect();
     let prepared = renderer.prepare(&scene).expect("prepare");
     let vis = renderer
@@ -253,12 +332,16 @@ fn static_walkthrough_reuses_records() {
 /// does.
 #[test]
 fn rounds_of_splats_and_covers_match_one_full_splat() {
-    let (renderer, scene, cache, records) = cornell_cache();
+    // Without tail fill: its second tier does not accumulate (`SplatPass::splat`).
+    let (renderer, scene, cache, records, _) = cornell_cache(&CacheSettings {
+        tail_share: 0.0,
+        ..settings()
+    });
     let prepared = renderer.prepare(&scene).expect("prepare");
     let n = cache.records.count;
     assert!(n > 8, "{n} records");
     let (vis, full) = renderer
-        .splat_cache(&prepared, &scene.camera, &cache)
+        .splat_cache(&prepared, &scene.camera, &cache, false)
         .expect("full splat");
     let splits = [n / 5, n / 2, n / 2 + 1, 3 * n / 4];
     let (vis_rounds, rounds, mask) = renderer

@@ -383,6 +383,7 @@ fn reproject_against_cpu(
             &prepared,
             &scene.camera,
             &renderer.new_cache(&settings).expect("cache"),
+            false,
         )
         .expect("visibility");
     let camera = GpuCamera::new(&scene.camera);

@@ -4,7 +4,8 @@
 // weighted sums, so a round runs this instead of the gather: a covered pixel is skipped,
 // an uncovered one stops at its first contributing record, and the list order does not
 // matter (an "or" of its records), so the unsorted tile lists serve. The weighted gather
-// runs once, after placement (splat_gather.wgsl). One workgroup per tile: tiles
+// runs once, after placement (splat_gather.wgsl). The test is at `params.accuracy`: a
+// tail-fill round's cover passes the wider accuracy there. One workgroup per tile: tiles
 // that binned none of the new records return at once.
 //!include shared/splat_weight.wgsl
 
@@ -14,6 +15,9 @@
 @group(1) @binding(3) var<storage, read> tile_offsets: array<u32>;
 @group(1) @binding(4) var<storage, read> entries: array<vec2u>;   // (record, tile)
 @group(1) @binding(5) var<storage, read_write> covered: array<u32>;   // 1: covered
+// [0]: pixels this mask's covers have marked (integer atomics: exact, order-free), which
+// placement's tail fill reads to know the share still uncovered.
+@group(1) @binding(6) var<storage, read_write> marked: array<atomic<u32>>;
 
 @compute @workgroup_size(TILE_SIZE, TILE_SIZE)
 fn main(@builtin(global_invocation_id) id: vec3u, @builtin(workgroup_id) group: vec3u) {
@@ -34,6 +38,7 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(workgroup_id) group: 
     for (var j = begin; j < end; j++) {
         if contribution_error(entries[j].x, v.position, v.shading_normal) <= params.accuracy {
             covered[pixel] = 1u;
+            atomicAdd(&marked[0], 1u);
             return;
         }
     }

@@ -8,7 +8,10 @@
 // replacing them (replaces the thesis's occlusion queries, algorithms.md 4.4). With
 // `count_coverage` 2 only pixels that no record outliving this frame (`expiring[k] == 0`)
 // contributes to are counted, and only for the expiring records that do: an expired record
-// none of whose pixels needs it is deleted rather than replaced.
+// none of whose pixels needs it is deleted rather than replaced. With `accumulate` 2
+// (tail fill, placement::PlacementPass) only pixels whose previous sums are empty (no
+// earlier record reaches them) take these records' sums: the tail's records at the tail's
+// wider accuracy.
 //!include shared/splat_weight.wgsl
 
 @group(1) @binding(0) var<uniform> params: SplatParams;
@@ -20,6 +23,8 @@
 @group(1) @binding(6) var<storage, read_write> coverage: array<atomic<u32>>;
 @group(1) @binding(7) var<storage, read> expiring: array<u32>;   // 1: expires after this frame
 
+const ACCUMULATE: u32 = 1u;
+const FILL_EMPTY: u32 = 2u;
 const COUNT_ALL: u32 = 1u;
 const COUNT_NEEDED: u32 = 2u;
 
@@ -36,8 +41,11 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         return;
     }
     var sum = vec4f(0.0);
-    if params.accumulate != 0u {
+    if params.accumulate == ACCUMULATE {
         sum = splat[pixel];
+    }
+    if params.accumulate == FILL_EMPTY && splat[pixel].w != 0.0 {
+        return;
     }
     let v = vis[pixel];
     if v.instance != NO_HIT {

@@ -246,6 +246,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/splat_cover.wgsl"),
     ),
     (
+        "coverage_count.wgsl",
+        include_str!("../../wgsl/coverage_count.wgsl"),
+    ),
+    (
         "splat_gather.wgsl",
         include_str!("../../wgsl/splat_gather.wgsl"),
     ),

@@ -16,6 +16,8 @@ pub struct CoverageMask {
     pub width: u32,
     pub height: u32,
     pub covered: wgpu::Buffer,
+    /// How many pixels the covers have marked so far (one u32, `splat_cover.wgsl`).
+    pub marked: wgpu::Buffer,
 }
 
 impl CoverageMask {
@@ -26,7 +28,14 @@ impl CoverageMask {
             height,
             covered: ctx
                 .storage_buffer_sized("coverage mask", u64::from(width) * u64::from(height) * 4)?,
+            marked: ctx.storage_buffer_sized("coverage mask marks", 4)?,
         })
+    }
+
+    /// How many pixels the covers into this mask have marked (each pixel once).
+    pub fn marked(&self, ctx: &GpuContext) -> Result<u32> {
+        let count: Vec<u32> = ctx.read_buffer(&self.marked)?;
+        Ok(count.first().copied().unwrap_or(0))
     }
 
     /// Reads the flags back.
@@ -60,7 +69,7 @@ impl SplatPass {
         if cache.count <= first {
             return Ok(());
         }
-        let bins = self.bin(ctx, src, (false, 0), false, times)?;
+        let bins = self.bin(ctx, src, (super::SplatInto::Fresh, 0), false, times)?;
         if bins.total == 0 {
             return Ok(());
         }
@@ -75,6 +84,7 @@ impl SplatPass {
                 &bins.tile_offsets,
                 &bins.entries,
                 &mask.covered,
+                &mask.marked,
             ],
         );
         self.cover.record(
@@ -88,6 +98,49 @@ impl SplatPass {
         ctx.queue.submit([enc.finish()]);
         times.extend(timer.read(ctx)?);
         Ok(())
+    }
+}
+
+impl SplatPass {
+    /// The visible pixels of `vis` and how many of them `mask` marks
+    /// (`wgsl/coverage_count.wgsl`).
+    pub fn coverage_counts(
+        &self,
+        ctx: &GpuContext,
+        scene: &crate::gpu::scene_buffers::GpuScene,
+        vis: &crate::visibility::VisibilityBuffer,
+        mask: &CoverageMask,
+    ) -> Result<(u32, u32)> {
+        let tiles_x = vis.width.div_ceil(TILE_SIZE);
+        let tiles_y = vis.height.div_ceil(TILE_SIZE);
+        let params = ctx.uniform_buffer(
+            "coverage count params",
+            &super::SplatParams {
+                width: vis.width,
+                height: vis.height,
+                tiles_x,
+                tiles_y,
+                ..bytemuck::Zeroable::zeroed()
+            },
+        );
+        let counts = ctx.storage_buffer_sized("coverage counts", 8)?;
+        let bind = self
+            .count_coverage
+            .bind(ctx, &[&params, &vis.samples, &mask.covered, &counts]);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        self.count_coverage.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            [(tiles_x * tiles_y).div_ceil(64), 1, 1],
+            None,
+        );
+        ctx.queue.submit([enc.finish()]);
+        let c: Vec<u32> = ctx.read_buffer(&counts)?;
+        Ok((
+            c.first().copied().unwrap_or(0),
+            c.get(1).copied().unwrap_or(0),
+        ))
     }
 }
 

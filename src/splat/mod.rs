@@ -34,6 +34,18 @@ const COUNT_NONE: u32 = 0;
 const COUNT_ALL: u32 = 1;
 const COUNT_NEEDED: u32 = 2;
 
+/// What a gather does with the sums already in its buffer (`accumulate` in
+/// `wgsl/splat_gather.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum SplatInto {
+    /// Replaces them.
+    Fresh = 0,
+    /// Adds onto them.
+    Accumulate = 1,
+    /// Only pixels whose sums are empty take the records' sums.
+    FillEmpty = 2,
+}
+
 /// Mirror of WGSL `SplatParams`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -186,6 +198,7 @@ pub struct SplatPass {
     sort: ComputePass,
     gather: ComputePass,
     cover: ComputePass,
+    count_coverage: ComputePass,
     bounds: ComputePass,
 }
 
@@ -248,7 +261,13 @@ impl SplatPass {
                     StorageRead,
                     StorageRead,
                     StorageReadWrite,
+                    StorageReadWrite,
                 ],
+            )?,
+            count_coverage: ComputePass::new(
+                ctx,
+                "coverage_count.wgsl",
+                &[Uniform, StorageRead, StorageRead, StorageReadWrite],
             )?,
             bounds: ComputePass::new(
                 ctx,
@@ -268,6 +287,35 @@ impl SplatPass {
         accumulate: bool,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<SplatStats> {
+        let into = if accumulate {
+            SplatInto::Accumulate
+        } else {
+            SplatInto::Fresh
+        };
+        self.gather_into(ctx, src, out, into, times)
+    }
+
+    /// Tail fill's gather: `src`'s records (the tail's, at the tail's accuracy) give their
+    /// sums to the pixels of `out` whose sums are still empty; the others keep theirs.
+    pub fn fill_empty(
+        &self,
+        ctx: &GpuContext,
+        src: SplatSource,
+        out: &SplatBuffer,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<SplatStats> {
+        self.gather_into(ctx, src, out, SplatInto::FillEmpty, times)
+    }
+
+    fn gather_into(
+        &self,
+        ctx: &GpuContext,
+        src: SplatSource,
+        out: &SplatBuffer,
+        into: SplatInto,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<SplatStats> {
+        let accumulate = into != SplatInto::Fresh;
         let SplatSource {
             scene,
             vis,
@@ -280,7 +328,7 @@ impl SplatPass {
                 cache.count, out.coverage_records
             )));
         }
-        let bins = self.bin(ctx, src, (accumulate, out.coverage_mode), true, times)?;
+        let bins = self.bin(ctx, src, (into, out.coverage_mode), true, times)?;
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         if bins.total > 0 || !accumulate {
@@ -313,13 +361,13 @@ impl SplatPass {
 
     /// Bins `src`'s records into the `TILE_SIZE`-pixel tiles their footprints bound:
     /// counts, prefix sum, scatter and, when `sorted`, the rank sort by record id that makes
-    /// a gather's sums deterministic. `(accumulate, count_coverage)` go into the bins'
-    /// parameters for the gather.
+    /// a gather's sums deterministic. `(into, count_coverage)` go into the bins' parameters
+    /// for the gather.
     pub(crate) fn bin(
         &self,
         ctx: &GpuContext,
         src: SplatSource,
-        (accumulate, count_coverage): (bool, u32),
+        (into, count_coverage): (SplatInto, u32),
         sorted: bool,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<TileBins> {
@@ -352,7 +400,7 @@ impl SplatPass {
                 first_record: first,
                 record_end: cache.count,
                 accuracy,
-                accumulate: u32::from(accumulate),
+                accumulate: into as u32,
                 count_coverage,
                 _pad: [0; 3],
             },

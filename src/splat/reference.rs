@@ -34,6 +34,27 @@ pub fn splat_records(
     }
 }
 
+/// Per-pixel sums with tail fill (`splat_gather.wgsl` with `accumulate` 2): every record
+/// at `accuracy`, as [`splat_records`]; then, where no record reaches the pixel, the records
+/// that reach it at `tail_accuracy`, weighted at that accuracy.
+pub fn splat_records_with_tail(
+    records: &[Record],
+    vis: &[VisSample],
+    accuracy: f32,
+    tail_accuracy: f32,
+) -> Vec<[f32; 4]> {
+    let mut sums = vec![[0.0f32; 4]; vis.len()];
+    splat_records(records, 0, vis, accuracy, &mut sums);
+    let mut tail = vec![[0.0f32; 4]; vis.len()];
+    splat_records(records, 0, vis, tail_accuracy, &mut tail);
+    for (sum, t) in sums.iter_mut().zip(tail) {
+        if sum[3] == 0.0 {
+            *sum = t;
+        }
+    }
+    sums
+}
+
 /// Per record, the pixels it contributes to (`count_coverage` 1 in `splat_gather.wgsl`);
 /// with `expiring`, only those where no record it leaves unmarked does, and 0 for unmarked
 /// records (`count_coverage` 2).

@@ -261,7 +261,7 @@ pub fn estimate_error_table(
     let mut cache = renderer.new_cache(settings)?;
     let sites: Vec<RecordSite> = match placement {
         RecordSites::Even => {
-            let (vis, _) = renderer.splat_cache(&prepared, &at_t.camera, &cache)?;
+            let (vis, _) = renderer.splat_cache(&prepared, &at_t.camera, &cache, false)?;
             let camera = GpuCamera::new(&at_t.camera);
             let visible: Vec<_> = vis.iter().filter(|v| v.is_hit()).collect();
             let spacing = (visible.len() / count.max(1)).max(1);

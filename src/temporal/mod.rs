@@ -554,7 +554,7 @@ impl TemporalCache {
     /// hits trace their shadow rays (light maps would need tracing again every frame, and
     /// the re-shading at t+1 traces rays), planes are not refined (refreshed and
     /// reprojected planes would be unrefined) and are evenly spaced (reprojection bins moved
-    /// hits into an even grid of cells), records are not neighbour-clamped, and so the
+    /// hits into an even grid of cells), records are not neighbour-clamped nor tail-filled, and so the
     /// refined planes' default field of
     /// view ([`CacheSettings::PLANE_FOV_REFINED`]) becomes the plain planes' best
     /// ([`CacheSettings::PLANE_FOV_PLAIN`], thesis Table 4.1); the static defaults' record
@@ -570,6 +570,10 @@ impl TemporalCache {
             // A replacement sits at its predecessor's place: clamping would tie its R to
             // the record it replaces (unmeasured over time; the static default only).
             neighbour_clamp: false,
+            // Temporal gathers count each record's pixels (deletion) in the first tier
+            // only, and the tail's records would be the first to lapse: the static default
+            // only (unmeasured over time).
+            tail_share: 0.0,
             plane_fov_degrees: if refined_default_fov {
                 CacheSettings::PLANE_FOV_PLAIN
             } else {

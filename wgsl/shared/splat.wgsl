@@ -16,7 +16,7 @@ struct SplatParams {
     first_record: u32,   // records [first_record, record_end) are splatted
     record_end: u32,
     accuracy: f32,
-    accumulate: u32,     // 1: add onto the splat buffer's previous sums
+    accumulate: u32,     // 1: add onto the splat buffer's previous sums; 2: fill only empty ones
     count_coverage: u32, // 1: count the pixels each record contributes to; 2: only those
                          // no record outliving the frame contributes to (splat_gather.wgsl)
     _pad0: u32,
