@@ -10,8 +10,7 @@
 // contributes to are counted, and only for the expiring records that do: an expired record
 // none of whose pixels needs it is deleted rather than replaced. With `accumulate` 2
 // (tail fill, placement::PlacementPass) only pixels whose previous sums are empty (no
-// earlier record reaches them) take these records' sums: the tail's records at the tail's
-// wider accuracy.
+// record reached them at a) take these records' sums, at the tail's wider accuracy.
 //!include shared/splat_weight.wgsl
 
 @group(1) @binding(0) var<uniform> params: SplatParams;

@@ -204,7 +204,8 @@ pub struct CacheSettings {
     /// at 1000x1000 the last 3.7 % of the pixels took 7,364 of 14,512 records.
     pub tail_share: f32,
     /// Tail fill's accuracy factor kappa: the tail is covered, and interpolated, at
-    /// `kappa a` (Ward's error at most kappa a, weights `1 / err - 1 / (kappa a)`).
+    /// `kappa a` (Ward's error at most kappa a, weights `1 / err - 1 / (kappa a)`), at most
+    /// [`Self::TAIL_MAX_ACCURACY`].
     pub tail_factor: f32,
     /// Store and use rotational and translational gradients.
     pub gradients: bool,
@@ -345,11 +346,19 @@ impl CacheSettings {
     /// The default [`CacheSettings::tail_factor`].
     pub const TAIL_FACTOR: f32 = 2.0;
 
-    /// The accuracy tail fill covers and interpolates at: `tail_factor a` when tail fill
-    /// is on, else `a`.
+    /// The widest accuracy tail fill covers at. Past it Ward's error admits records whose
+    /// normals differ by over 40 degrees: at `-a 1.0` a tail at 2.0 raised Sponza's error
+    /// from 18.7 to 20.2 % and saved no time (docs/results.md, "Tail fill").
+    pub const TAIL_MAX_ACCURACY: f32 = 0.5;
+
+    /// The accuracy tail fill covers and interpolates at: `tail_factor a`, at most
+    /// [`Self::TAIL_MAX_ACCURACY`], when tail fill is on and that is above `a`, else `a`
+    /// (no tail fill).
     pub fn tail_accuracy(&self) -> f32 {
-        if self.tail_share > 0.0 && self.tail_factor > 1.0 {
-            self.accuracy * self.tail_factor
+        if self.tail_share > 0.0 {
+            (self.accuracy * self.tail_factor)
+                .min(Self::TAIL_MAX_ACCURACY)
+                .max(self.accuracy)
         } else {
             self.accuracy
         }

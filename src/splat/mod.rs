@@ -295,8 +295,9 @@ impl SplatPass {
         self.gather_into(ctx, src, out, into, times)
     }
 
-    /// Tail fill's gather: `src`'s records (the tail's, at the tail's accuracy) give their
-    /// sums to the pixels of `out` whose sums are still empty; the others keep theirs.
+    /// Tail fill's gather: `src`'s records, at `src`'s accuracy (the tail's, wider than the
+    /// first gather's), give their sums to the pixels of `out` whose sums are still empty
+    /// (no record reached them at the first gather's accuracy); the others keep theirs.
     pub fn fill_empty(
         &self,
         ctx: &GpuContext,
