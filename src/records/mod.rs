@@ -196,7 +196,7 @@ pub struct CacheSettings {
     pub neighbour_clamp: bool,
     /// Most records the cache may hold.
     pub record_budget: u32,
-    /// Tail fill ([`crate::placement`]): once at most this share of the visible pixels is
+    /// Tail fill (`placement/mod.rs`): once at most this share of the visible pixels is
     /// left uncovered (and records are large on screen), new records cover at
     /// `tail_factor` times the accuracy, so that the sliver pixels around them are
     /// interpolated from the records reaching them there (only where none reaches them at
