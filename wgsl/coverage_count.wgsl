@@ -13,14 +13,11 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     if id.x >= params.tiles_x * params.tiles_y {
         return;
     }
-    let x0 = (id.x % params.tiles_x) * TILE_SIZE;
-    let y0 = (id.x / params.tiles_x) * TILE_SIZE;
-    let x1 = min(x0 + TILE_SIZE, params.width);
-    let y1 = min(y0 + TILE_SIZE, params.height);
+    let r = tile_pixels(params, id.x);
     var visible = 0u;
     var marked = 0u;
-    for (var y = y0; y < y1; y++) {
-        for (var x = x0; x < x1; x++) {
+    for (var y = r.y; y < r.w; y++) {
+        for (var x = r.x; x < r.z; x++) {
             let pixel = y * params.width + x;
             if vis[pixel].instance != NO_HIT {
                 visible += 1u;

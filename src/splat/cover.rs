@@ -6,9 +6,10 @@
 use super::{SplatPass, SplatSource, TILE_SIZE};
 use crate::Result;
 use crate::gpu::GpuContext;
+use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
 use crate::records::Record;
-use crate::visibility::VisSample;
+use crate::visibility::{VisSample, VisibilityBuffer};
 use glam::Vec3;
 
 /// One flag per pixel (u32, row-major): 1 where a record covers the pixel.
@@ -99,16 +100,14 @@ impl SplatPass {
         times.extend(timer.read(ctx)?);
         Ok(())
     }
-}
 
-impl SplatPass {
     /// The visible pixels of `vis` and how many of them `mask` marks
     /// (`wgsl/coverage_count.wgsl`).
     pub fn coverage_counts(
         &self,
         ctx: &GpuContext,
-        scene: &crate::gpu::scene_buffers::GpuScene,
-        vis: &crate::visibility::VisibilityBuffer,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
         mask: &CoverageMask,
     ) -> Result<(u32, u32)> {
         let tiles_x = vis.width.div_ceil(TILE_SIZE);

@@ -24,6 +24,14 @@ struct SplatParams {
     _pad2: u32,
 }
 
+// The pixels of tile `tile` (row-major over `params.tiles_x`): x0, y0 inclusive, x1, y1
+// exclusive, clipped to the image.
+fn tile_pixels(params: SplatParams, tile: u32) -> vec4u {
+    let x0 = (tile % params.tiles_x) * TILE_SIZE;
+    let y0 = (tile / params.tiles_x) * TILE_SIZE;
+    return vec4u(x0, y0, min(x0 + TILE_SIZE, params.width), min(y0 + TILE_SIZE, params.height));
+}
+
 // Screen-space tile rectangle (inclusive min.xy, max.zw) covered by a sphere, from the
 // projections of its bounding cube's corners; the whole screen when the cube reaches
 // behind the camera, NO_TILES when it is off screen.
