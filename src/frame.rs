@@ -995,10 +995,11 @@ impl Renderer {
             None => None,
         };
 
-        // A VPL record traces one ray per VPL slot.
-        let rays_per_record = match &vpls {
-            Some(v) => u64::from(v.slots),
-            None => pass.settings.plane_rays_per_record(),
+        // A VPL record traces one ray per VPL slot; placement counts plane records' rays
+        // (tail fill's planes are coarser).
+        let record_rays = match &vpls {
+            Some(v) => u64::from(placement.new_records) * u64::from(v.slots),
+            None => placement.plane_rays,
         };
         let (width, height) = (camera.width, camera.height);
         let stats = |times: &[(&'static str, f64)], uncovered_pixels| FrameStats {
@@ -1011,7 +1012,7 @@ impl Renderer {
             cache: Some(CacheFrameStats {
                 records: records.count,
                 reused_records,
-                plane_rays: u64::from(placement.new_records) * rays_per_record
+                plane_rays: record_rays
                     + u64::from(radiance_stats.1) * pass.settings.plane_rays_per_record(),
                 placement,
                 uncovered_pixels,

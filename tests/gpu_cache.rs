@@ -153,6 +153,25 @@ fn tail_fill_covers_every_pixel_and_leaves_at_most_its_share_to_the_wider_accura
     assert!(tail_pixels > 0);
     assert!(tail_pixels as f64 <= f64::from(settings.tail_share) * visible as f64);
     assert!(stats.records < off.records);
+    // The tail's records traced planes at the tail's resolution: 16x16 for this test's
+    // 32x32 at a = 0.25, tail accuracy 0.5 (a quarter of the rays).
+    let tail_settings = CacheSettings {
+        plane_resolution: settings.tail_plane_resolution(),
+        ..settings.clone()
+    };
+    assert_eq!(tail_settings.plane_resolution, 16);
+    assert_eq!(stats.placement.tail_records, stats.records - tail_from);
+    assert!(stats.placement.tail_records > 0);
+    assert_eq!(
+        stats.plane_rays,
+        u64::from(tail_from) * settings.plane_rays_per_record()
+            + u64::from(stats.placement.tail_records) * tail_settings.plane_rays_per_record()
+    );
+    assert_eq!(off.placement.tail_records, 0);
+    assert_eq!(
+        off.plane_rays,
+        u64::from(off.records) * settings.plane_rays_per_record()
+    );
 }
 
 /// Coverage counts that decide temporal replacement: per record, the pixels it covers

@@ -28,7 +28,7 @@ use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::light_maps::LightMaps;
-use crate::records::{RecordCache, RecordPass, RecordStage};
+use crate::records::{RecordCache, RecordPass, RecordSource, RecordStage};
 use crate::splat::{CoverageMask, SplatPass, SplatSource, TileBounds};
 use crate::visibility::VisibilityBuffer;
 use bytemuck::{Pod, Zeroable};
@@ -66,6 +66,12 @@ pub struct PlacementStats {
     pub limit_reached: bool,
     /// Records in the cache when tail fill began (`None`: it did not).
     pub tail_from_record: Option<u32>,
+    /// Records added by tail fill, with planes at the tail's resolution
+    /// ([`crate::records::CacheSettings::tail_plane_resolution`]).
+    pub tail_records: u32,
+    /// Hemisphere-plane rays the added records traced (plane pixels plus refined
+    /// sub-samples; VPL records count none).
+    pub plane_rays: u64,
 }
 
 /// Tail fill only where records are large on screen: the records so far cover at least this
@@ -252,7 +258,21 @@ impl PlacementPass {
                     let n = pixels.len() as u32;
                     let first = cache.count;
                     let sites = records.sites_from_pixels(ctx, scene, vis, &pixels, first)?;
-                    times.extend(records.compute(
+                    // The tail's records trace coarser planes (they answer to its wider
+                    // accuracy).
+                    let in_tail = stats.tail_from_record.is_some();
+                    let pass = if in_tail {
+                        records.tail_pass()
+                    } else {
+                        records
+                    };
+                    if in_tail {
+                        stats.tail_records += n;
+                    }
+                    if pass.settings.source != RecordSource::Vpl {
+                        stats.plane_rays += u64::from(n) * pass.settings.plane_rays_per_record();
+                    }
+                    times.extend(pass.compute(
                         ctx,
                         scene,
                         &sites,

@@ -364,6 +364,24 @@ impl CacheSettings {
         }
     }
 
+    /// The plane resolution of the tail's records: `P a / a_tail` per side (rounded; at
+    /// least 8, or P when P is smaller), P when tail fill is off. A tail record answers to
+    /// the tail's accuracy, a bound on its relative interpolation error `a_tail / a` times
+    /// wider, and its plane's noise (standard deviation ~ 1 / P) may grow in the same
+    /// proportion: a quarter of the rays at the default factor 2. The allocation agrees
+    /// with the variance-optimal one (rays per record ~ the square root of the pixels it
+    /// reaches): on Sponza sun 1000x1000 the tail's records reach about a tenth of the
+    /// pixels each that the records before them do (docs/results.md, issue 17 eighth pass).
+    pub fn tail_plane_resolution(&self) -> u32 {
+        let p = self.plane_resolution;
+        let scaled = (f64::from(p) * f64::from(self.accuracy) / f64::from(self.tail_accuracy()))
+            .round() as u32;
+        scaled.clamp(p.min(Self::TAIL_MIN_PLANE_RESOLUTION), p)
+    }
+
+    /// The smallest plane resolution [`Self::tail_plane_resolution`] reduces to.
+    pub const TAIL_MIN_PLANE_RESOLUTION: u32 = 8;
+
     /// The best field of view of plain (unrefined) stretched planes (thesis Table 4.1).
     pub const PLANE_FOV_PLAIN: f32 = 130.0;
 
@@ -922,6 +940,10 @@ pub struct RecordPass {
     projection: Option<radiance_projection::RadianceProjectionPass>,
     /// The gather of VPL records ([`RecordSource::Vpl`]).
     vpl: Option<vpl_gather::VplGatherPass>,
+    /// The pass of tail fill's records: planes at
+    /// [`CacheSettings::tail_plane_resolution`] (irradiance records from planes, when that
+    /// is below the plane resolution).
+    tail: Option<Box<RecordPass>>,
 }
 
 impl RecordPass {
@@ -933,6 +955,28 @@ impl RecordPass {
     /// A pass computing `kind` records: radiance records are irradiance records whose
     /// planes are also projected onto HSH (`radiance_project.wgsl`).
     pub fn with_kind(ctx: &GpuContext, settings: &CacheSettings, kind: RecordKind) -> Result<Self> {
+        let mut pass = Self::without_tail(ctx, settings, kind)?;
+        let tail_resolution = settings.tail_plane_resolution();
+        if kind == RecordKind::Irradiance
+            && settings.source == RecordSource::Planes
+            && tail_resolution < settings.plane_resolution
+        {
+            let tail_settings = CacheSettings {
+                plane_resolution: tail_resolution,
+                ..settings.clone()
+            };
+            pass.tail = Some(Box::new(Self::without_tail(ctx, &tail_settings, kind)?));
+        }
+        Ok(pass)
+    }
+
+    /// The pass that computes tail fill's records ([`CacheSettings::tail_plane_resolution`]):
+    /// this one when their planes are not coarser.
+    pub fn tail_pass(&self) -> &RecordPass {
+        self.tail.as_deref().unwrap_or(self)
+    }
+
+    fn without_tail(ctx: &GpuContext, settings: &CacheSettings, kind: RecordKind) -> Result<Self> {
         use Binding::*;
         settings.validate()?;
         // Photon records leave holes that plane records fill.
@@ -1018,6 +1062,7 @@ impl RecordPass {
             } else {
                 Some(vpl_gather::VplGatherPass::new(ctx)?)
             },
+            tail: None,
         })
     }
 
@@ -1512,5 +1557,34 @@ impl RecordPass {
         let mut now: Vec<PlaneSample> = ctx.read_buffer(&samples)?;
         now.truncate((n * res * res) as usize);
         Ok((now, out))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::CacheSettings;
+
+    fn tail_resolution(plane_resolution: u32, accuracy: f32, tail_share: f32) -> u32 {
+        CacheSettings {
+            plane_resolution,
+            accuracy,
+            tail_share,
+            ..CacheSettings::default()
+        }
+        .tail_plane_resolution()
+    }
+
+    #[test]
+    fn tail_planes_shrink_with_the_tails_accuracy() {
+        // Defaults: a = 0.25, tail at 0.5: half the plane per side.
+        assert_eq!(tail_resolution(24, 0.25, 0.1), 12);
+        // The tail's accuracy is capped at 0.5: a = 0.3 gives 24 x 0.6 = 14.4.
+        assert_eq!(tail_resolution(24, 0.3, 0.1), 14);
+        // Never below 8 per side, nor above the plane itself.
+        assert_eq!(tail_resolution(12, 0.25, 0.1), 8);
+        assert_eq!(tail_resolution(6, 0.25, 0.1), 6);
+        // a = 0.5: no wider tail, no coarser planes; tail fill off: the plane itself.
+        assert_eq!(tail_resolution(24, 0.5, 0.1), 24);
+        assert_eq!(tail_resolution(24, 0.25, 0.0), 24);
     }
 }
