@@ -439,7 +439,8 @@ struct CacheArgs {
     /// Tail fill: once at most this share of the visible pixels is uncovered, placement
     /// covers the rest at --tail-factor x a, interpolating a pixel that a record reaches
     /// there from those records instead of placing one of its own (the last pixels are
-    /// slivers between records); 0: off. Not used by `animate`.
+    /// slivers between records); 0: off. The tail's records trace planes of
+    /// P sqrt(a / a_tail) per side. Not used by `animate`.
     #[arg(long, default_value_t = CacheSettings::default().tail_share, value_parser = parse_fraction)]
     tail_share: f32,
     /// Tail fill's accuracy factor (>= 1): the tail is covered and interpolated at this

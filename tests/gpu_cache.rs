@@ -153,13 +153,13 @@ fn tail_fill_covers_every_pixel_and_leaves_at_most_its_share_to_the_wider_accura
     assert!(tail_pixels > 0);
     assert!(tail_pixels as f64 <= f64::from(settings.tail_share) * visible as f64);
     assert!(stats.records < off.records);
-    // The tail's records traced planes at the tail's resolution: 16x16 for this test's
-    // 32x32 at a = 0.25, tail accuracy 0.5 (a quarter of the rays).
+    // The tail's records traced planes at the tail's resolution: 23x23 for this test's
+    // 32x32 at a = 0.25, tail accuracy 0.5 (about half the rays).
     let tail_settings = CacheSettings {
         plane_resolution: settings.tail_plane_resolution(),
         ..settings.clone()
     };
-    assert_eq!(tail_settings.plane_resolution, 16);
+    assert_eq!(tail_settings.plane_resolution, 23);
     assert_eq!(stats.placement.tail_records, stats.records - tail_from);
     assert!(stats.placement.tail_records > 0);
     assert_eq!(

@@ -364,18 +364,20 @@ impl CacheSettings {
         }
     }
 
-    /// The plane resolution of the tail's records: `P a / a_tail` per side (rounded; at
-    /// least 8, or P when P is smaller), P when tail fill is off. A tail record answers to
-    /// the tail's accuracy, a bound on its relative interpolation error `a_tail / a` times
-    /// wider, and its plane's noise (standard deviation ~ 1 / P) may grow in the same
-    /// proportion: a quarter of the rays at the default factor 2. The allocation agrees
-    /// with the variance-optimal one (rays per record ~ the square root of the pixels it
-    /// reaches): on Sponza sun 1000x1000 the tail's records reach about a tenth of the
-    /// pixels each that the records before them do (docs/results.md, issue 17 eighth pass).
+    /// The plane resolution of the tail's records: `P sqrt(a / a_tail)` per side (rounded;
+    /// at least 8, or P when P is smaller), P when tail fill is off: half the rays at the
+    /// default factor 2 (17x17 for 24x24). A tail record answers to the tail's wider
+    /// accuracy and reaches few pixels of its own (on Sponza sun 1000x1000 about a tenth
+    /// of what each record before the tail reaches), so its plane may be noisier; the
+    /// variance-optimal allocation puts rays per record ~ the square root of the pixels
+    /// it reaches. Measured against `P a / a_tail` (a quarter of the rays): that costs the
+    /// Cornell box 256x256, whose error is mostly record noise, 1.65 -> 1.87 % indirect
+    /// error, this 1.68 %; on Sponza both cost about 1 % of its error (docs/results.md,
+    /// issue 17 eighth pass).
     pub fn tail_plane_resolution(&self) -> u32 {
         let p = self.plane_resolution;
-        let scaled = (f64::from(p) * f64::from(self.accuracy) / f64::from(self.tail_accuracy()))
-            .round() as u32;
+        let ratio = f64::from(self.accuracy) / f64::from(self.tail_accuracy());
+        let scaled = (f64::from(p) * ratio.sqrt()).round() as u32;
         scaled.clamp(p.min(Self::TAIL_MIN_PLANE_RESOLUTION), p)
     }
 
@@ -1576,12 +1578,12 @@ mod tests {
 
     #[test]
     fn tail_planes_shrink_with_the_tails_accuracy() {
-        // Defaults: a = 0.25, tail at 0.5: half the plane per side.
-        assert_eq!(tail_resolution(24, 0.25, 0.1), 12);
-        // The tail's accuracy is capped at 0.5: a = 0.3 gives 24 x 0.6 = 14.4.
-        assert_eq!(tail_resolution(24, 0.3, 0.1), 14);
+        // Defaults: a = 0.25, tail at 0.5: half the rays, 24 / sqrt 2 = 16.97 per side.
+        assert_eq!(tail_resolution(24, 0.25, 0.1), 17);
+        // The tail's accuracy is capped at 0.5: a = 0.3 gives 24 sqrt 0.6 = 18.6.
+        assert_eq!(tail_resolution(24, 0.3, 0.1), 19);
         // Never below 8 per side, nor above the plane itself.
-        assert_eq!(tail_resolution(12, 0.25, 0.1), 8);
+        assert_eq!(tail_resolution(10, 0.25, 0.1), 8);
         assert_eq!(tail_resolution(6, 0.25, 0.1), 6);
         // a = 0.5: no wider tail, no coarser planes; tail fill off: the plane itself.
         assert_eq!(tail_resolution(24, 0.5, 0.1), 24);
