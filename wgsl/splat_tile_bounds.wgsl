@@ -3,11 +3,18 @@
 // the tiles its screen bound overlaps but whose pixels it cannot reach
 // (`tile_may_receive`): at grazing angles and across depth gaps most of them. One
 // invocation per tile, its pixels in scan order (min and max do not depend on order).
+// With EMPTY_ONLY (tail fill's gather, `SplatPass::fill_tile_bounds`) only the pixels whose
+// first-gather sums are empty count: the only ones that gather can change, so tiles
+// without such pixels bin no record (the same sums, fewer tests).
 //!include shared/splat.wgsl
+
+override EMPTY_ONLY: bool = false;
 
 @group(1) @binding(0) var<uniform> params: SplatParams;
 @group(1) @binding(1) var<storage, read> vis: array<VisSample>;
 @group(1) @binding(2) var<storage, read_write> bounds: array<TileBound>;
+// The first gather's sums (EMPTY_ONLY; a placeholder otherwise).
+@group(1) @binding(3) var<storage, read> sums: array<vec4f>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3u) {
@@ -20,6 +27,9 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         for (var x = r.x; x < r.z; x++) {
             let pixel = y * params.width + x;
             if vis[pixel].instance == NO_HIT {
+                continue;
+            }
+            if EMPTY_ONLY && sums[pixel].w != 0.0 {
                 continue;
             }
             let p = vis[pixel].position;

@@ -200,6 +200,10 @@ pub struct SplatPass {
     cover: ComputePass,
     count_coverage: ComputePass,
     bounds: ComputePass,
+    /// The tile bounds of the pixels tail fill's gather fills (`EMPTY_ONLY`).
+    fill_bounds: ComputePass,
+    /// What `bounds` binds for the sums it does not read.
+    no_sums: wgpu::Buffer,
 }
 
 impl SplatPass {
@@ -272,8 +276,15 @@ impl SplatPass {
             bounds: ComputePass::new(
                 ctx,
                 "splat_tile_bounds.wgsl",
-                &[Uniform, StorageRead, StorageReadWrite],
+                &[Uniform, StorageRead, StorageReadWrite, StorageRead],
             )?,
+            fill_bounds: ComputePass::with_constants(
+                ctx,
+                "splat_tile_bounds.wgsl",
+                &[Uniform, StorageRead, StorageReadWrite, StorageRead],
+                &[("EMPTY_ONLY", 1.0)],
+            )?,
+            no_sums: ctx.storage_buffer_sized("no splat sums", 16)?,
         })
     }
 

@@ -31,6 +31,32 @@ impl SplatPass {
         vis: &VisibilityBuffer,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<TileBounds> {
+        self.bounds_of(ctx, scene, vis, None, times)
+    }
+
+    /// The tile bounds of the visible pixels whose sums in `first` are empty: the pixels
+    /// tail fill's gather ([`SplatPass::fill_empty`]) can change, so that it bins records
+    /// only into tiles that have some (same sums; on Sponza sun 1000x1000 most tiles have
+    /// none).
+    pub fn fill_tile_bounds(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
+        first: &super::SplatBuffer,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<TileBounds> {
+        self.bounds_of(ctx, scene, vis, Some(&first.sums), times)
+    }
+
+    fn bounds_of(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
+        empty_in: Option<&wgpu::Buffer>,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<TileBounds> {
         let tiles_x = vis.width.div_ceil(TILE_SIZE);
         let tiles_y = vis.height.div_ceil(TILE_SIZE);
         let buffer = ctx.storage_buffer_sized(
@@ -49,8 +75,12 @@ impl SplatPass {
         );
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let bind = self.bounds.bind(ctx, &[&params, &vis.samples, &buffer]);
-        self.bounds.record(
+        let (pass, sums) = match empty_in {
+            Some(sums) => (&self.fill_bounds, sums),
+            None => (&self.bounds, &self.no_sums),
+        };
+        let bind = pass.bind(ctx, &[&params, &vis.samples, &buffer, sums]);
+        pass.record(
             &mut enc,
             &scene.bind_group,
             &bind,
