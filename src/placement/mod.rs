@@ -262,7 +262,7 @@ impl PlacementPass {
                     // accuracy).
                     let in_tail = stats.tail_from_record.is_some();
                     let pass = if in_tail {
-                        records.tail_pass()
+                        records.tail_pass(ctx)?
                     } else {
                         records
                     };
