@@ -958,31 +958,6 @@ impl RecordPass {
     /// A pass computing `kind` records: radiance records are irradiance records whose
     /// planes are also projected onto HSH (`radiance_project.wgsl`).
     pub fn with_kind(ctx: &GpuContext, settings: &CacheSettings, kind: RecordKind) -> Result<Self> {
-        Self::without_tail(ctx, settings, kind)
-    }
-
-    /// The pass that computes tail fill's records ([`CacheSettings::tail_plane_resolution`]):
-    /// this one when their planes are not coarser (radiance and VPL records, no tail).
-    pub fn tail_pass(&self, ctx: &GpuContext) -> Result<&RecordPass> {
-        let tail_resolution = self.settings.tail_plane_resolution();
-        if self.kind != RecordKind::Irradiance
-            || self.settings.source != RecordSource::Planes
-            || tail_resolution >= self.settings.plane_resolution
-        {
-            return Ok(self);
-        }
-        if let Some(pass) = self.tail.get() {
-            return Ok(pass);
-        }
-        let tail_settings = CacheSettings {
-            plane_resolution: tail_resolution,
-            ..self.settings.clone()
-        };
-        let pass = Self::without_tail(ctx, &tail_settings, self.kind)?;
-        Ok(self.tail.get_or_init(|| Box::new(pass)))
-    }
-
-    fn without_tail(ctx: &GpuContext, settings: &CacheSettings, kind: RecordKind) -> Result<Self> {
         use Binding::*;
         settings.validate()?;
         // Photon records leave holes that plane records fill.
@@ -1070,6 +1045,27 @@ impl RecordPass {
             },
             tail: std::sync::OnceLock::new(),
         })
+    }
+
+    /// The pass that computes tail fill's records ([`CacheSettings::tail_plane_resolution`]):
+    /// this one when their planes are not coarser (radiance and VPL records, no tail).
+    pub fn tail_pass(&self, ctx: &GpuContext) -> Result<&RecordPass> {
+        let tail_resolution = self.settings.tail_plane_resolution();
+        if self.kind != RecordKind::Irradiance
+            || self.settings.source != RecordSource::Planes
+            || tail_resolution >= self.settings.plane_resolution
+        {
+            return Ok(self);
+        }
+        if let Some(pass) = self.tail.get() {
+            return Ok(pass);
+        }
+        let tail_settings = CacheSettings {
+            plane_resolution: tail_resolution,
+            ..self.settings.clone()
+        };
+        let pass = Self::with_kind(ctx, &tail_settings, self.kind)?;
+        Ok(self.tail.get_or_init(|| Box::new(pass)))
     }
 
     /// Sites for the visibility-buffer `pixels` (one per new record, in order), computed on

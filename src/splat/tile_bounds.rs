@@ -36,8 +36,7 @@ impl SplatPass {
 
     /// The tile bounds of the visible pixels whose sums in `first` are empty: the pixels
     /// tail fill's gather ([`SplatPass::fill_empty`]) can change, so that it bins records
-    /// only into tiles that have some (same sums; on Sponza sun 1000x1000 most tiles have
-    /// none).
+    /// only into tiles that have some (the same sums).
     pub fn fill_tile_bounds(
         &self,
         ctx: &GpuContext,
