@@ -29,17 +29,20 @@ fn hit_indirect_irradiance(shaded: ShadedHit, seed: u32, k: u32) -> vec3f {
     return bounce_irradiance(shaded.hit, shaded.surface.front_face);
 }
 
-@compute @workgroup_size(8, 8)
+// The plane's pixels in scan order, 64 a workgroup: no idle lanes but the last few of each
+// record's plane, whatever P (8 x 8 tiles of a 17 x 17 plane, the tail's at the defaults,
+// left a SIMD group with one live lane at the end of every row).
+@compute @workgroup_size(64)
 fn main(
     @builtin(global_invocation_id) id: vec3u,
     @builtin(local_invocation_index) lane: u32,
 ) {
     bvh_stack_init(lane);
     let res = params.resolution;
-    if id.x >= res || id.y >= res || id.z >= params.count {
+    let pixel = id.x;
+    if pixel >= res * res || id.z >= params.count {
         return;
     }
-    let pixel = id.y * res + id.x;
     let traced = trace_plane_sample(sites[id.z], pixel);
     samples[id.z * res * res + pixel] = traced.sample;
     if params.record_hits != 0u {

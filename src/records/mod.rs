@@ -1382,7 +1382,7 @@ impl RecordPass {
             enc,
             &scene.bind_group,
             &plane_bind,
-            [res.div_ceil(8), res.div_ceil(8), batch.count],
+            [(res * res).div_ceil(64), 1, batch.count],
             timestamps,
         );
     }
