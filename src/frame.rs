@@ -666,11 +666,8 @@ impl Renderer {
         };
         splat_pass.splat(ctx, src, &splat, false, &mut times)?;
         if tail {
-            let fill_bounds =
-                splat_pass.fill_tile_bounds(ctx, &scene.gpu, &vis, &splat, &mut times)?;
             let tail = SplatSource {
                 accuracy: cache.settings().tail_accuracy(),
-                bounds: &fill_bounds,
                 ..src
             };
             splat_pass.fill_empty(ctx, tail, &splat, &mut times)?;
@@ -927,11 +924,8 @@ impl Renderer {
             // (Cornell box 128x128: 1.46 % indirect error with the tail's alone, 1.41 %
             // with all, for 0.5 s more binning on Sponza 1000x1000).
             if placement.tail_from_record.is_some() {
-                let fill_bounds =
-                    splat_pass.fill_tile_bounds(ctx, &scene.gpu, &vis, &splat, &mut times)?;
                 let tail = SplatSource {
                     accuracy: pass.settings.tail_accuracy(),
-                    bounds: &fill_bounds,
                     ..all
                 };
                 splat_pass.fill_empty(ctx, tail, &splat, &mut times)?;

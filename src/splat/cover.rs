@@ -110,18 +110,9 @@ impl SplatPass {
         vis: &VisibilityBuffer,
         mask: &CoverageMask,
     ) -> Result<(u32, u32)> {
-        let tiles_x = vis.width.div_ceil(TILE_SIZE);
-        let tiles_y = vis.height.div_ceil(TILE_SIZE);
-        let params = ctx.uniform_buffer(
-            "coverage count params",
-            &super::SplatParams {
-                width: vis.width,
-                height: vis.height,
-                tiles_x,
-                tiles_y,
-                ..bytemuck::Zeroable::zeroed()
-            },
-        );
+        let tiles = super::SplatParams::tiles(vis.width, vis.height);
+        let (tiles_x, tiles_y) = (tiles.tiles_x, tiles.tiles_y);
+        let params = ctx.uniform_buffer("coverage count params", &tiles);
         let counts = ctx.storage_buffer_sized("coverage counts", 8)?;
         let bind = self
             .count_coverage

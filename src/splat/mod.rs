@@ -62,6 +62,19 @@ pub(crate) struct SplatParams {
     _pad: [u32; 3],
 }
 
+impl SplatParams {
+    /// The image and tile size alone, for the per-tile passes (tile bounds, coverage count).
+    fn tiles(width: u32, height: u32) -> Self {
+        Self {
+            width,
+            height,
+            tiles_x: width.div_ceil(TILE_SIZE),
+            tiles_y: height.div_ceil(TILE_SIZE),
+            ..Zeroable::zeroed()
+        }
+    }
+}
+
 /// Per-pixel splat sums `(sum w E'_k (rgb), sum w)`, resident on the GPU, and optionally
 /// per-record coverage counts.
 pub struct SplatBuffer {
@@ -309,6 +322,8 @@ impl SplatPass {
     /// Tail fill's gather: `src`'s records, at `src`'s accuracy (the tail's, wider than the
     /// first gather's), give their sums to the pixels of `out` whose sums are still empty
     /// (no record reached them at the first gather's accuracy); the others keep theirs.
+    /// It bins against tile bounds of those pixels alone (`fill_tile_bounds`), not
+    /// `src.bounds`: tiles without any bin nothing.
     pub fn fill_empty(
         &self,
         ctx: &GpuContext,
@@ -316,6 +331,11 @@ impl SplatPass {
         out: &SplatBuffer,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<SplatStats> {
+        let bounds = self.fill_tile_bounds(ctx, src.scene, src.vis, out, times)?;
+        let src = SplatSource {
+            bounds: &bounds,
+            ..src
+        };
         self.gather_into(ctx, src, out, SplatInto::FillEmpty, times)
     }
 

@@ -5,7 +5,7 @@
 //! can reach, not every tile its screen bound overlaps: the same sums with far fewer
 //! (record, pixel) tests.
 
-use super::{SplatParams, SplatPass, TILE_SIZE};
+use super::{SplatParams, SplatPass};
 use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::scene_buffers::GpuScene;
@@ -37,7 +37,7 @@ impl SplatPass {
     /// The tile bounds of the visible pixels whose sums in `first` are empty: the pixels
     /// tail fill's gather ([`SplatPass::fill_empty`]) can change, so that it bins records
     /// only into tiles that have some (the same sums).
-    pub fn fill_tile_bounds(
+    pub(super) fn fill_tile_bounds(
         &self,
         ctx: &GpuContext,
         scene: &GpuScene,
@@ -56,22 +56,13 @@ impl SplatPass {
         empty_in: Option<&wgpu::Buffer>,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<TileBounds> {
-        let tiles_x = vis.width.div_ceil(TILE_SIZE);
-        let tiles_y = vis.height.div_ceil(TILE_SIZE);
+        let tiles = SplatParams::tiles(vis.width, vis.height);
+        let (tiles_x, tiles_y) = (tiles.tiles_x, tiles.tiles_y);
         let buffer = ctx.storage_buffer_sized(
             "splat tile bounds",
             u64::from(tiles_x) * u64::from(tiles_y) * TILE_BOUND_BYTES,
         )?;
-        let params = ctx.uniform_buffer(
-            "tile bounds params",
-            &SplatParams {
-                width: vis.width,
-                height: vis.height,
-                tiles_x,
-                tiles_y,
-                ..bytemuck::Zeroable::zeroed()
-            },
-        );
+        let params = ctx.uniform_buffer("tile bounds params", &tiles);
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         let (pass, sums) = match empty_in {
