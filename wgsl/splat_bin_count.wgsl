@@ -22,11 +22,23 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
     let reach = params.accuracy * r.radius;
     let tiles = sphere_tiles(camera, params, r.position, reach);
     record_tiles[i] = tiles;
-    for (var ty = tiles.y; ty <= tiles.w; ty++) {
-        for (var tx = tiles.x; tx <= tiles.z; tx++) {
-            let tile = ty * params.tiles_x + tx;
-            if tile_may_receive(bounds[tile], r.position, reach, r.normal, params.accuracy) {
-                atomicAdd(&tile_counts[tile], 1u);
+    if tiles.x > tiles.z {
+        return;
+    }
+    for (var by = tiles.y / BLOCK_TILES; by <= tiles.w / BLOCK_TILES; by++) {
+        for (var bx = tiles.x / BLOCK_TILES; bx <= tiles.z / BLOCK_TILES; bx++) {
+            let block = bounds[block_bound_index(params, bx, by)];
+            if !tile_may_receive(block, r.position, reach, r.normal, params.accuracy) {
+                continue;
+            }
+            let inner = block_tiles(tiles, bx, by);
+            for (var ty = inner.y; ty <= inner.w; ty++) {
+                for (var tx = inner.x; tx <= inner.z; tx++) {
+                    let tile = ty * params.tiles_x + tx;
+                    if tile_may_receive(bounds[tile], r.position, reach, r.normal, params.accuracy) {
+                        atomicAdd(&tile_counts[tile], 1u);
+                    }
+                }
             }
         }
     }

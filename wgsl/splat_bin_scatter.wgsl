@@ -22,15 +22,27 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
     let center = records[k].position;
     let reach = params.accuracy * records[k].radius;
     let normal = records[k].normal;
-    for (var ty = tiles.y; ty <= tiles.w; ty++) {
-        for (var tx = tiles.x; tx <= tiles.z; tx++) {
-            let tile = ty * params.tiles_x + tx;
-            // The count's test, on the same values: the same tiles.
-            if !tile_may_receive(bounds[tile], center, reach, normal, params.accuracy) {
+    if tiles.x > tiles.z {
+        return;
+    }
+    // The count's walk and tests, on the same values: the same tiles.
+    for (var by = tiles.y / BLOCK_TILES; by <= tiles.w / BLOCK_TILES; by++) {
+        for (var bx = tiles.x / BLOCK_TILES; bx <= tiles.z / BLOCK_TILES; bx++) {
+            let block = bounds[block_bound_index(params, bx, by)];
+            if !tile_may_receive(block, center, reach, normal, params.accuracy) {
                 continue;
             }
-            let slot = atomicAdd(&tile_cursors[tile], 1u);
-            entries[tile_offsets[tile] + slot] = vec2u(params.first_record + i, tile);
+            let inner = block_tiles(tiles, bx, by);
+            for (var ty = inner.y; ty <= inner.w; ty++) {
+                for (var tx = inner.x; tx <= inner.z; tx++) {
+                    let tile = ty * params.tiles_x + tx;
+                    if !tile_may_receive(bounds[tile], center, reach, normal, params.accuracy) {
+                        continue;
+                    }
+                    let slot = atomicAdd(&tile_cursors[tile], 1u);
+                    entries[tile_offsets[tile] + slot] = vec2u(params.first_record + i, tile);
+                }
+            }
         }
     }
 }

@@ -5,8 +5,8 @@
 // an uncovered one stops at its first contributing record, and the list order does not
 // matter (an "or" of its records), so the unsorted tile lists serve. The weighted gather
 // runs once, after placement (splat_gather.wgsl). The test is at `params.accuracy`: a
-// tail-fill round's cover passes the wider accuracy there. One workgroup per tile: tiles
-// that binned none of the new records return at once.
+// tail-fill round's cover passes the wider accuracy there. One workgroup per tile that
+// binned any of the new records (splat_bin_tiles.wgsl's list, in any order).
 //!include shared/splat_weight.wgsl
 
 @group(1) @binding(0) var<uniform> params: SplatParams;
@@ -18,16 +18,26 @@
 // [0]: pixels this mask's covers have marked (integer atomics: exact, order-free), which
 // placement's tail fill reads to know the share still uncovered.
 @group(1) @binding(6) var<storage, read_write> marked: array<atomic<u32>>;
+@group(1) @binding(7) var<storage, read> busy_tiles: array<u32>;
+@group(1) @binding(8) var<storage, read> busy_count: array<u32>;
 
 @compute @workgroup_size(TILE_SIZE, TILE_SIZE)
-fn main(@builtin(global_invocation_id) id: vec3u, @builtin(workgroup_id) group: vec3u) {
-    let tile = group.y * params.tiles_x + group.x;
-    let begin = tile_offsets[tile];
-    let end = tile_offsets[tile + 1u];
-    if begin == end || id.x >= params.width || id.y >= params.height {
+fn main(
+    @builtin(workgroup_id) group: vec3u,
+    @builtin(num_workgroups) groups: vec3u,
+    @builtin(local_invocation_id) local: vec3u,
+) {
+    let slot = group.y * groups.x + group.x;
+    if slot >= busy_count[0] {
         return;
     }
-    let pixel = id.y * params.width + id.x;
+    let tile = busy_tiles[slot];
+    let x = (tile % params.tiles_x) * TILE_SIZE + local.x;
+    let y = (tile / params.tiles_x) * TILE_SIZE + local.y;
+    if x >= params.width || y >= params.height {
+        return;
+    }
+    let pixel = y * params.width + x;
     if covered[pixel] != 0u {
         return;
     }
@@ -35,7 +45,7 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(workgroup_id) group: 
     if v.instance == NO_HIT {
         return;
     }
-    for (var j = begin; j < end; j++) {
+    for (var j = tile_offsets[tile]; j < tile_offsets[tile + 1u]; j++) {
         if contribution_error(entries[j].x, v.position, v.shading_normal) <= params.accuracy {
             covered[pixel] = 1u;
             atomicAdd(&marked[0], 1u);

@@ -242,6 +242,14 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/splat_tile_bounds.wgsl"),
     ),
     (
+        "splat_block_bounds.wgsl",
+        include_str!("../../wgsl/splat_block_bounds.wgsl"),
+    ),
+    (
+        "splat_bin_tiles.wgsl",
+        include_str!("../../wgsl/splat_bin_tiles.wgsl"),
+    ),
+    (
         "splat_cover.wgsl",
         include_str!("../../wgsl/splat_cover.wgsl"),
     ),

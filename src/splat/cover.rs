@@ -86,13 +86,15 @@ impl SplatPass {
                 &bins.entries,
                 &mask.covered,
                 &mask.marked,
+                &bins.busy_tiles,
+                &bins.busy_count,
             ],
         );
         self.cover.record(
             &mut enc,
             &scene.bind_group,
             &bind,
-            [bins.tiles[0], bins.tiles[1], 1],
+            busy_groups(ctx, bins.busy),
             timer.next("splat: cover"),
         );
         timer.resolve(&mut enc);
@@ -145,4 +147,16 @@ pub fn reference_cover(records: &[Record], vis: &[VisSample], accuracy: f32) -> 
             u32::from(v.is_hit() && records.iter().any(covers))
         })
         .collect()
+}
+
+/// Workgroups for one per busy tile (`splat_cover.wgsl` reads its slot as
+/// `group.y * groups.x + group.x`), split over y past the per-dimension limit.
+fn busy_groups(ctx: &GpuContext, busy: u32) -> [u32; 3] {
+    let max = ctx.device.limits().max_compute_workgroups_per_dimension;
+    let busy = busy.max(1);
+    if busy <= max {
+        [busy, 1, 1]
+    } else {
+        [max, busy.div_ceil(max), 1]
+    }
 }

@@ -1,5 +1,5 @@
 //! Tile-binned record splatting (thesis section 4.5, algorithms.md decision 8): records
-//! are binned into 16 x 16-pixel tiles by the screen bound of their footprint (atomic
+//! are binned into 8 x 8-pixel tiles by the screen bound of their footprint (atomic
 //! counts, a prefix sum, a scatter, a rank sort by record id), then each pixel gathers its
 //! tile's records in id order. [`reference`](mod@reference) is the same sum on the CPU.
 //!
@@ -166,6 +166,11 @@ pub(crate) struct TileBins {
     pub records: u32,
     /// (record, tile) pairs.
     pub total: u32,
+    /// The tiles that binned any record, in an order that depends on thread timing
+    /// (`splat_bin_tiles.wgsl`), and how many (`busy_count[0]`, also in `busy`).
+    pub busy_tiles: wgpu::Buffer,
+    pub busy_count: wgpu::Buffer,
+    pub busy: u32,
 }
 
 impl TileBins {
@@ -207,6 +212,7 @@ pub struct SplatSource<'a> {
 pub struct SplatPass {
     count: ComputePass,
     scan: crate::gpu::prefix_sum::PrefixSumPass,
+    busy_tiles: ComputePass,
     scatter: ComputePass,
     sort: ComputePass,
     gather: ComputePass,
@@ -215,6 +221,8 @@ pub struct SplatPass {
     bounds: ComputePass,
     /// The tile bounds of the pixels tail fill's gather fills (`EMPTY_ONLY`).
     fill_bounds: ComputePass,
+    /// The blocks' bounds from their tiles' (after `bounds` or `fill_bounds`).
+    block_bounds: ComputePass,
     /// What `bounds` binds for the sums it does not read.
     no_sums: wgpu::Buffer,
 }
@@ -236,6 +244,11 @@ impl SplatPass {
                 ],
             )?,
             scan: crate::gpu::prefix_sum::PrefixSumPass::new(ctx)?,
+            busy_tiles: ComputePass::new(
+                ctx,
+                "splat_bin_tiles.wgsl",
+                &[Uniform, StorageRead, StorageReadWrite, StorageReadWrite],
+            )?,
             scatter: ComputePass::new(
                 ctx,
                 "splat_bin_scatter.wgsl",
@@ -279,6 +292,8 @@ impl SplatPass {
                     StorageRead,
                     StorageReadWrite,
                     StorageReadWrite,
+                    StorageRead,
+                    StorageRead,
                 ],
             )?,
             count_coverage: ComputePass::new(
@@ -296,6 +311,11 @@ impl SplatPass {
                 "splat_tile_bounds.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite, StorageRead],
                 &[("EMPTY_ONLY", 1.0)],
+            )?,
+            block_bounds: ComputePass::new(
+                ctx,
+                "splat_block_bounds.wgsl",
+                &[Uniform, StorageReadWrite],
             )?,
             no_sums: ctx.storage_buffer_sized("no splat sums", 16)?,
         })
@@ -440,9 +460,11 @@ impl SplatPass {
         let record_tiles = ctx.storage_buffer_sized("record tiles", u64::from(records) * 16)?;
         let tile_counts = ctx.storage_buffer_sized("tile counts", u64::from(tiles) * 4)?;
         let tile_offsets = ctx.storage_buffer_sized("tile offsets", u64::from(tiles + 1) * 4)?;
+        let busy_tiles = ctx.storage_buffer_sized("busy tiles", u64::from(tiles) * 4)?;
+        let busy_count = ctx.storage_buffer_sized("busy tile count", 4)?;
 
-        // Count and scan, then read the total to size the lists.
-        let mut timer = PassTimer::new(ctx, 2);
+        // Count, scan and list the busy tiles, then read the totals to size the lists.
+        let mut timer = PassTimer::new(ctx, 3);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         if records > 0 {
             let bind = self.count.bind(
@@ -473,21 +495,30 @@ impl SplatPass {
             tiles,
             timer.next("splat: bin scan"),
         );
+        let bind = self
+            .busy_tiles
+            .bind(ctx, &[&params, &tile_offsets, &busy_tiles, &busy_count]);
+        self.busy_tiles.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            crate::gpu::pipeline::linear_groups(ctx, tiles),
+            timer.next("splat: bin scan"),
+        );
         timer.resolve(&mut enc);
-        let total_buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("splat total"),
-            size: 4,
+        let totals_buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("splat totals"),
+            size: 8,
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        enc.copy_buffer_to_buffer(&tile_offsets, u64::from(tiles) * 4, &total_buf, 0, 4);
+        enc.copy_buffer_to_buffer(&tile_offsets, u64::from(tiles) * 4, &totals_buf, 0, 4);
+        enc.copy_buffer_to_buffer(&busy_count, 0, &totals_buf, 4, 4);
         ctx.queue.submit([enc.finish()]);
         times.extend(timer.read(ctx)?);
-        let total = ctx
-            .read_buffer::<u32>(&total_buf)?
-            .first()
-            .copied()
-            .unwrap_or(0);
+        let totals = ctx.read_buffer::<u32>(&totals_buf)?;
+        let total = totals.first().copied().unwrap_or(0);
+        let busy = totals.get(1).copied().unwrap_or(0);
 
         // Scatter, then (for a gather) sort.
         let entries = ctx.storage_buffer_sized("tile entries", u64::from(total) * 8)?;
@@ -542,6 +573,9 @@ impl SplatPass {
             tiles: [tiles_x, tiles_y],
             records,
             total,
+            busy_tiles,
+            busy_count,
+            busy,
         })
     }
 }

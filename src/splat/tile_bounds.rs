@@ -3,7 +3,9 @@
 //! Binning tests each record against them (`tile_may_receive` in
 //! `wgsl/shared/splat.wgsl`), so a record's tile list holds only the tiles whose pixels it
 //! can reach, not every tile its screen bound overlaps: the same sums with far fewer
-//! (record, pixel) tests.
+//! (record, pixel) tests. After the tiles' bounds the buffer holds those of blocks of
+//! [`BLOCK_TILES`] x [`BLOCK_TILES`] tiles (`wgsl/splat_block_bounds.wgsl`), which binning
+//! tests first: one test drops a block's tiles together.
 
 use super::{SplatParams, SplatPass};
 use crate::Result;
@@ -15,10 +17,14 @@ use crate::visibility::VisibilityBuffer;
 /// Bytes per tile (WGSL `TileBound`: four vec4f).
 const TILE_BOUND_BYTES: u64 = 64;
 
+/// Block edge in tiles (`BLOCK_TILES` in `wgsl/shared/splat.wgsl`).
+pub const BLOCK_TILES: u32 = 8;
+
 /// The tile bounds of one visibility buffer, resident on the GPU.
 pub struct TileBounds {
     pub tiles_x: u32,
     pub tiles_y: u32,
+    /// The tiles' bounds, row-major, then their blocks' bounds, row-major.
     pub buffer: wgpu::Buffer,
 }
 
@@ -58,12 +64,13 @@ impl SplatPass {
     ) -> Result<TileBounds> {
         let tiles = SplatParams::tiles(vis.width, vis.height);
         let (tiles_x, tiles_y) = (tiles.tiles_x, tiles.tiles_y);
+        let blocks = u64::from(tiles_x.div_ceil(BLOCK_TILES) * tiles_y.div_ceil(BLOCK_TILES));
         let buffer = ctx.storage_buffer_sized(
             "splat tile bounds",
-            u64::from(tiles_x) * u64::from(tiles_y) * TILE_BOUND_BYTES,
+            (u64::from(tiles_x) * u64::from(tiles_y) + blocks) * TILE_BOUND_BYTES,
         )?;
         let params = ctx.uniform_buffer("tile bounds params", &tiles);
-        let mut timer = PassTimer::new(ctx, 1);
+        let mut timer = PassTimer::new(ctx, 2);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         let (pass, sums) = match empty_in {
             Some(sums) => (&self.fill_bounds, sums),
@@ -75,6 +82,14 @@ impl SplatPass {
             &scene.bind_group,
             &bind,
             [(tiles_x * tiles_y).div_ceil(64), 1, 1],
+            timer.next("splat: tile bounds"),
+        );
+        let bind = self.block_bounds.bind(ctx, &[&params, &buffer]);
+        self.block_bounds.record(
+            &mut enc,
+            &scene.bind_group,
+            &bind,
+            [(blocks as u32).div_ceil(64), 1, 1],
             timer.next("splat: tile bounds"),
         );
         timer.resolve(&mut enc);

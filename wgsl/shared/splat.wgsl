@@ -1,11 +1,15 @@
 // Tile binning of record footprints shared by the splat passes (algorithms.md decision 8):
 // a record reaches at most the sphere of radius a R_k around p_k (thesis eq. 4.4); its
-// bound on screen, in 16 x 16-pixel tiles, is where it is splatted.
+// bound on screen, in 8 x 8-pixel tiles, is where it is splatted. Binning walks that bound
+// in blocks of BLOCK_TILES x BLOCK_TILES tiles first: a block whose bound the record cannot
+// reach drops all its tiles at one test (most of a wide footprint's tiles, for tail fill's
+// accuracy and at depth gaps).
 //!include shared/ray.wgsl
 //!include shared/camera.wgsl
 //!include shared/linear_dispatch.wgsl
 
 const TILE_SIZE: u32 = 8u;
+const BLOCK_TILES: u32 = 8u;
 const NO_TILES: vec4u = vec4u(1u, 1u, 0u, 0u);   // empty: min > max
 
 struct SplatParams {
@@ -64,8 +68,27 @@ fn sphere_tiles(cam: Camera, params: SplatParams, center: vec3f, radius: f32) ->
     return vec4u(lo_px / TILE_SIZE, hi_px / TILE_SIZE);
 }
 
+// Blocks across the image: the bounds buffer holds the tiles' bounds, then the blocks'.
+fn blocks_x(params: SplatParams) -> u32 {
+    return (params.tiles_x + BLOCK_TILES - 1u) / BLOCK_TILES;
+}
+
+// Index in the bounds buffer of block (bx, by)'s bound (after the tiles' own).
+fn block_bound_index(params: SplatParams, bx: u32, by: u32) -> u32 {
+    return params.tiles_x * params.tiles_y + by * blocks_x(params) + bx;
+}
+
+// The tiles of rectangle `tiles` (inclusive min.xy, max.zw) inside block (bx, by).
+fn block_tiles(tiles: vec4u, bx: u32, by: u32) -> vec4u {
+    let lo = vec2u(bx, by) * BLOCK_TILES;
+    return vec4u(max(tiles.xy, lo), min(tiles.zw, lo + BLOCK_TILES - 1u));
+}
+
 // What a tile's visible pixels span (splat_tile_bounds.wgsl): the world-space box of their
-// positions and the box of their shading normals; lo > hi where the tile sees nothing.
+// positions and the box of their shading normals; lo > hi where the tile sees nothing. A
+// block's bound is the union of its tiles': it contains each, so a tile whose record passes
+// `tile_may_receive` lies in a block that passes it too (the test is monotone in the box,
+// also under rounding), and walking blocks first bins exactly the same tiles.
 struct TileBound {
     lo: vec4f,
     hi: vec4f,

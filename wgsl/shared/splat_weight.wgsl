@@ -5,19 +5,31 @@
 //!include shared/records.wgsl
 //!include shared/splat.wgsl
 
-// Ward's error of record k at (p, n) (eq. 4.2), or infinity where the record is behind p:
-// it contributes where this is at most the accuracy a. The test needs 32 of the record's
-// 144 bytes: load only those (every storage load is a per-lane loop on lavapipe).
-fn contribution_error(k: u32, p: vec3f, n: vec3f) -> f32 {
+// The part of record k the contribution test reads: its position, radius and normal, 32 of
+// its 144 bytes (every storage load is a per-lane loop on lavapipe: load only those, and
+// once for all the pixels an invocation tests).
+fn record_reach(k: u32) -> Record {
     var r: Record;
     r.position = records[k].position;
     r.radius = records[k].radius;
     r.normal = records[k].normal;
+    return r;
+}
+
+// Ward's error of record r (its reach, `record_reach`) at (p, n) (eq. 4.2), or NOT_REACHED
+// where the record is behind p: it contributes where this is at most the accuracy a.
+const NOT_REACHED: f32 = 1.0e30;
+fn reach_error(r: Record, p: vec3f, n: vec3f) -> f32 {
     let err = record_error(r, p, n);
     if err <= params.accuracy && record_in_front(r, p, n, params.accuracy) {
         return err;
     }
-    return 1.0e30;
+    return NOT_REACHED;
+}
+
+// Ward's error of record k at (p, n), as `reach_error`.
+fn contribution_error(k: u32, p: vec3f, n: vec3f) -> f32 {
+    return reach_error(record_reach(k), p, n);
 }
 
 // The weight of a contributing record with error `err` <= a (splat_gather.wgsl; CPU mirror
