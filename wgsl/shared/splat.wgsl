@@ -99,16 +99,20 @@ struct TileBound {
 // Whether a record at `center` with validity radius `radius` (a R_k) and normal `normal`
 // can contribute to any pixel of a tile with bound `b`, a test on the tile's content like
 // tiled light culling's depth bounds. Conservative for Ward's error (eq. 4.2,
-// shared/splat_weight.wgsl): err <= a needs |p - p_k| <= a R_k (the normal term is >= 0),
-// so the sphere must reach the tile's box, and sqrt(1 - n.n_k) <= a, so n.n_k >= 1 - a^2
-// for some normal in the tile's box (a linear function's maximum over a box is at a
-// corner, per component). The slack keeps the test conservative under rounding.
+// shared/splat_weight.wgsl) err = |p - p_k| / R_k + sqrt(1 - n.n_k): over the tile's box,
+// |p - p_k| is at least the box's distance from p_k, and n.n_k at most its maximum over the
+// normal box (a linear function's maximum over a box is at a corner, per component), so
+// err is at least the sum of the two bounds, and the record reaches the tile only if that
+// is at most a (each term alone was the test before: the sum drops the tiles where both
+// use part of the budget). The slack keeps the test conservative under rounding.
 fn tile_may_receive(b: TileBound, center: vec3f, radius: f32, normal: vec3f, accuracy: f32) -> bool {
     let gap = max(max(b.lo.xyz - center, center - b.hi.xyz), vec3f(0.0));
     let reach = radius * 1.001;
-    if dot(gap, gap) > reach * reach {
+    let gap2 = dot(gap, gap);
+    if gap2 > reach * reach {
         return false;
     }
     let best = dot(max(normal * b.normal_lo.xyz, normal * b.normal_hi.xyz), vec3f(1.0));
-    return best >= 1.0 - accuracy * accuracy - 1.0e-3;
+    let least_error = sqrt(gap2) / reach * accuracy + sqrt(max(0.0, 1.0 - best - 1.0e-3));
+    return least_error <= accuracy;
 }
