@@ -35,6 +35,9 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
             let inner = block_tiles(tiles, bx, by);
             for (var ty = inner.y; ty <= inner.w; ty++) {
                 for (var tx = inner.x; tx <= inner.z; tx++) {
+                    if !block_has_tile(block, tx, ty) {
+                        continue;
+                    }
                     let tile = ty * params.tiles_x + tx;
                     if !tile_may_receive(bounds[tile], center, reach, normal, params.accuracy) {
                         continue;

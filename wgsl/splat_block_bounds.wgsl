@@ -1,6 +1,7 @@
 // Splat block bounds: per block of BLOCK_TILES x BLOCK_TILES tiles, the union of its tiles'
 // bounds (shared/splat.wgsl), written after the tiles' own, so binning can drop a block of
-// tiles at one test. Run after splat_tile_bounds.wgsl on the same buffer. One invocation per
+// tiles at one test, and which of its tiles see anything (a bit each, in lo.w and hi.w:
+// shared/splat.wgsl block_has_tile). Run after splat_tile_bounds.wgsl on the same buffer. One invocation per
 // block, its tiles in scan order (min and max do not depend on order).
 //!include shared/splat.wgsl
 
@@ -19,14 +20,22 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let all = vec4u(0u, 0u, params.tiles_x - 1u, params.tiles_y - 1u);
     let tiles = block_tiles(all, bx, by);
     var b = TileBound(vec4f(1.0e30), vec4f(-1.0e30), vec4f(1.0e30), vec4f(-1.0e30));
+    var occupied = vec2u(0u);
     for (var ty = tiles.y; ty <= tiles.w; ty++) {
         for (var tx = tiles.x; tx <= tiles.z; tx++) {
             let t = bounds[ty * params.tiles_x + tx];
+            if t.lo.x > t.hi.x {
+                continue;   // sees nothing
+            }
             b.lo = min(b.lo, t.lo);
             b.hi = max(b.hi, t.hi);
             b.normal_lo = min(b.normal_lo, t.normal_lo);
             b.normal_hi = max(b.normal_hi, t.normal_hi);
+            let bit = (ty % BLOCK_TILES) * BLOCK_TILES + tx % BLOCK_TILES;
+            occupied[bit / 32u] |= 1u << (bit % 32u);
         }
     }
+    b.lo.w = bitcast<f32>(occupied.x);
+    b.hi.w = bitcast<f32>(occupied.y);
     bounds[block_bound_index(params, bx, by)] = b;
 }

@@ -9,7 +9,7 @@
 //!include shared/linear_dispatch.wgsl
 
 const TILE_SIZE: u32 = 8u;
-const BLOCK_TILES: u32 = 8u;
+const BLOCK_TILES: u32 = 8u;   // 64 tiles: one bit each in a block's two words
 const NO_TILES: vec4u = vec4u(1u, 1u, 0u, 0u);   // empty: min > max
 
 struct SplatParams {
@@ -82,6 +82,16 @@ fn block_bound_index(params: SplatParams, bx: u32, by: u32) -> u32 {
 fn block_tiles(tiles: vec4u, bx: u32, by: u32) -> vec4u {
     let lo = vec2u(bx, by) * BLOCK_TILES;
     return vec4u(max(tiles.xy, lo), min(tiles.zw, lo + BLOCK_TILES - 1u));
+}
+
+// Whether tile (tx, ty) of the block with bound `block` sees anything: the block's bound
+// carries one bit per tile in its lo.w and hi.w (splat_block_bounds.wgsl), so a walk over
+// the block skips empty tiles without loading their bounds (tail fill's bounds count only
+// the pixels still empty: most of its tiles are).
+fn block_has_tile(block: TileBound, tx: u32, ty: u32) -> bool {
+    let bit = (ty % BLOCK_TILES) * BLOCK_TILES + tx % BLOCK_TILES;
+    let word = select(bitcast<u32>(block.lo.w), bitcast<u32>(block.hi.w), bit >= 32u);
+    return (word & (1u << (bit % 32u))) != 0u;
 }
 
 // What a tile's visible pixels span (splat_tile_bounds.wgsl): the world-space box of their
