@@ -1299,8 +1299,10 @@ pub fn radiance_pass_name(name: &str) -> &'static str {
         "record reduction" => "radiance: record reduction",
         "radiance projection" => "radiance: projection",
         "splat: radiance gather" => "radiance: gather",
-        "splat: cover" => "radiance: cover",
-        n if n.starts_with("splat: bin") => "radiance: binning",
+        "placement: cover" => "radiance: cover",
+        n if n.starts_with("splat: bin") || n.starts_with("placement: cover bin") => {
+            "radiance: binning"
+        }
         "temporal: reprojection" => "radiance: reprojection",
         "temporal: re-shading" => "radiance: re-shading",
         "temporal: hole filling" => "radiance: hole filling",

@@ -10,8 +10,9 @@
 // contributes to are counted, and only for the expiring records that do: an expired record
 // none of whose pixels needs it is deleted rather than replaced. With `accumulate` 2
 // (tail fill, placement::PlacementPass) only pixels whose previous sums are empty (no
-// record reached them at a) take these records' sums, at the tail's wider accuracy.
-//!include shared/splat_weight.wgsl
+// record reached them at a) take these records' sums, at the tail's wider accuracy; the
+// frame's tail fill runs splat_fill.wgsl instead, over a list of those pixels.
+//!include shared/splat_pixel.wgsl
 
 @group(1) @binding(0) var<uniform> params: SplatParams;
 @group(1) @binding(1) var<storage, read> vis: array<VisSample>;
@@ -21,77 +22,6 @@
 @group(1) @binding(5) var<storage, read_write> splat: array<vec4f>;
 @group(1) @binding(6) var<storage, read_write> coverage: array<atomic<u32>>;
 @group(1) @binding(7) var<storage, read> expiring: array<u32>;   // 1: expires after this frame
-
-const ACCUMULATE: u32 = 1u;
-const FILL_EMPTY: u32 = 2u;
-const COUNT_ALL: u32 = 1u;
-const COUNT_NEEDED: u32 = 2u;
-
-// One pixel's part of the gather.
-struct PixelSum {
-    pixel: u32,
-    writes: bool,    // inside the image and, in tail fill, still empty
-    gathers: bool,   // writes and sees a surface
-    p: vec3f,
-    n: vec3f,
-    sum: vec4f,
-    survivor: bool,  // a record that outlives this frame contributes here
-}
-
-fn pixel_start(x: u32, y: u32) -> PixelSum {
-    var s = PixelSum(y * params.width + x, false, false, vec3f(0.0), vec3f(0.0), vec4f(0.0), false);
-    if x >= params.width || y >= params.height {
-        return s;
-    }
-    if params.accumulate == FILL_EMPTY && splat[s.pixel].w != 0.0 {
-        return s;
-    }
-    s.writes = true;
-    if params.accumulate == ACCUMULATE {
-        s.sum = splat[s.pixel];
-    }
-    let v = vis[s.pixel];
-    s.gathers = v.instance != NO_HIT;
-    s.p = v.position;
-    s.n = v.shading_normal;
-    return s;
-}
-
-// Ward's error of record r (its reach) at the pixel, NOT_REACHED where it does not
-// contribute.
-fn pixel_error(s: PixelSum, r: Record) -> f32 {
-    if !s.gathers {
-        return NOT_REACHED;
-    }
-    return reach_error(r, s.p, s.n);
-}
-
-// Adds record k (r, fully loaded) with error err <= a to the pixel's sums.
-fn pixel_add(s: ptr<function, PixelSum>, k: u32, r: Record, err: f32) {
-    // w = 1 / err - 1 / a (Ward's weight less its value at the edge of the validity area,
-    // Krivanek & Gautron 2009 section 2.2), capped where p is the record's own point: a
-    // record fades out at its edge instead of dropping from 1 / a to 0, which drew its
-    // circle (the splotches; Cornell box 128x128: indirect error 2.54 % -> 2.43 %). Floored
-    // so that a pixel at the edge of its only record still takes that record's irradiance.
-    let w = splat_weight(err, params.accuracy);
-    (*s).sum += vec4f(w * record_irradiance_at(r, (*s).p, (*s).n), w);
-    if params.count_coverage == COUNT_NEEDED {
-        (*s).survivor = (*s).survivor || expiring[k] == 0u;
-    }
-}
-
-// Every record contributing to the pixel expires: each is needed (count_coverage 2).
-fn count_needed(s: PixelSum, begin: u32, end: u32) {
-    if !s.gathers || s.survivor {
-        return;
-    }
-    for (var j = begin; j < end; j++) {
-        let k = sorted[j];
-        if contribution_error(k, s.p, s.n) <= params.accuracy {
-            atomicAdd(&coverage[k], 1u);
-        }
-    }
-}
 
 // Two pixels per invocation, half a tile row apart: each record of the tile's list is
 // loaded once for both (storage loads, one per lane on lavapipe, are the gather's cost).

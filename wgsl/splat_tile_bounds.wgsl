@@ -5,7 +5,9 @@
 // invocation per tile, its pixels in scan order (min and max do not depend on order).
 // With EMPTY_ONLY (tail fill's gather, `SplatPass::fill_tile_bounds`) only the pixels whose
 // first-gather sums are empty count: the only ones that gather can change, so tiles
-// without such pixels bin no record (the same sums, fewer tests).
+// without such pixels bin no record (the same sums, fewer tests), and it lists those
+// pixels for splat_fill.wgsl (in an order that depends on thread timing; each pixel's sums
+// do not).
 //!include shared/splat.wgsl
 
 override EMPTY_ONLY: bool = false;
@@ -15,6 +17,9 @@ override EMPTY_ONLY: bool = false;
 @group(1) @binding(2) var<storage, read_write> bounds: array<TileBound>;
 // The first gather's sums (EMPTY_ONLY; a placeholder otherwise).
 @group(1) @binding(3) var<storage, read> sums: array<vec4f>;
+// The visible pixels with empty sums and how many (EMPTY_ONLY; placeholders otherwise).
+@group(1) @binding(4) var<storage, read_write> empty_pixels: array<u32>;
+@group(1) @binding(5) var<storage, read_write> empty_count: array<atomic<u32>>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3u) {
@@ -29,8 +34,11 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             if vis[pixel].instance == NO_HIT {
                 continue;
             }
-            if EMPTY_ONLY && sums[pixel].w != 0.0 {
-                continue;
+            if EMPTY_ONLY {
+                if sums[pixel].w != 0.0 {
+                    continue;
+                }
+                empty_pixels[atomicAdd(&empty_count[0], 1u)] = pixel;
             }
             let p = vis[pixel].position;
             let n = vis[pixel].shading_normal;

@@ -238,6 +238,14 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/shared/splat_weight.wgsl"),
     ),
     (
+        "shared/splat_pixel.wgsl",
+        include_str!("../../wgsl/shared/splat_pixel.wgsl"),
+    ),
+    (
+        "splat_fill.wgsl",
+        include_str!("../../wgsl/splat_fill.wgsl"),
+    ),
+    (
         "splat_tile_bounds.wgsl",
         include_str!("../../wgsl/splat_tile_bounds.wgsl"),
     ),

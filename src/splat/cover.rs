@@ -95,7 +95,7 @@ impl SplatPass {
             &scene.bind_group,
             &bind,
             busy_groups(ctx, bins.busy),
-            timer.next("splat: cover"),
+            timer.next("placement: cover"),
         );
         timer.resolve(&mut enc);
         ctx.queue.submit([enc.finish()]);

@@ -216,6 +216,8 @@ pub struct SplatPass {
     scatter: ComputePass,
     sort: ComputePass,
     gather: ComputePass,
+    /// Tail fill's gather over the listed empty pixels.
+    fill: ComputePass,
     cover: ComputePass,
     count_coverage: ComputePass,
     bounds: ComputePass,
@@ -223,8 +225,10 @@ pub struct SplatPass {
     fill_bounds: ComputePass,
     /// The blocks' bounds from their tiles' (after `bounds` or `fill_bounds`).
     block_bounds: ComputePass,
-    /// What `bounds` binds for the sums it does not read.
+    /// What `bounds` binds for the sums it does not read and the empty pixels it does not
+    /// list.
     no_sums: wgpu::Buffer,
+    no_empty: tile_bounds::EmptyPixels,
 }
 
 impl SplatPass {
@@ -281,6 +285,22 @@ impl SplatPass {
                     StorageRead,
                 ],
             )?,
+            fill: ComputePass::new(
+                ctx,
+                "splat_fill.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                    StorageRead,
+                    StorageRead,
+                    StorageRead,
+                ],
+            )?,
             cover: ComputePass::new(
                 ctx,
                 "splat_cover.wgsl",
@@ -304,12 +324,26 @@ impl SplatPass {
             bounds: ComputePass::new(
                 ctx,
                 "splat_tile_bounds.wgsl",
-                &[Uniform, StorageRead, StorageReadWrite, StorageRead],
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
             )?,
             fill_bounds: ComputePass::with_constants(
                 ctx,
                 "splat_tile_bounds.wgsl",
-                &[Uniform, StorageRead, StorageReadWrite, StorageRead],
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
                 &[("EMPTY_ONLY", 1.0)],
             )?,
             block_bounds: ComputePass::new(
@@ -318,6 +352,10 @@ impl SplatPass {
                 &[Uniform, StorageReadWrite],
             )?,
             no_sums: ctx.storage_buffer_sized("no splat sums", 16)?,
+            no_empty: tile_bounds::EmptyPixels {
+                list: ctx.storage_buffer_sized("no empty pixels", 4)?,
+                count: ctx.storage_buffer_sized("no empty pixel count", 4)?,
+            },
         })
     }
 
@@ -343,7 +381,8 @@ impl SplatPass {
     /// first gather's), give their sums to the pixels of `out` whose sums are still empty
     /// (no record reached them at the first gather's accuracy); the others keep theirs.
     /// It bins against tile bounds of those pixels alone (`fill_tile_bounds`), not
-    /// `src.bounds`: tiles without any bin nothing.
+    /// `src.bounds`: tiles without any bin nothing; and gathers over the list of those
+    /// pixels (`splat_fill.wgsl`), not over the busy tiles' every pixel.
     pub fn fill_empty(
         &self,
         ctx: &GpuContext,
@@ -351,12 +390,66 @@ impl SplatPass {
         out: &SplatBuffer,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<SplatStats> {
-        let bounds = self.fill_tile_bounds(ctx, src.scene, src.vis, out, times)?;
+        let (bounds, empty) = self.fill_tile_bounds(ctx, src.scene, src.vis, out, times)?;
         let src = SplatSource {
             bounds: &bounds,
             ..src
         };
-        self.gather_into(ctx, src, out, SplatInto::FillEmpty, times)
+        self.check_coverage(src.records, out)?;
+        let bins = self.bin(
+            ctx,
+            src,
+            (SplatInto::FillEmpty, out.coverage_mode),
+            true,
+            times,
+        )?;
+        let pixels = ctx
+            .read_buffer::<u32>(&empty.count)?
+            .first()
+            .copied()
+            .unwrap_or(0);
+        if bins.total == 0 || pixels == 0 {
+            return Ok(bins.stats());
+        }
+        let mut timer = PassTimer::new(ctx, 1);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let bind = self.fill.bind(
+            ctx,
+            &[
+                &bins.params,
+                &src.vis.samples,
+                &src.records.buffer,
+                &bins.tile_offsets,
+                &bins.sorted,
+                &out.sums,
+                &out.coverage,
+                &out.expiring,
+                &empty.list,
+                &empty.count,
+            ],
+        );
+        self.fill.record(
+            &mut enc,
+            &src.scene.bind_group,
+            &bind,
+            crate::gpu::pipeline::linear_groups(ctx, pixels),
+            timer.next("splat: gather"),
+        );
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        Ok(bins.stats())
+    }
+
+    /// An error where `out` counts coverage for fewer records than `cache` holds.
+    fn check_coverage(&self, cache: &RecordCache, out: &SplatBuffer) -> Result<()> {
+        if out.coverage_records > 0 && cache.count > out.coverage_records {
+            return Err(Error::Usage(format!(
+                "splat: {} records exceed the coverage counters' {}",
+                cache.count, out.coverage_records
+            )));
+        }
+        Ok(())
     }
 
     fn gather_into(
@@ -374,12 +467,7 @@ impl SplatPass {
             records: cache,
             ..
         } = src;
-        if out.coverage_records > 0 && cache.count > out.coverage_records {
-            return Err(Error::Usage(format!(
-                "splat: {} records exceed the coverage counters' {}",
-                cache.count, out.coverage_records
-            )));
-        }
+        self.check_coverage(cache, out)?;
         let bins = self.bin(ctx, src, (into, out.coverage_mode), true, times)?;
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -408,12 +496,17 @@ impl SplatPass {
         timer.resolve(&mut enc);
         ctx.queue.submit([enc.finish()]);
         times.extend(timer.read(ctx)?);
+        if std::env::var("RS_DEBUG").is_ok() {
+            eprintln!("GATHER {:?} {:?}", into, times.last());
+        }
         Ok(bins.stats())
     }
 
     /// Bins `src`'s records into the `TILE_SIZE`-pixel tiles their footprints bound:
     /// counts, prefix sum, scatter and, when `sorted`, the rank sort by record id that makes
-    /// a gather's sums deterministic. `(into, count_coverage)` go into the bins' parameters
+    /// a gather's sums deterministic. Unsorted bins serve placement's cover (an "or" needs
+    /// no order) and are timed under its name ("placement: cover bin ..."), sorted ones
+    /// under the splat's ("splat: bin ..."). `(into, count_coverage)` go into the bins' parameters
     /// for the gather.
     pub(crate) fn bin(
         &self,
@@ -463,6 +556,15 @@ impl SplatPass {
         let busy_tiles = ctx.storage_buffer_sized("busy tiles", u64::from(tiles) * 4)?;
         let busy_count = ctx.storage_buffer_sized("busy tile count", 4)?;
 
+        let [count_label, scan_label, scatter_label] = if sorted {
+            ["splat: bin count", "splat: bin scan", "splat: bin scatter"]
+        } else {
+            [
+                "placement: cover bin count",
+                "placement: cover bin scan",
+                "placement: cover bin scatter",
+            ]
+        };
         // Count, scan and list the busy tiles, then read the totals to size the lists.
         let mut timer = PassTimer::new(ctx, 3);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -483,7 +585,7 @@ impl SplatPass {
                 &scene.bind_group,
                 &bind,
                 crate::gpu::pipeline::linear_groups(ctx, records),
-                timer.next("splat: bin count"),
+                timer.next(count_label),
             );
         }
         self.scan.record(
@@ -493,7 +595,7 @@ impl SplatPass {
             &tile_counts,
             &tile_offsets,
             tiles,
-            timer.next("splat: bin scan"),
+            timer.next(scan_label),
         );
         let bind = self
             .busy_tiles
@@ -503,7 +605,7 @@ impl SplatPass {
             &scene.bind_group,
             &bind,
             crate::gpu::pipeline::linear_groups(ctx, tiles),
-            timer.next("splat: bin scan"),
+            timer.next(scan_label),
         );
         timer.resolve(&mut enc);
         let totals_buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -547,7 +649,7 @@ impl SplatPass {
                 &scene.bind_group,
                 &bind,
                 crate::gpu::pipeline::linear_groups(ctx, records),
-                timer.next("splat: bin scatter"),
+                timer.next(scatter_label),
             );
             if sorted {
                 let bind = self
@@ -564,6 +666,14 @@ impl SplatPass {
             timer.resolve(&mut enc);
             ctx.queue.submit([enc.finish()]);
             times.extend(timer.read(ctx)?);
+        }
+        if std::env::var("RS_DEBUG").is_ok() {
+            let n = times.len();
+            eprintln!(
+                "BIN {:?} sorted={sorted} records={records} total={total} busy={busy} {:?}",
+                into,
+                &times[n.saturating_sub(5)..]
+            );
         }
         Ok(TileBins {
             params,

@@ -17,6 +17,14 @@ use crate::visibility::VisibilityBuffer;
 /// Bytes per tile (WGSL `TileBound`: four vec4f).
 const TILE_BOUND_BYTES: u64 = 64;
 
+/// The visible pixels whose sums are empty after the first gather, listed in an order that
+/// depends on thread timing (`splat_tile_bounds.wgsl` with `EMPTY_ONLY`), and how many
+/// (`count[0]`): what `splat_fill.wgsl` gathers.
+pub(super) struct EmptyPixels {
+    pub list: wgpu::Buffer,
+    pub count: wgpu::Buffer,
+}
+
 /// Block edge in tiles (`BLOCK_TILES` in `wgsl/shared/splat.wgsl`).
 pub const BLOCK_TILES: u32 = 8;
 
@@ -42,7 +50,7 @@ impl SplatPass {
 
     /// The tile bounds of the visible pixels whose sums in `first` are empty: the pixels
     /// tail fill's gather ([`SplatPass::fill_empty`]) can change, so that it bins records
-    /// only into tiles that have some (the same sums).
+    /// only into tiles that have some (the same sums); and the list of those pixels.
     pub(super) fn fill_tile_bounds(
         &self,
         ctx: &GpuContext,
@@ -50,8 +58,16 @@ impl SplatPass {
         vis: &VisibilityBuffer,
         first: &super::SplatBuffer,
         times: &mut Vec<(&'static str, f64)>,
-    ) -> Result<TileBounds> {
-        self.bounds_of(ctx, scene, vis, Some(&first.sums), times)
+    ) -> Result<(TileBounds, EmptyPixels)> {
+        let empty = EmptyPixels {
+            list: ctx.storage_buffer_sized(
+                "empty pixels",
+                u64::from(vis.width) * u64::from(vis.height) * 4,
+            )?,
+            count: ctx.storage_buffer_sized("empty pixel count", 4)?,
+        };
+        let bounds = self.bounds_of(ctx, scene, vis, Some((&first.sums, &empty)), times)?;
+        Ok((bounds, empty))
     }
 
     fn bounds_of(
@@ -59,7 +75,7 @@ impl SplatPass {
         ctx: &GpuContext,
         scene: &GpuScene,
         vis: &VisibilityBuffer,
-        empty_in: Option<&wgpu::Buffer>,
+        empty_in: Option<(&wgpu::Buffer, &EmptyPixels)>,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<TileBounds> {
         let tiles = SplatParams::tiles(vis.width, vis.height);
@@ -72,11 +88,16 @@ impl SplatPass {
         let params = ctx.uniform_buffer("tile bounds params", &tiles);
         let mut timer = PassTimer::new(ctx, 2);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let (pass, sums) = match empty_in {
-            Some(sums) => (&self.fill_bounds, sums),
-            None => (&self.bounds, &self.no_sums),
+        let (pass, sums, list, count) = match empty_in {
+            Some((sums, empty)) => (&self.fill_bounds, sums, &empty.list, &empty.count),
+            None => (
+                &self.bounds,
+                &self.no_sums,
+                &self.no_empty.list,
+                &self.no_empty.count,
+            ),
         };
-        let bind = pass.bind(ctx, &[&params, &vis.samples, &buffer, sums]);
+        let bind = pass.bind(ctx, &[&params, &vis.samples, &buffer, sums, list, count]);
         pass.record(
             &mut enc,
             &scene.bind_group,

@@ -1,0 +1,56 @@
+// Splat fill: tail fill's gather (SplatPass::fill_empty). The pixels that no record reached
+// at the first gather's accuracy (their sums empty, listed by splat_tile_bounds.wgsl with
+// EMPTY_ONLY) take every record of their tile that reaches them at the tail's wider
+// accuracy, in list order: splat_gather.wgsl's sums with `accumulate` 2, one invocation per
+// listed pixel instead of per pixel of the busy tiles (a handful of empty pixels in a tile
+// kept its whole SIMD group looping over the tile's list).
+//!include shared/splat_pixel.wgsl
+//!include shared/linear_dispatch.wgsl
+
+@group(1) @binding(0) var<uniform> params: SplatParams;
+@group(1) @binding(1) var<storage, read> vis: array<VisSample>;
+@group(1) @binding(2) var<storage, read> records: array<Record>;
+@group(1) @binding(3) var<storage, read> tile_offsets: array<u32>;
+@group(1) @binding(4) var<storage, read> sorted: array<u32>;
+@group(1) @binding(5) var<storage, read_write> splat: array<vec4f>;
+@group(1) @binding(6) var<storage, read_write> coverage: array<atomic<u32>>;
+@group(1) @binding(7) var<storage, read> expiring: array<u32>;   // 1: expires after this frame
+@group(1) @binding(8) var<storage, read> empty_pixels: array<u32>;
+@group(1) @binding(9) var<storage, read> empty_count: array<u32>;
+
+@compute @workgroup_size(256)
+fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
+    let i = flat_index(id, groups);
+    if i >= empty_count[0] {
+        return;
+    }
+    let pixel = empty_pixels[i];
+    let x = pixel % params.width;
+    let y = pixel / params.width;
+    var s = pixel_start(x, y);
+    if !s.writes {
+        return;
+    }
+    let tile = (y / TILE_SIZE) * params.tiles_x + x / TILE_SIZE;
+    let begin = tile_offsets[tile];
+    let end = tile_offsets[tile + 1u];
+    if s.gathers {
+        for (var j = begin; j < end; j++) {
+            let k = sorted[j];
+            var r = record_reach(k);
+            let err = pixel_error(s, r);
+            if err > params.accuracy {
+                continue;
+            }
+            r = records[k];
+            pixel_add(&s, k, r, err);
+            if params.count_coverage == COUNT_ALL {
+                atomicAdd(&coverage[k], 1u);
+            }
+        }
+    }
+    if params.count_coverage == COUNT_NEEDED {
+        count_needed(s, begin, end);
+    }
+    splat[pixel] = s.sum;
+}
