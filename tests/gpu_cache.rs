@@ -35,7 +35,14 @@ fn render(renderer: &Renderer, scene: &Scene, cache: &mut IrradianceCache) -> Fr
 fn cornell_cache(
     settings: &CacheSettings,
 ) -> (Renderer, Scene, IrradianceCache, Vec<Record>, Option<u32>) {
-    let scene = common::load("cornell-box.toml", Some((48, 40)));
+    cornell_cache_at(settings, (48, 40))
+}
+
+fn cornell_cache_at(
+    settings: &CacheSettings,
+    size: (u32, u32),
+) -> (Renderer, Scene, IrradianceCache, Vec<Record>, Option<u32>) {
+    let scene = common::load("cornell-box.toml", Some(size));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let mut cache = renderer.new_cache(settings).expect("cache");
     let frame = render(&renderer, &scene, &mut cache);
@@ -46,11 +53,27 @@ fn cornell_cache(
 
 #[test]
 fn gpu_splat_matches_cpu_splat() {
-    // Records at least 8 pixels wide on screen: large enough for tail fill at 48 x 40.
-    let (renderer, scene, cache, records, tail_from) = cornell_cache(&CacheSettings {
-        r_min_pixels: 8.0,
-        ..settings()
-    });
+    check_splat_against_cpu((48, 40));
+}
+
+/// The same at a size whose tiles span several binning blocks (8 x 8 tiles of 8 x 8 pixels),
+/// the last ones partial: records whose footprints cross a block's edge are binned into
+/// the tiles on both sides (`splat_bin_count.wgsl` walks blocks first), and tail fill's
+/// gather reaches every listed empty pixel.
+#[test]
+fn gpu_splat_matches_cpu_splat_across_binning_blocks() {
+    check_splat_against_cpu((136, 72));
+}
+
+fn check_splat_against_cpu(size: (u32, u32)) {
+    // Records at least 8 pixels wide on screen: large enough for tail fill.
+    let (renderer, scene, cache, records, tail_from) = cornell_cache_at(
+        &CacheSettings {
+            r_min_pixels: 8.0,
+            ..settings()
+        },
+        size,
+    );
     // Splat the records again from another camera, on the GPU and on the CPU.
     let mut camera = scene.camera.clone();
     camera.position.x += 0.05;
