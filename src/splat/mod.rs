@@ -496,9 +496,6 @@ impl SplatPass {
         timer.resolve(&mut enc);
         ctx.queue.submit([enc.finish()]);
         times.extend(timer.read(ctx)?);
-        if std::env::var("RS_DEBUG").is_ok() {
-            eprintln!("GATHER {:?} {:?}", into, times.last());
-        }
         Ok(bins.stats())
     }
 
@@ -666,14 +663,6 @@ impl SplatPass {
             timer.resolve(&mut enc);
             ctx.queue.submit([enc.finish()]);
             times.extend(timer.read(ctx)?);
-        }
-        if std::env::var("RS_DEBUG").is_ok() {
-            let n = times.len();
-            eprintln!(
-                "BIN {:?} sorted={sorted} records={records} total={total} busy={busy} {:?}",
-                into,
-                &times[n.saturating_sub(5)..]
-            );
         }
         Ok(TileBins {
             params,
