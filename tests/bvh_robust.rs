@@ -17,13 +17,9 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// A fresh temporary directory for one test's files.
-fn temp_dir(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("radsplat-bvh-robust-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+/// A fresh, empty directory for one test's files, removed when the test ends.
+fn temp_dir(name: &str) -> common::TestDir {
+    common::TestDir::new(&format!("bvh-robust-{name}"))
 }
 
 /// Writes `obj` and a scene naming it `copies` times (so many instances of one mesh), with

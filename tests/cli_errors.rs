@@ -3,14 +3,12 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-fn tmp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("radsplat-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp dir");
-    d
+/// A fresh, empty directory for one test's files, removed when the test ends.
+fn tmp_dir(name: &str) -> common::TestDir {
+    common::TestDir::new(&format!("cli-{name}"))
 }
 
 fn radsplat(args: &[&str]) -> (i32, String) {

@@ -7,11 +7,9 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn tmp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("radsplat-out-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp dir");
-    d
+/// A fresh, empty directory for one test's files, removed when the test ends.
+fn tmp_dir(name: &str) -> common::TestDir {
+    common::TestDir::new(&format!("out-{name}"))
 }
 
 /// Runs radsplat with XDG_RUNTIME_DIR removed (as in a container or over ssh).

@@ -1,16 +1,16 @@
 //! `radsplat compare` and `radsplat::compare`: RMSE numbers on synthetic images (EXR and
 //! Radiance pictures), the difference PNG, and clear errors for bad input.
 
+mod common;
+
 use radsplat::compare::{LEGEND_ROWS, compare, load_image};
 use radsplat::output::exr_out::{Channels, encode_exr};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn tmp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("radsplat-compare-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp dir");
-    d
+/// A fresh, empty directory for one test's files, removed when the test ends.
+fn tmp_dir(name: &str) -> common::TestDir {
+    common::TestDir::new(&format!("compare-{name}"))
 }
 
 /// Writes an EXR whose R, G, B are `rgb` (per pixel), plus `indirect.*` when given.

@@ -1,6 +1,8 @@
 //! `radsplat compare-seq` and `radsplat::compare_seq`: per-frame RMSE and flicker on tiny
 //! synthetic EXR sequences, the plot, and clear errors.
 
+mod common;
+
 use radsplat::Error;
 use radsplat::compare_seq::{PLOT_SIZE, compare_sequence};
 use radsplat::output::exr_out::{Channels, encode_exr};
@@ -10,14 +12,9 @@ use std::process::Command;
 const W: u32 = 4;
 const H: u32 = 3;
 
-fn tmp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "radsplat-compare-seq-{name}-{}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp dir");
-    d
+/// A fresh, empty directory for one test's files, removed when the test ends.
+fn tmp_dir(name: &str) -> common::TestDir {
+    common::TestDir::new(&format!("compare-seq-{name}"))
 }
 
 /// Writes frames 1, 2, 3 of `dir/{prefix}_####.exr`, frame k uniformly grey at `values[k-1]`

@@ -261,11 +261,9 @@ fn radsplat(args: &[&str]) -> (i32, String) {
     (out.status.code().unwrap_or(-1), stderr)
 }
 
-fn tmp_dir(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("radsplat-ref-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp dir");
-    d
+/// A fresh, empty directory for one test's files, removed when the test ends.
+fn tmp_dir(name: &str) -> common::TestDir {
+    common::TestDir::new(&format!("ref-{name}"))
 }
 
 #[test]

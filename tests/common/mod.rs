@@ -4,7 +4,39 @@
 use glam::Vec3;
 use radsplat::gpu::GpuContext;
 use radsplat::scene::{Scene, load_scene};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+/// A fresh, empty directory for one test's files (`radsplat-<name>-<pid>` under the system's
+/// temp dir), removed when dropped: tests left theirs behind, a set per run.
+pub struct TestDir(PathBuf);
+
+impl TestDir {
+    pub fn new(name: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("radsplat-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("test directory");
+        Self(dir)
+    }
+}
+
+impl std::ops::Deref for TestDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for TestDir {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for TestDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
 
 /// A bundled scene file.
 pub fn bundled(name: &str) -> PathBuf {
