@@ -1,15 +1,19 @@
 //! Keyframed animation in scene files: parsing, interpolated values, the `Scene` frame API,
 //! errors naming the file and field, and the bundled animated scenes.
 
-mod common;
-
 use glam::{Mat4, Vec3};
 use radsplat::scene::{Light, Scene, load_scene};
 use std::path::{Path, PathBuf};
 
-/// A fresh, empty directory for one test's files, removed when the test ends.
-fn test_dir(test: &str) -> common::TestDir {
-    common::TestDir::new(&format!("animation-tests-{test}"))
+/// A fresh, empty directory for one test's files.
+fn test_dir(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "radsplat-animation-tests-{}-{test}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create test directory");
+    dir
 }
 
 const CAMERA: &str = "[camera]
