@@ -1,19 +1,15 @@
 //! Keyframed animation in scene files: parsing, interpolated values, the `Scene` frame API,
 //! errors naming the file and field, and the bundled animated scenes.
 
+mod common;
+
 use glam::{Mat4, Vec3};
 use radsplat::scene::{Light, Scene, load_scene};
 use std::path::{Path, PathBuf};
 
-/// A fresh, empty directory for one test's files.
-fn test_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "radsplat-animation-tests-{}-{test}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create test directory");
-    dir
+/// A fresh, empty directory for one test's files, removed when the test ends.
+fn test_dir(test: &str) -> common::TestDir {
+    common::TestDir::new(&format!("animation-tests-{test}"))
 }
 
 const CAMERA: &str = "[camera]
@@ -25,23 +21,24 @@ resolution = [8, 8]
 
 const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
-/// Writes `tri.obj` and a scene of the standard camera followed by `body`.
-fn scene_file(test: &str, body: &str) -> PathBuf {
+/// Writes `tri.obj` and a scene of the standard camera followed by `body`; the directory
+/// goes when the returned guard does.
+fn scene_file(test: &str, body: &str) -> (common::TestDir, PathBuf) {
     let dir = test_dir(test);
     std::fs::write(dir.join("tri.obj"), TRIANGLE_OBJ).expect("write obj");
     let path = dir.join("scene.toml");
     std::fs::write(&path, format!("{CAMERA}\n{body}")).expect("write scene");
-    path
+    (dir, path)
 }
 
 fn load(test: &str, body: &str) -> Scene {
-    let path = scene_file(test, body);
+    let (_dir, path) = scene_file(test, body);
     load_scene(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Loads a scene that must fail and checks that its message names every one of `parts`.
 fn assert_error(test: &str, body: &str, parts: &[&str]) {
-    let path = scene_file(test, body);
+    let (_dir, path) = scene_file(test, body);
     let message = match load_scene(&path) {
         Ok(_) => panic!("{} loaded, but an error was expected", path.display()),
         Err(e) => e.to_string(),

@@ -1,19 +1,15 @@
 //! Scene loading: every kind of bad input gives an error naming the file and the line or
 //! field; the bundled scenes load; Sponza loads when `RADSPLAT_ASSET_PATH` is set.
 
+mod common;
+
 use radsplat::Error;
 use radsplat::scene::{Light, Scene, load_scene};
 use std::path::{Path, PathBuf};
 
-/// A fresh, empty directory for one test's files.
-fn test_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "radsplat-scene-tests-{}-{test}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create test directory");
-    dir
+/// A fresh, empty directory for one test's files, removed when the test ends.
+fn test_dir(test: &str) -> common::TestDir {
+    common::TestDir::new(&format!("scene-tests-{test}"))
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
