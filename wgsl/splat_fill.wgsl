@@ -7,14 +7,6 @@
 //!include shared/splat_pixel.wgsl
 //!include shared/linear_dispatch.wgsl
 
-@group(1) @binding(0) var<uniform> params: SplatParams;
-@group(1) @binding(1) var<storage, read> vis: array<VisSample>;
-@group(1) @binding(2) var<storage, read> records: array<Record>;
-@group(1) @binding(3) var<storage, read> tile_offsets: array<u32>;
-@group(1) @binding(4) var<storage, read> sorted: array<u32>;
-@group(1) @binding(5) var<storage, read_write> splat: array<vec4f>;
-@group(1) @binding(6) var<storage, read_write> coverage: array<atomic<u32>>;
-@group(1) @binding(7) var<storage, read> expiring: array<u32>;   // 1: expires after this frame
 @group(1) @binding(8) var<storage, read> empty_pixels: array<u32>;
 @group(1) @binding(9) var<storage, read> empty_count: array<u32>;
 

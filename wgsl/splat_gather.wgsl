@@ -8,20 +8,11 @@
 // replacing them (replaces the thesis's occlusion queries, algorithms.md 4.4). With
 // `count_coverage` 2 only pixels that no record outliving this frame (`expiring[k] == 0`)
 // contributes to are counted, and only for the expiring records that do: an expired record
-// none of whose pixels needs it is deleted rather than replaced. With `accumulate` 2
-// (tail fill, placement::PlacementPass) only pixels whose previous sums are empty (no
-// record reached them at a) take these records' sums, at the tail's wider accuracy; the
-// frame's tail fill runs splat_fill.wgsl instead, over a list of those pixels.
+// none of whose pixels needs it is deleted rather than replaced. Tail fill (`accumulate`
+// 2: only pixels whose sums are empty take the records' sums, at the tail's wider
+// accuracy) runs splat_fill.wgsl over a list of those pixels, with the same per-pixel sum
+// (shared/splat_pixel.wgsl).
 //!include shared/splat_pixel.wgsl
-
-@group(1) @binding(0) var<uniform> params: SplatParams;
-@group(1) @binding(1) var<storage, read> vis: array<VisSample>;
-@group(1) @binding(2) var<storage, read> records: array<Record>;
-@group(1) @binding(3) var<storage, read> tile_offsets: array<u32>;
-@group(1) @binding(4) var<storage, read> sorted: array<u32>;
-@group(1) @binding(5) var<storage, read_write> splat: array<vec4f>;
-@group(1) @binding(6) var<storage, read_write> coverage: array<atomic<u32>>;
-@group(1) @binding(7) var<storage, read> expiring: array<u32>;   // 1: expires after this frame
 
 // Two pixels per invocation, half a tile row apart: each record of the tile's list is
 // loaded once for both (storage loads, one per lane on lavapipe, are the gather's cost).

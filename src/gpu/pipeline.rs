@@ -214,7 +214,13 @@ pub fn image_groups(width: u32, height: u32) -> [u32; 3] {
 /// Workgroups for `n` invocations of 256, split over y past the per-dimension limit
 /// (`flat_index`, wgsl/shared/linear_dispatch.wgsl).
 pub fn linear_groups(ctx: &GpuContext, n: u32) -> [u32; 3] {
-    let groups = n.div_ceil(256).max(1);
+    split_groups(ctx, n.div_ceil(256))
+}
+
+/// `groups` workgroups (at least one), split over y past the per-dimension limit: a shader
+/// numbers them `group.y * groups.x + group.x`.
+pub fn split_groups(ctx: &GpuContext, groups: u32) -> [u32; 3] {
+    let groups = groups.max(1);
     let max = ctx.device.limits().max_compute_workgroups_per_dimension;
     if groups <= max {
         [groups, 1, 1]

@@ -94,7 +94,8 @@ impl SplatPass {
             &mut enc,
             &scene.bind_group,
             &bind,
-            busy_groups(ctx, bins.busy),
+            // One workgroup per busy tile (`splat_cover.wgsl` numbers them as split_groups does).
+            crate::gpu::pipeline::split_groups(ctx, bins.busy),
             timer.next("placement: cover"),
         );
         timer.resolve(&mut enc);
@@ -147,16 +148,4 @@ pub fn reference_cover(records: &[Record], vis: &[VisSample], accuracy: f32) -> 
             u32::from(v.is_hit() && records.iter().any(covers))
         })
         .collect()
-}
-
-/// Workgroups for one per busy tile (`splat_cover.wgsl` reads its slot as
-/// `group.y * groups.x + group.x`), split over y past the per-dimension limit.
-fn busy_groups(ctx: &GpuContext, busy: u32) -> [u32; 3] {
-    let max = ctx.device.limits().max_compute_workgroups_per_dimension;
-    let busy = busy.max(1);
-    if busy <= max {
-        [busy, 1, 1]
-    } else {
-        [max, busy.div_ceil(max), 1]
-    }
 }

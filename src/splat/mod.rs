@@ -27,6 +27,16 @@ use bytemuck::{Pod, Zeroable};
 /// Tile edge in pixels (`TILE_SIZE` in `wgsl/shared/splat.wgsl`).
 pub const TILE_SIZE: u32 = 8;
 
+/// `splat_tile_bounds.wgsl`'s bindings (with and without `EMPTY_ONLY`).
+const TILE_BOUNDS_BINDINGS: &[Binding] = &[
+    Binding::Uniform,
+    Binding::StorageRead,
+    Binding::StorageReadWrite,
+    Binding::StorageRead,
+    Binding::StorageReadWrite,
+    Binding::StorageReadWrite,
+];
+
 /// What a splat counts per record (`count_coverage`; `COUNT_ALL` and `COUNT_NEEDED` in
 /// `wgsl/splat_gather.wgsl`): nothing, every pixel it contributes to, or only those no
 /// record outliving the frame contributes to.
@@ -143,6 +153,17 @@ impl SplatBuffer {
         Self::counting(ctx, width, height, records, COUNT_NEEDED, &flags)
     }
 
+    /// An error where this buffer counts coverage for fewer records than `cache` holds.
+    fn check_room(&self, cache: &RecordCache) -> Result<()> {
+        if self.coverage_records > 0 && cache.count > self.coverage_records {
+            return Err(Error::Usage(format!(
+                "splat: {} records exceed the coverage counters' {}",
+                cache.count, self.coverage_records
+            )));
+        }
+        Ok(())
+    }
+
     /// Reads the coverage counts back (one per record id, `coverage_records` of them).
     pub fn read_coverage(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
         let mut counts: Vec<u32> = ctx.read_buffer(&self.coverage)?;
@@ -166,8 +187,9 @@ pub(crate) struct TileBins {
     pub records: u32,
     /// (record, tile) pairs.
     pub total: u32,
-    /// The tiles that binned any record, in an order that depends on thread timing
-    /// (`splat_bin_tiles.wgsl`), and how many (`busy_count[0]`, also in `busy`).
+    /// Unsorted bins (the cover's): the tiles that binned any record, in an order that
+    /// depends on thread timing (`splat_bin_tiles.wgsl`), and how many (`busy_count[0]`,
+    /// also in `busy`). Sorted bins leave them empty (0).
     pub busy_tiles: wgpu::Buffer,
     pub busy_count: wgpu::Buffer,
     pub busy: u32,
@@ -321,29 +343,11 @@ impl SplatPass {
                 "coverage_count.wgsl",
                 &[Uniform, StorageRead, StorageRead, StorageReadWrite],
             )?,
-            bounds: ComputePass::new(
-                ctx,
-                "splat_tile_bounds.wgsl",
-                &[
-                    Uniform,
-                    StorageRead,
-                    StorageReadWrite,
-                    StorageRead,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                ],
-            )?,
+            bounds: ComputePass::new(ctx, "splat_tile_bounds.wgsl", TILE_BOUNDS_BINDINGS)?,
             fill_bounds: ComputePass::with_constants(
                 ctx,
                 "splat_tile_bounds.wgsl",
-                &[
-                    Uniform,
-                    StorageRead,
-                    StorageReadWrite,
-                    StorageRead,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                ],
+                TILE_BOUNDS_BINDINGS,
                 &[("EMPTY_ONLY", 1.0)],
             )?,
             block_bounds: ComputePass::new(
@@ -395,7 +399,7 @@ impl SplatPass {
             bounds: &bounds,
             ..src
         };
-        self.check_coverage(src.records, out)?;
+        out.check_room(src.records)?;
         let bins = self.bin(
             ctx,
             src,
@@ -441,17 +445,6 @@ impl SplatPass {
         Ok(bins.stats())
     }
 
-    /// An error where `out` counts coverage for fewer records than `cache` holds.
-    fn check_coverage(&self, cache: &RecordCache, out: &SplatBuffer) -> Result<()> {
-        if out.coverage_records > 0 && cache.count > out.coverage_records {
-            return Err(Error::Usage(format!(
-                "splat: {} records exceed the coverage counters' {}",
-                cache.count, out.coverage_records
-            )));
-        }
-        Ok(())
-    }
-
     fn gather_into(
         &self,
         ctx: &GpuContext,
@@ -467,7 +460,7 @@ impl SplatPass {
             records: cache,
             ..
         } = src;
-        self.check_coverage(cache, out)?;
+        out.check_room(cache)?;
         let bins = self.bin(ctx, src, (into, out.coverage_mode), true, times)?;
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -550,7 +543,8 @@ impl SplatPass {
         let record_tiles = ctx.storage_buffer_sized("record tiles", u64::from(records) * 16)?;
         let tile_counts = ctx.storage_buffer_sized("tile counts", u64::from(tiles) * 4)?;
         let tile_offsets = ctx.storage_buffer_sized("tile offsets", u64::from(tiles + 1) * 4)?;
-        let busy_tiles = ctx.storage_buffer_sized("busy tiles", u64::from(tiles) * 4)?;
+        let busy_tiles =
+            ctx.storage_buffer_sized("busy tiles", if sorted { 4 } else { u64::from(tiles) * 4 })?;
         let busy_count = ctx.storage_buffer_sized("busy tile count", 4)?;
 
         let [count_label, scan_label, scatter_label] = if sorted {
@@ -594,16 +588,19 @@ impl SplatPass {
             tiles,
             timer.next(scan_label),
         );
-        let bind = self
-            .busy_tiles
-            .bind(ctx, &[&params, &tile_offsets, &busy_tiles, &busy_count]);
-        self.busy_tiles.record(
-            &mut enc,
-            &scene.bind_group,
-            &bind,
-            crate::gpu::pipeline::linear_groups(ctx, tiles),
-            timer.next(scan_label),
-        );
+        if !sorted {
+            // Only the cover dispatches over the busy tiles; a gather runs every tile.
+            let bind = self
+                .busy_tiles
+                .bind(ctx, &[&params, &tile_offsets, &busy_tiles, &busy_count]);
+            self.busy_tiles.record(
+                &mut enc,
+                &scene.bind_group,
+                &bind,
+                crate::gpu::pipeline::linear_groups(ctx, tiles),
+                timer.next(scan_label),
+            );
+        }
         timer.resolve(&mut enc);
         let totals_buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("splat totals"),

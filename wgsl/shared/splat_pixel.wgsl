@@ -1,8 +1,16 @@
 // One pixel's part of a splat gather (splat_gather.wgsl, splat_fill.wgsl): its sums over
-// its tile's records in list order, Ward's weight and the gradients' extrapolation. The
-// including pass declares the bindings of splat_gather.wgsl (`params`, `vis`, `records`,
-// `sorted`, `splat`, `coverage`, `expiring`).
+// its tile's records in list order, Ward's weight and the gradients' extrapolation, and
+// the bindings both gathers share (bindings 0-7; splat_fill adds its pixel list after).
 //!include shared/splat_weight.wgsl
+
+@group(1) @binding(0) var<uniform> params: SplatParams;
+@group(1) @binding(1) var<storage, read> vis: array<VisSample>;
+@group(1) @binding(2) var<storage, read> records: array<Record>;
+@group(1) @binding(3) var<storage, read> tile_offsets: array<u32>;
+@group(1) @binding(4) var<storage, read> sorted: array<u32>;
+@group(1) @binding(5) var<storage, read_write> splat: array<vec4f>;
+@group(1) @binding(6) var<storage, read_write> coverage: array<atomic<u32>>;
+@group(1) @binding(7) var<storage, read> expiring: array<u32>;   // 1: expires after this frame
 
 const ACCUMULATE: u32 = 1u;
 const FILL_EMPTY: u32 = 2u;
