@@ -463,6 +463,11 @@ struct CacheArgs {
     /// mean over view directions) are too sharp for radiance records: Monte Carlo.
     #[arg(long, default_value_t = RadianceSettings::default().min_lobe_accuracy)]
     radiance_lobe_accuracy: f32,
+    /// Each glossy lobe is evaluated with the fewest HSH bands (up to --radiance-order)
+    /// whose projection holds this share of its energy (eq. 3.32): broad lobes need few,
+    /// and the splat's cost follows the bands. 1 keeps every band.
+    #[arg(long, default_value_t = RadianceSettings::default().lobe_share)]
+    radiance_lobe_share: f32,
     /// How radiance records are tilted into a pixel's frame (thesis section 3.4).
     #[arg(long, value_enum, default_value = "tabulated")]
     radiance_rotation: RotationMethod,
@@ -679,6 +684,7 @@ impl CacheArgs {
                 order: self.radiance_order,
                 accuracy: self.radiance_accuracy,
                 min_lobe_accuracy: self.radiance_lobe_accuracy,
+                lobe_share: self.radiance_lobe_share,
                 rotation: self.radiance_rotation,
                 plane_resolution: self.radiance_plane_resolution,
             },

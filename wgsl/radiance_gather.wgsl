@@ -28,7 +28,8 @@
 
 // One dispatch gathers entries [entry_begin, entry_end) of each tile's list onto the sums
 // the one before left (llvmpipe stops an invocation after 65,535 loop iterations in all,
-// and a tilted record costs order^4 / 4 of them: the host sizes the chunks).
+// and a tilted record costs about order^4 / 8 of them: the host sizes the chunks,
+// RadianceTables::iterations_per_record).
 struct GatherChunk {
     entry_begin: u32,
     entry_end: u32,
@@ -39,7 +40,6 @@ struct GatherChunk {
 // The lobe at theta_o (phi_o = 0), the same lobe turned, and the working vector.
 var<private> lobe0: array<f32, MAX_COEFFICIENTS>;
 var<private> work: array<f32, MAX_COEFFICIENTS>;
-var<private> tilted: array<f32, MAX_COEFFICIENTS>;
 
 // Turns `work` about the normal by `alpha` (hsh::rotate_z: the coefficients of
 // f(theta, phi - alpha)): the m = 0 terms stay, each (m, -m) pair turns by m alpha.
@@ -64,28 +64,80 @@ fn turn_work(alpha: f32) {
     }
 }
 
-// work <- M(beta)^T work, M interpolated linearly between its tabulated angles; four
-// terms per iteration (the entries of `work` past order^2 are 0, as the padding).
-fn tilt_work(beta: f32) {
-    let n2 = rparams.coefficients;
-    let quads = (n2 + 3u) / 4u;
+// work <- M(beta)^T work, M interpolated linearly between its tabulated angles. The tilt
+// never mixes cosine-kind (m >= 0) and sine-kind (m < 0) coefficients (hsh::rotation::
+// is_sine_kind), so the table holds the two blocks only: `blocks` takes `work` in block
+// order (cosine kind, padded to a vec4, then sine kind, padded), each block's rows are
+// products with their own block, four terms per iteration, written back to `work`. `work`
+// holds a lobe of `bands` bands (zero past them, turns about the normal keep bands), so
+// each row's product stops at the vec4 that holds the last of its block's nonzero terms
+// (the blocks list l ascending): a broad lobe costs a fraction of the full product.
+var<private> blocks: array<f32, BLOCK_FLOATS>;
+const BLOCK_FLOATS: u32 = 104u;   // order 10: 55 -> 56 cosine-kind, 45 -> 48 sine-kind
+
+fn tilt_work(beta: f32, bands: u32) {
+    let n = rparams.order;
+    let cosine = n * (n + 1u) / 2u;
+    let sine = n * (n - 1u) / 2u;
+    let cosine_quads = (cosine + 3u) / 4u;
+    let sine_quads = (sine + 3u) / 4u;
+    // The vec4s of each block that hold the lobe's bands.
+    let cosine_used = (bands * (bands + 1u) / 2u + 3u) / 4u;
+    let sine_used = (bands * (bands - 1u) / 2u + 3u) / 4u;
+    let sine_base = 4u * cosine_quads;
+    var c = 0u;
+    var s = sine_base;
+    for (var l = 0u; l < n; l++) {
+        let centre = l * (l + 1u);
+        blocks[c] = work[centre];
+        c++;
+        for (var m = 1u; m <= l; m++) {
+            blocks[c] = work[centre + m];
+            blocks[s] = work[centre - m];
+            c++;
+            s++;
+        }
+    }
+    for (; c < sine_base; c++) {
+        blocks[c] = 0.0;
+    }
+    for (; s < sine_base + 4u * sine_quads; s++) {
+        blocks[s] = 0.0;
+    }
     let steps = rparams.beta_steps;
     let t = clamp(beta / rparams.beta_max, 0.0, 1.0) * f32(steps - 1u);
     let i = min(u32(floor(t)), steps - 2u);
     let f = t - f32(i);
-    let a = i * n2 * quads;
-    let b = a + n2 * quads;
-    for (var j = 0u; j < n2; j++) {
-        var sum = 0.0;
-        for (var q = 0u; q < quads; q++) {
-            let m = mix(rotations[a + j * quads + q], rotations[b + j * quads + q], f);
-            let k = 4u * q;
-            sum += dot(m, vec4f(work[k], work[k + 1u], work[k + 2u], work[k + 3u]));
+    let per_angle = cosine * cosine_quads + sine * sine_quads;
+    let a = i * per_angle;
+    let b = a + per_angle;
+    let sine_rows = cosine * cosine_quads;
+    var row_c = 0u;
+    var row_s = 0u;
+    for (var l = 0u; l < n; l++) {
+        let centre = l * (l + 1u);
+        for (var m = 0u; m <= l; m++) {
+            let r = row_c * cosine_quads;
+            var sum = 0.0;
+            for (var q = 0u; q < cosine_used; q++) {
+                let k = 4u * q;
+                let v = vec4f(blocks[k], blocks[k + 1u], blocks[k + 2u], blocks[k + 3u]);
+                sum += dot(mix(rotations[a + r + q], rotations[b + r + q], f), v);
+            }
+            work[centre + m] = sum;
+            row_c++;
         }
-        tilted[j] = sum;
-    }
-    for (var j = 0u; j < n2; j++) {
-        work[j] = tilted[j];
+        for (var m = 1u; m <= l; m++) {
+            let r = sine_rows + row_s * sine_quads;
+            var sum = 0.0;
+            for (var q = 0u; q < sine_used; q++) {
+                let k = sine_base + 4u * q;
+                let v = vec4f(blocks[k], blocks[k + 1u], blocks[k + 2u], blocks[k + 3u]);
+                sum += dot(mix(rotations[a + r + q], rotations[b + r + q], f), v);
+            }
+            work[centre - m] = sum;
+            row_s++;
+        }
     }
 }
 
@@ -131,7 +183,10 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     let t = clamp(acos(min(cos_o, 1.0)) / (0.5 * PI) * f32(steps - 1u), 0.0, f32(steps - 1u));
     let i = min(u32(floor(t)), steps - 2u);
     let f = t - f32(i);
-    let lobe_base = 4u * rparams.materials + (slot * steps + i) * n2;
+    // The slot's table (shared/radiance_records.wgsl): its bands, then the lobe shapes.
+    let table = 4u * rparams.materials + slot * (4u + steps * n2);
+    let bands = lobe_table[table];
+    let lobe_base = table + 4u + i * n2;
     for (var k = 0u; k < n2; k++) {
         lobe0[k] = mix(
             bitcast<f32>(lobe_table[lobe_base + k]),
@@ -170,7 +225,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         }
         turn_work(atan2(dot(wo, u), dot(wo, xb)));
         if tilt {
-            tilt_work(atan2(sin_b, cos_b));
+            tilt_work(atan2(sin_b, cos_b), bands);
         }
         // c_K = Z(gamma) c_A, gamma the azimuth of x_A in the record's frame.
         turn_work(atan2(dot(xa, bk), dot(xa, tk)));

@@ -122,10 +122,13 @@ impl ProjectedLobe {
 pub struct LobeTable {
     pub order: u32,
     pub steps: u32,
-    /// `steps x order^2` f32 coefficients of the lobe's shape (specular 1).
+    /// `steps x order^2` f32 coefficients of the lobe's shape (specular 1); those of bands
+    /// `bands` and above are zero ([`LobeTable::truncated`]).
     pub coefficients: Vec<f32>,
-    /// The accuracy metric (eq. 3.32) at each angle.
+    /// The accuracy metric (eq. 3.32) at each angle, of the coefficients as stored.
     pub accuracy: Vec<f64>,
+    /// Bands `l < bands` hold the lobe (`bands <= order`): the splat skips the rest.
+    pub bands: u32,
 }
 
 impl LobeTable {
@@ -148,7 +151,47 @@ impl LobeTable {
             steps,
             coefficients,
             accuracy,
+            bands: order,
         }
+    }
+
+    /// The table with the fewest bands whose projection still holds `share` of the lobe's
+    /// energy (eq. 3.32, [`LobeTable::mean_accuracy`]); all `order` bands when even they hold
+    /// less. The bands dropped are zeroed. A broad lobe needs few bands (Phong 1 holds 99.7 %
+    /// at order 4), and the splat's tilt costs in proportion to the bands of the lobe
+    /// (`wgsl/radiance_gather.wgsl`): records keep every band of the incoming radiance,
+    /// the lobe sets how many of them reach the pixel.
+    pub fn truncated(mut self, share: f64) -> Self {
+        let n = coefficient_count(self.order);
+        let steps = self.steps as usize;
+        // Accuracy with `bands` bands at each angle: the energy the first bands^2
+        // coefficients hold, a share of what all of them hold (orthonormal basis).
+        let accuracy_at = |bands: u32| -> Vec<f64> {
+            let kept = coefficient_count(bands);
+            (0..steps)
+                .map(|s| {
+                    let c = &self.coefficients[s * n..(s + 1) * n];
+                    let all: f64 = c.iter().map(|&x| f64::from(x) * f64::from(x)).sum();
+                    let held: f64 = c[..kept].iter().map(|&x| f64::from(x) * f64::from(x)).sum();
+                    if all > 0.0 {
+                        self.accuracy[s] * held / all
+                    } else {
+                        self.accuracy[s]
+                    }
+                })
+                .collect()
+        };
+        let Some(bands) = (1..self.order).find(|&b| mean_over_angles(&accuracy_at(b)) >= share)
+        else {
+            return self;
+        };
+        self.accuracy = accuracy_at(bands);
+        let kept = coefficient_count(bands);
+        for row in self.coefficients.chunks_mut(n) {
+            row[kept..].fill(0.0);
+        }
+        self.bands = bands;
+        self
     }
 
     /// The coefficients for `wo` (local frame), interpolated in theta and turned to its
@@ -171,16 +214,22 @@ impl LobeTable {
 
     /// The accuracy (eq. 3.32) averaged over outgoing directions by solid angle.
     pub fn mean_accuracy(&self) -> f64 {
-        let mut sum = 0.0;
-        let mut weight = 0.0;
-        for (s, a) in self.accuracy.iter().enumerate() {
-            let t = f64::from(s as u32) / f64::from(self.steps - 1) * std::f64::consts::FRAC_PI_2;
-            let w = t.sin().max(1e-3);
-            sum += a * w;
-            weight += w;
-        }
-        sum / weight
+        mean_over_angles(&self.accuracy)
     }
+}
+
+/// Values at even angles `theta_o` on `[0, pi/2]`, averaged by solid angle.
+fn mean_over_angles(values: &[f64]) -> f64 {
+    let last = values.len().saturating_sub(1).max(1) as f64;
+    let mut sum = 0.0;
+    let mut weight = 0.0;
+    for (s, a) in values.iter().enumerate() {
+        let t = s as f64 / last * std::f64::consts::FRAC_PI_2;
+        let w = t.sin().max(1e-3);
+        sum += a * w;
+        weight += w;
+    }
+    sum / weight
 }
 
 /// A quadrature rule with the basis precomputed at its directions.
@@ -300,5 +349,33 @@ mod tests {
             .map(|(a, b)| f64::from(*a) * b)
             .sum();
         assert!((albedo - 1.0).abs() < 0.02, "albedo {albedo} head on");
+    }
+
+    #[test]
+    fn a_broad_lobe_keeps_only_the_bands_it_needs() {
+        let table = |exponent: f32, order: u32| {
+            let lobe = GlossyLobe::Phong {
+                specular: Vec3::ONE,
+                exponent,
+            };
+            LobeTable::new(&lobe, order, 16, &quadrature_for(&lobe, order))
+        };
+        // Phong 1 at order 8: 99.97 % of its energy; 4 bands hold over 99.5 %.
+        let full = table(1.0, 8);
+        let cut = full.clone().truncated(0.995);
+        assert!(cut.bands < 8 && cut.bands >= 2, "{} bands", cut.bands);
+        assert!(cut.mean_accuracy() >= 0.995);
+        // One band less would not hold the share.
+        let coarser = full.clone().truncated(cut.mean_accuracy() + 1e-9);
+        assert!(coarser.bands > cut.bands);
+        let n = coefficient_count(8);
+        let kept = coefficient_count(cut.bands);
+        for (row, whole) in cut.coefficients.chunks(n).zip(full.coefficients.chunks(n)) {
+            assert_eq!(&row[..kept], &whole[..kept]);
+            assert!(row[kept..].iter().all(|&c| c == 0.0));
+        }
+        // A Phong-20 lobe holds under 99.5 % at order 8: every band stays.
+        let sharp = table(20.0, 8).truncated(0.995);
+        assert_eq!(sharp.bands, 8);
     }
 }

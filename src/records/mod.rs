@@ -475,6 +475,14 @@ impl CacheSettings {
                 "must be in [0, 1]",
             );
         }
+        if !(0.0..=1.0).contains(&r.lobe_share) {
+            return bad(
+                "radiance lobe share",
+                "--radiance-lobe-share",
+                r.lobe_share.to_string(),
+                "must be in [0, 1]",
+            );
+        }
         if !(2..=512).contains(&self.plane_resolution) {
             return bad(
                 "plane_resolution",

@@ -19,7 +19,7 @@ use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::{PassTimer, spanning};
 use crate::hsh::brdf_projection::{LobeTable, quadrature_for};
 use crate::hsh::coefficient_count;
-use crate::hsh::rotation::RotationTable;
+use crate::hsh::rotation::{RotationTable, kinds};
 use crate::records::Record;
 use crate::records::kind::FRAME_FLOATS;
 pub use crate::records::kind::RadianceSettings;
@@ -101,7 +101,10 @@ impl RadianceTables {
                 Some(s) => s,
                 None => {
                     let q = quadrature_for(lobe, order);
-                    tables.push((exponent, LobeTable::new(lobe, order, LOBE_STEPS, &q)));
+                    let table = LobeTable::new(lobe, order, LOBE_STEPS, &q).truncated(f64::from(
+                        settings.lobe_share.max(settings.min_lobe_accuracy),
+                    ));
+                    tables.push((exponent, table));
                     tables.len() - 1
                 }
             };
@@ -146,26 +149,40 @@ impl RadianceTables {
         self.slots.iter().any(|&s| s != NO_LOBE_SLOT)
     }
 
-    /// The GPU tilt table: per tabulated angle, `M^T` row by row, each row padded with
-    /// zeros to a multiple of 4 (`radiance_gather.wgsl` reads it as vec4s).
+    /// The GPU tilt table: per tabulated angle, `M^T`'s cosine-kind block then its sine-kind
+    /// block (the tilt never mixes the kinds, `hsh::rotation::is_sine_kind`), each row padded
+    /// with zeros to a multiple of 4 (`radiance_gather.wgsl` reads it as vec4s); rows and
+    /// columns in the order of `hsh::rotation::kinds`.
     fn gpu_rotations(&self) -> Vec<f32> {
         let n2 = coefficient_count(self.rotation.order);
-        let padded = n2.div_ceil(4) * 4;
-        let mut out = Vec::with_capacity(self.rotation.steps as usize * n2 * padded);
+        let (cosine, sine) = kinds(self.rotation.order);
+        let mut out = Vec::new();
         for m in self.rotation.matrices.chunks(n2 * n2) {
-            for j in 0..n2 {
-                out.extend((0..padded).map(|k| if k < n2 { m[k * n2 + j] } else { 0.0 }));
+            for block in [&cosine, &sine] {
+                let padded = block.len().div_ceil(4) * 4;
+                for &row in block {
+                    out.extend(
+                        (0..padded).map(|c| block.get(c).map_or(0.0, |&col| m[col * n2 + row])),
+                    );
+                }
             }
         }
         out
     }
 
     /// Loop iterations of `radiance_gather.wgsl` per contributing record at most (a tilted
-    /// one): lobe copy, two turns, the tilt and its copy-back, the dot product.
+    /// one): lobe copy, two turns, the tilt (its two blocks, their gather and scatter), the
+    /// dot product.
     pub fn iterations_per_record(&self) -> u32 {
         let n = self.settings.order.max(1);
         let n2 = n * n;
-        n2 + n * (n - 1) + n2 * n2.div_ceil(4) + n2 + n2 + 4
+        let cosine = n * (n + 1) / 2;
+        let sine = n * (n - 1) / 2;
+        // Rows (one iteration each and one per vec4 of the row), the gather into the
+        // blocks (n2, padding, the loops over l) and the loops over l of the rows.
+        let tilt =
+            cosine * (1 + cosine.div_ceil(4)) + sine * (1 + sine.div_ceil(4)) + n2 + 4 * n + 8;
+        n2 + n * (n - 1) + tilt + n2 + 4
     }
 
     /// The GPU lobe table: per material (slot, specular rgb bits), then the slots' tables.
@@ -175,6 +192,7 @@ impl RadianceTables {
             out.extend([*slot, ks.x.to_bits(), ks.y.to_bits(), ks.z.to_bits()]);
         }
         for t in &self.lobes {
+            out.extend([t.bands, 0, 0, 0]);
             out.extend(t.coefficients.iter().map(|c| c.to_bits()));
         }
         if out.is_empty() {

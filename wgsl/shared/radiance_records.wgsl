@@ -18,8 +18,10 @@ struct RadianceParams {
     _pad: u32,
 }
 
-// Per material: 4 words, (slot, specular rgb as f32 bits); then per slot `lobe_steps x
-// order^2` f32 (as bits) of the lobe's shape at theta_o, phi_o = 0.
+// Per material: 4 words, (slot, specular rgb as f32 bits); then per slot 4 words (the
+// bands that hold the lobe, hsh::brdf_projection::LobeTable::bands, and padding) and
+// `lobe_steps x order^2` f32 (as bits) of the lobe's shape at theta_o, phi_o = 0, zero
+// from band `bands` on.
 fn material_lobe_slot(material: u32) -> u32 {
     return lobe_table[4u * material];
 }
@@ -32,3 +34,4 @@ fn material_specular(material: u32) -> vec3f {
         bitcast<f32>(lobe_table[b + 3u]),
     );
 }
+
