@@ -10,6 +10,7 @@ use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, GpuScene};
 use crate::light_maps::{LightMapPass, LightMapSettings, LightMaps, MappedLights};
 use crate::placement::{PlacementPass, PlacementStats};
+use crate::records::kind::RadianceSettings;
 use crate::records::{CacheSettings, PlaneShadows, Record, RecordCache, RecordPass};
 use crate::resolve::ResolvePass;
 use crate::scene::{Camera, Scene};
@@ -291,7 +292,7 @@ impl RadianceCache {
         let Some((record_settings, tables)) = Self::record_settings(ctx, scene, settings) else {
             return Ok(None);
         };
-        let kind = settings.radiance.kind();
+        let kind = tables.settings.kind();
         Ok(Some(Self {
             records: RecordCache::with_kind(ctx, kind)?,
             pass: RecordPass::with_kind(ctx, &record_settings, kind)?,
@@ -311,10 +312,18 @@ impl RadianceCache {
         if r.order == 0 || !scene.has_glossy {
             return None;
         }
-        let tables = RadianceTables::new(&scene.glossy_lobes, r);
+        let mut tables = RadianceTables::new(&scene.glossy_lobes, r);
         if !tables.any_slot() {
             return None;
         }
+        // Records carry only the bands some lobe keeps (`--radiance-lobe-share`): where
+        // every lobe is broad (Sponza's Phong 1: 4 bands), the order drops and with it the
+        // projection, the memory and the splat.
+        let order = tables.bands_needed();
+        if order < r.order {
+            tables = RadianceTables::new(&scene.glossy_lobes, RadianceSettings { order, ..r });
+        }
+        let r = tables.settings;
         // Past what one binding holds, placement stops (its uncovered pixels take Monte
         // Carlo) rather than the frame failing.
         let record_budget = settings
@@ -329,6 +338,7 @@ impl RadianceCache {
             tail_share: 0.0,
             plane_resolution: r
                 .plane_resolution_for(settings.plane_resolution, tables.sharpest_exponent()),
+            radiance: r,
             ..settings.clone()
         };
         Some((record_settings, tables))

@@ -322,8 +322,16 @@ fn the_tabulated_rotation_is_the_exact_rotation_of_what_the_record_saw() {
     }
 }
 
-/// Returns the bands the lobe kept.
-fn gpu_gather_matches_cpu(name: &str, size: u32, order: u32, exponent: f32) -> u32 {
+/// With `second`, the material named "sphere" gets a glossy lobe of that exponent too.
+/// Returns the records' order and the bands each lobe kept.
+fn gpu_gather_matches_cpu(
+    name: &str,
+    size: u32,
+    order: u32,
+    exponent: f32,
+    lobe_share: f32,
+    second: Option<f32>,
+) -> (u32, Vec<u32>) {
     let mut scene = common::load(name, Some((size, size)));
     scene.settings.light_samples = 2;
     // A broad lobe, so that records reach across the sphere's curvature (tilted frames).
@@ -332,6 +340,13 @@ fn gpu_gather_matches_cpu(name: &str, size: u32, order: u32, exponent: f32) -> u
             m.glossy = Some(GlossyLobe::Phong { specular, exponent });
         }
     }
+    if let Some(exponent) = second {
+        let m = scene.materials.iter_mut().find(|m| m.name == "sphere");
+        m.expect("a material named sphere").glossy = Some(GlossyLobe::Phong {
+            specular: Vec3::splat(0.2),
+            exponent,
+        });
+    }
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let prepared = renderer.prepare(&scene).expect("prepare");
     let settings = CacheSettings {
@@ -339,6 +354,7 @@ fn gpu_gather_matches_cpu(name: &str, size: u32, order: u32, exponent: f32) -> u
         radiance: RadianceSettings {
             order,
             min_lobe_accuracy: 0.0,
+            lobe_share,
             ..Default::default()
         },
         ..CacheSettings::default()
@@ -349,9 +365,17 @@ fn gpu_gather_matches_cpu(name: &str, size: u32, order: u32, exponent: f32) -> u
         .expect("GI frame");
     let rc: &RadianceCache = cache.radiance.as_ref().expect("radiance records");
     assert!(rc.records.count > 0, "{name}: radiance records placed");
-    let bands = rc.splat.tables.lobes[0].bands;
-    eprintln!("{name}: Phong {exponent} at order {order}: {bands} bands");
-    assert_eq!(rc.records.kind, RecordKind::Radiance { order });
+    let bands: Vec<u32> = rc.splat.tables.lobes.iter().map(|t| t.bands).collect();
+    eprintln!("{name}: Phong {exponent} at order {order}: bands {bands:?}");
+    // Records carry the most bands a lobe keeps.
+    let record_order = bands.iter().copied().max().expect("a lobe");
+    assert!(record_order <= order);
+    assert_eq!(
+        rc.records.kind,
+        RecordKind::Radiance {
+            order: record_order
+        }
+    );
     let records = rc.records.read(&renderer.ctx).expect("records");
     let blocks = rc
         .records
@@ -394,7 +418,7 @@ fn gpu_gather_matches_cpu(name: &str, size: u32, order: u32, exponent: f32) -> u
     // Stated tolerance: f32 on the GPU against f64 on the CPU (the tilt matrices are f32
     // in both; acos near 1 loses digits).
     assert!(p99 < 2e-3, "{name}: 99th percentile relative error {p99}");
-    bands
+    (record_order, bands)
 }
 
 #[test]
@@ -404,6 +428,8 @@ fn gpu_radiance_gather_matches_the_cpu_on_a_flat_glossy_wall() {
         32,
         RadianceSettings::default().order,
         10.0,
+        RadianceSettings::default().lobe_share,
+        None,
     );
 }
 
@@ -414,16 +440,26 @@ fn gpu_radiance_gather_matches_the_cpu_on_a_glossy_sphere() {
         32,
         RadianceSettings::default().order,
         10.0,
+        RadianceSettings::default().lobe_share,
+        None,
     );
 }
 
-/// A broad lobe keeps few bands (hsh::brdf_projection::LobeTable::truncated): the GPU's
-/// tilt stops at them, the CPU mirror multiplies the zeros.
+/// A broad lobe keeps few bands (hsh::brdf_projection::LobeTable::truncated): beside a
+/// sharper lobe that keeps more (and sets the records' order), the GPU's tilt stops at the
+/// broad lobe's bands, the CPU mirror multiplies its zeros.
 #[test]
 fn gpu_radiance_gather_matches_the_cpu_for_a_broad_lobe_on_a_glossy_sphere() {
     let order = RadianceSettings::default().order;
-    let bands = gpu_gather_matches_cpu("env-sphere.toml", 32, order, 2.0);
-    assert!(bands <= order / 2, "Phong 2 kept {bands} of {order} bands");
+    let (record_order, bands) =
+        gpu_gather_matches_cpu("env-sphere.toml", 32, order, 2.0, 0.995, Some(10.0));
+    let broad = bands.iter().copied().min().expect("two lobes");
+    assert_eq!(bands.len(), 2);
+    assert!(broad <= order / 2, "Phong 2 kept {broad} of {order} bands");
+    assert!(
+        broad < record_order,
+        "bands {bands:?}, records of order {record_order}"
+    );
 }
 
 /// At order 10 a tilted record costs about 1,850 loop iterations of the gather
@@ -433,7 +469,9 @@ fn gpu_radiance_gather_matches_the_cpu_for_a_broad_lobe_on_a_glossy_sphere() {
 /// of this sphere with the most records lost some (99th-percentile error 175 %).
 #[test]
 fn gpu_radiance_gather_matches_the_cpu_at_order_10_on_a_glossy_sphere() {
-    gpu_gather_matches_cpu("env-sphere.toml", 32, 10, 10.0);
+    // Every band kept (a lobe share of 1), so the records are of order 10.
+    let (record_order, _) = gpu_gather_matches_cpu("env-sphere.toml", 32, 10, 10.0, 1.0, None);
+    assert_eq!(record_order, 10);
 }
 
 /// The glossy Cornell box with radiance records against the path-traced reference: the

@@ -124,6 +124,17 @@ impl RadianceTables {
         }
     }
 
+    /// The bands radiance records need: the most any lobe they shade keeps
+    /// ([`LobeTable::bands`]); the order when none shade any.
+    pub fn bands_needed(&self) -> u32 {
+        self.slots
+            .iter()
+            .filter(|&&s| s != NO_LOBE_SLOT)
+            .map(|&s| self.lobes[s as usize].bands)
+            .max()
+            .unwrap_or(self.settings.order)
+    }
+
     /// The largest Phong exponent among the lobes radiance records shade (0: none).
     pub fn sharpest_exponent(&self) -> f32 {
         let mut sharpest = 0.0f32;

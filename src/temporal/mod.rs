@@ -488,7 +488,7 @@ impl RadianceTemporal {
                 ctx,
                 &record_settings,
                 &settings,
-                cache.radiance.kind(),
+                tables.settings.kind(),
             )?,
             splat: RadianceSplatPass::new(ctx, tables)?,
         }))
