@@ -437,7 +437,7 @@ impl SplatPass {
             &src.scene.bind_group,
             &bind,
             crate::gpu::pipeline::linear_groups(ctx, pixels),
-            timer.next("splat: gather"),
+            timer.next("splat: tail fill gather"),
         );
         timer.resolve(&mut enc);
         ctx.queue.submit([enc.finish()]);
