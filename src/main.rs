@@ -451,9 +451,10 @@ struct CacheArgs {
     /// through the lobe, each hit shaded with direct light).
     #[arg(long, default_value_t = CacheSettings::default().glossy_samples, value_parser = parse_at_least_one)]
     glossy_samples: u32,
-    /// HSH order of radiance records (n^2 coefficients per channel, at most 10), which
-    /// cache the indirect light of low-frequency glossy lobes; 0: every glossy lobe by
-    /// Monte Carlo.
+    /// Highest HSH order of radiance records (n^2 coefficients per channel, at most 10),
+    /// which cache the indirect light of low-frequency glossy lobes; records carry fewer
+    /// bands when every lobe they shade keeps fewer (--radiance-lobe-share); 0: every
+    /// glossy lobe by Monte Carlo.
     #[arg(long, default_value_t = RadianceSettings::default().order)]
     radiance_order: u32,
     /// Ward's accuracy a of radiance records (their own, beside -a for irradiance ones).
