@@ -17,12 +17,25 @@ struct ResolveParams {
 @group(1) @binding(4) var<storage, read_write> indirect: array<vec4f>;
 @group(1) @binding(5) var<storage, read> glossy: array<vec4f>;
 
+// Four pixels an invocation, 8 apart (a workgroup covers 32 x 8): lavapipe's cost here is
+// mostly per invocation, not the few loads.
+const PER: u32 = 4u;
+
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3u) {
-    if id.x >= params.width || id.y >= params.height {
+fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_id) local: vec3u) {
+    let y = group.y * 8u + local.y;
+    if y >= params.height {
         return;
     }
-    let pixel = id.y * params.width + id.x;
+    for (var i = 0u; i < PER; i++) {
+        let x = group.x * 8u * PER + i * 8u + local.x;
+        if x < params.width {
+            resolve_pixel(y * params.width + x);
+        }
+    }
+}
+
+fn resolve_pixel(pixel: u32) {
     let s = splat[pixel];
     var l = vec3f(0.0);
     if s.w > 0.0 {

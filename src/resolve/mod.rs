@@ -4,7 +4,7 @@
 
 use crate::Result;
 use crate::gpu::GpuContext;
-use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
+use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::splat::SplatBuffer;
 use bytemuck::{Pod, Zeroable};
@@ -82,7 +82,7 @@ impl ResolvePass {
             encoder,
             &scene.bind_group,
             &bind,
-            image_groups(splat.width, splat.height),
+            [splat.width.div_ceil(32), splat.height.div_ceil(8), 1],
             timestamps,
         );
         Ok(indirect)
