@@ -12,7 +12,7 @@ use crate::light_maps::{LightMapPass, LightMapSettings, LightMaps, MappedLights}
 use crate::placement::{PlacementPass, PlacementStats};
 use crate::records::kind::RadianceSettings;
 use crate::records::{CacheSettings, PlaneShadows, Record, RecordCache, RecordPass};
-use crate::resolve::ResolvePass;
+use crate::resolve::{GlossyInput, ResolvePass};
 use crate::scene::{Camera, Scene};
 use crate::splat::radiance::{RadianceSplatPass, RadianceTables};
 use crate::splat::{CoverageMask, SplatBuffer, SplatPass, SplatSource, TileBounds};
@@ -1058,7 +1058,10 @@ impl Renderer {
         // direct + albedo / pi * interpolated irradiance + glossy.
         let mut timer = PassTimer::new(ctx, 2);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        let glossy = if scene.gpu.has_glossy {
+        // Radiance records covering every glossy pixel need no lobe rays: the resolve takes
+        // their mean itself (the glossy pass would only copy it).
+        let radiance_only = radiance_covers_all && radiance_sums.is_some();
+        let glossy = if scene.gpu.has_glossy && !radiance_only {
             Some(self.glossy_pass()?.record(
                 ctx,
                 &mut encoder,
@@ -1072,6 +1075,11 @@ impl Renderer {
         } else {
             None
         };
+        let glossy_input = match (&glossy, &radiance_sums) {
+            (Some(g), _) => GlossyInput::Indirect(g),
+            (None, Some(sums)) if scene.gpu.has_glossy => GlossyInput::RadianceSums(sums),
+            _ => GlossyInput::None,
+        };
         let indirect = self.resolve_pass()?.record(
             ctx,
             &mut encoder,
@@ -1079,7 +1087,7 @@ impl Renderer {
             &splat,
             &direct.albedo,
             &direct.beauty,
-            glossy.as_ref(),
+            glossy_input,
             timer.next("resolve"),
         )?;
         timer.resolve(&mut encoder);

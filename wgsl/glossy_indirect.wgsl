@@ -82,10 +82,12 @@ fn main(
         }
         return;
     }
-    if v.instance != NO_HIT {
+    // Without Monte Carlo (radiance records cover every glossy pixel) the others are 0:
+    // do not shade their surface (on Sponza that was 0.4 s for a copy).
+    if v.instance != NO_HIT && params.monte_carlo != 0u {
         let dir = camera_ray_dir(camera, id.xy);
         let s = surface_at(Hit(v.t, v.instance, v.triangle, v.bary.x, v.bary.y), dir);
-        if params.monte_carlo != 0u && has_phong(s) {
+        if has_phong(s) {
             if params.sample_begin > 0u {
                 g = glossy_out[pixel].xyz;
             }

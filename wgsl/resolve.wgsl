@@ -6,7 +6,9 @@
 struct ResolveParams {
     width: u32,
     height: u32,
-    has_glossy: u32,  // 1: add `glossy` (the scene has glossy lobes); 0: it is not bound
+    // 0: no glossy lobes (`glossy` is a placeholder); 1: add `glossy`, the glossy pass's
+    // output; 2: `glossy` is the radiance splat's (sum w L, sum w): add its mean
+    has_glossy: u32,
     _pad1: u32,
 }
 
@@ -41,8 +43,13 @@ fn resolve_pixel(pixel: u32) {
     if s.w > 0.0 {
         l = albedo[pixel].xyz * (1.0 / PI) * (s.xyz / s.w);
     }
-    if params.has_glossy != 0u {
+    if params.has_glossy == 1u {
         l = l + glossy[pixel].xyz;
+    } else if params.has_glossy == 2u {
+        let g = glossy[pixel];
+        if g.w > 0.0 {
+            l = l + g.xyz / g.w;
+        }
     }
     indirect[pixel] = vec4f(l, 1.0);
     beauty[pixel] = vec4f(beauty[pixel].xyz + l, 1.0);

@@ -18,6 +18,18 @@ struct ResolveParams {
     _pad: u32,
 }
 
+/// Where the glossy lobes' indirect light comes from.
+#[derive(Clone, Copy)]
+pub enum GlossyInput<'a> {
+    /// No glossy materials.
+    None,
+    /// The glossy indirect pass's output (`glossy_indirect.wgsl`).
+    Indirect(&'a wgpu::Buffer),
+    /// The radiance splat's `(specular * sum w L, sum w)`, when radiance records cover every
+    /// glossy pixel: the resolve divides (what the glossy pass would only have copied).
+    RadianceSums(&'a wgpu::Buffer),
+}
+
 /// The resolve pass.
 pub struct ResolvePass {
     pass: ComputePass,
@@ -45,8 +57,7 @@ impl ResolvePass {
         })
     }
 
-    /// Adds `albedo / pi * E + glossy` to `beauty` in place and writes the indirect image;
-    /// `glossy` is the glossy indirect pass's output (None: no glossy materials).
+    /// Adds `albedo / pi * E + glossy` to `beauty` in place and writes the indirect image.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -56,11 +67,14 @@ impl ResolvePass {
         splat: &SplatBuffer,
         albedo: &wgpu::Buffer,
         beauty: &wgpu::Buffer,
-        glossy: Option<&wgpu::Buffer>,
+        glossy: GlossyInput<'_>,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<wgpu::Buffer> {
-        let has_glossy = u32::from(glossy.is_some());
-        let glossy = glossy.unwrap_or(&self.no_glossy);
+        let (has_glossy, glossy) = match glossy {
+            GlossyInput::None => (0, &self.no_glossy),
+            GlossyInput::Indirect(b) => (1, b),
+            GlossyInput::RadianceSums(b) => (2, b),
+        };
         let indirect = ctx.storage_buffer_sized(
             "indirect",
             u64::from(splat.width) * u64::from(splat.height) * 16,
