@@ -9,7 +9,9 @@
 //! a slot when the order in use captures at least `min_lobe_accuracy` of its energy
 //! (thesis eq. 3.32, averaged over outgoing directions by solid angle). With the defaults
 //! (order 8, 0.9) Phong exponents up to about 35 qualify (Phong 20: 0.98, Phong 30:
-//! 0.94, Phong 40: 0.89 by `radsplat brdf-projection`).
+//! 0.94, Phong 40: 0.89 by `radsplat brdf-projection`). Each slot's lobe keeps the fewest
+//! bands holding `lobe_share` of its energy (`LobeTable::truncated`), and the records
+//! carry the most bands any slot keeps ([`RadianceTables::bands_needed`]).
 
 use super::{SplatPass, SplatSource};
 use crate::Result;
