@@ -158,6 +158,8 @@ pub struct CacheFrameStats {
     /// Radiance records in their cache after the frame, and those added this frame.
     pub radiance_records: u32,
     pub new_radiance_records: u32,
+    /// The radiance records' HSH order: the most bands a lobe they shade keeps (0: none).
+    pub radiance_order: u32,
     /// The surface bounce cache the plane hits reflected (`--bounces` above 1).
     pub bounce: Option<crate::bounce::BounceStats>,
     /// The VPLs the records gathered from (`--records vpl`).
@@ -944,7 +946,7 @@ impl Renderer {
 
         // Radiance records: their own placement over the pixels with lobes they shade, at
         // their own accuracy, then their gather.
-        let mut radiance_stats = (0, 0);
+        let mut radiance_stats = (0, 0, 0);
         let mut radiance_covers_all = false;
         let radiance_sums = match radiance {
             Some(rf) => {
@@ -978,7 +980,11 @@ impl Renderer {
                     &mut times,
                     |_| {},
                 )?;
-                radiance_stats = (rf.records.count, placed.new_records);
+                radiance_stats = (
+                    rf.records.count,
+                    placed.new_records,
+                    rf.splat.tables.settings.order,
+                );
                 // Placement covered every pixel with a radiance lobe: if every glossy
                 // lobe has one, no pixel needs Monte Carlo lobe rays.
                 radiance_covers_all =
@@ -1028,6 +1034,7 @@ impl Renderer {
                 uncovered_pixels,
                 radiance_records: radiance_stats.0,
                 new_radiance_records: radiance_stats.1,
+                radiance_order: radiance_stats.2,
                 bounce,
                 vpls,
                 photons,

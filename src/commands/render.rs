@@ -135,7 +135,10 @@ pub fn render(args: RenderArgs) -> Result<()> {
                 frame.stats.wall_ms
             );
             if c.radiance_records > 0 {
-                eprintln!("radiance records: {} for glossy lobes", c.radiance_records);
+                eprintln!(
+                    "radiance records: {} of HSH order {} for glossy lobes",
+                    c.radiance_records, c.radiance_order
+                );
             }
         }
         let compile: f64 = frame.stats.shader_compile_ms.iter().map(|(_, ms)| ms).sum();
