@@ -98,6 +98,7 @@ fn gpu_projection_matches_the_cpu_and_keeps_the_irradiance() {
         &out,
         0,
         sites.len() as u32,
+        false,
         None,
     );
     ctx.queue.submit([enc.finish()]);
@@ -150,6 +151,48 @@ fn gpu_projection_matches_the_cpu_and_keeps_the_irradiance() {
                 "record {r} ({site:?}) channel {c}: E {from_hsh} from HSH, {from_plane} from the plane"
             );
         }
+    }
+
+    // Values only (the estimates at t+1 that give tau): the same values bit for bit, the
+    // gradients' floats left as they were.
+    const UNTOUCHED: f32 = 7.25;
+    let values_out = ctx
+        .storage_buffer(
+            "values-only coefficients",
+            &vec![UNTOUCHED; sites.len() * stride],
+        )
+        .expect("out");
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    projection.record(
+        ctx,
+        &mut enc,
+        &prepared.gpu,
+        &sites_buf,
+        &samples_buf,
+        &values_out,
+        0,
+        sites.len() as u32,
+        true,
+        None,
+    );
+    ctx.queue.submit([enc.finish()]);
+    let values: Vec<f32> = ctx.read_buffer(&values_out).expect("read");
+    ctx.check().expect("no wgpu errors");
+    for r in 0..sites.len() {
+        let (v, full) = (
+            &values[r * stride..(r + 1) * stride],
+            &gpu[r * stride..(r + 1) * stride],
+        );
+        let gradients = FRAME_FLOATS + 3 * n;
+        assert_eq!(
+            v[..gradients],
+            full[..gradients],
+            "record {r}: frame and values"
+        );
+        assert!(
+            v[gradients..].iter().all(|&g| g == UNTOUCHED),
+            "record {r}: gradients written"
+        );
     }
 }
 

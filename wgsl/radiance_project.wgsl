@@ -1,10 +1,13 @@
 // Projection of hemisphere planes onto hemispherical harmonics (records/radiance_projection.rs):
 // lambda_k = sum_p L_p W_pk, W the basis integrated over each plane pixel's solid angle, and
 // the translational gradient of every coefficient, sum over pixel edges of the radiance
-// difference across the edge times the edge's H_k weight over the nearer depth
+// difference across the edge over the nearer depth, times the edge's H_k weight
 // (algorithms.md 3.3). One invocation per (coefficient, plane), its three channels, summing the
 // pixels in order: deterministic; a workgroup (64 coefficients of one plane) stages the
-// plane's samples and edge differences in workgroup memory, CHUNK pixels at a time. CPU mirror: radiance_projection::project_with_gradients.
+// plane's samples and edge slopes in workgroup memory, CHUNK pixels at a time, so each
+// difference and division is done once per pixel, not once per coefficient. With
+// `values_only` (an estimate at t+1 that only gives tau) the gradients are neither summed
+// nor written. CPU mirror: radiance_projection::project_with_gradients.
 // Writes the radiance record's block (records/kind.rs): its frame, then values, x- and
 // y-gradients, channel-major.
 //!include shared/records.wgsl
@@ -16,8 +19,8 @@ struct ProjectParams {
     count: u32,         // planes
     first_record: u32,  // index of the batch's first record
     stride: u32,        // f32s per record block
+    values_only: u32,   // 1: coefficient values only (gradients left as they are)
     _pad0: u32,
-    _pad1: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: ProjectParams;
@@ -26,14 +29,23 @@ struct ProjectParams {
 @group(1) @binding(3) var<storage, read> samples: array<PlaneSample>;
 @group(1) @binding(4) var<storage, read_write> coefficients: array<f32>;
 
-// Pixels staged in workgroup memory per round: each sample and its two edge differences are
+// Pixels staged in workgroup memory per round: each sample and its two edge slopes are
 // read and computed once per workgroup instead of once per coefficient.
 const CHUNK: u32 = 256u;
 var<workgroup> chunk_radiance: array<vec3f, CHUNK>;
-// xyz: the radiance difference across the pixel's right (up) edge; w: the nearer depth
-// (<= 0: no edge, or both misses).
-var<workgroup> chunk_edge_x: array<vec4f, CHUNK>;
-var<workgroup> chunk_edge_y: array<vec4f, CHUNK>;
+// The radiance difference across the pixel's right (up) edge over the nearer depth; zero
+// where there is no edge or both sides miss (nearer depth <= 0).
+var<workgroup> chunk_slope_x: array<vec3f, CHUNK>;
+var<workgroup> chunk_slope_y: array<vec3f, CHUNK>;
+
+// (L_b - L_a) / z, z the nearer depth of the two samples; zero without one.
+fn edge_slope(a: PlaneSample, b: PlaneSample) -> vec3f {
+    let z = nearer_depth(a.depth, b.depth);
+    if z > 0.0 {
+        return (b.radiance - a.radiance) / z;
+    }
+    return vec3f(0.0);
+}
 
 @compute @workgroup_size(64)
 fn main(
@@ -51,6 +63,7 @@ fn main(
     var value = vec3f(0.0);
     var gx = vec3f(0.0);
     var gy = vec3f(0.0);
+    let gradients = params.values_only == 0u;
     for (var start = 0u; start < params.pixels; start += CHUNK) {
         let len = min(CHUNK, params.pixels - start);
         if plane_valid {
@@ -58,32 +71,32 @@ fn main(
                 let p = start + j;
                 let s = samples[base + p];
                 chunk_radiance[j] = s.radiance;
-                var ex = vec4f(0.0);
-                if p % res + 1u < res {
-                    let right = samples[base + p + 1u];
-                    ex = vec4f(right.radiance - s.radiance, nearer_depth(s.depth, right.depth));
+                if gradients {
+                    var sx = vec3f(0.0);
+                    if p % res + 1u < res {
+                        sx = edge_slope(s, samples[base + p + 1u]);
+                    }
+                    chunk_slope_x[j] = sx;
+                    var sy = vec3f(0.0);
+                    if p + res < params.pixels {
+                        sy = edge_slope(s, samples[base + p + res]);
+                    }
+                    chunk_slope_y[j] = sy;
                 }
-                chunk_edge_x[j] = ex;
-                var ey = vec4f(0.0);
-                if p + res < params.pixels {
-                    let up = samples[base + p + res];
-                    ey = vec4f(up.radiance - s.radiance, nearer_depth(s.depth, up.depth));
-                }
-                chunk_edge_y[j] = ey;
             }
         }
         workgroupBarrier();
         if computing {
-            for (var j = 0u; j < len; j++) {
-                let t = (start + j) * 3u * n + k;
-                value += chunk_radiance[j] * table[t];
-                let ex = chunk_edge_x[j];
-                if ex.w > 0.0 {
-                    gx += ex.xyz * (table[t + n] / ex.w);
+            if gradients {
+                for (var j = 0u; j < len; j++) {
+                    let t = (start + j) * 3u * n + k;
+                    value += chunk_radiance[j] * table[t];
+                    gx += chunk_slope_x[j] * table[t + n];
+                    gy += chunk_slope_y[j] * table[t + 2u * n];
                 }
-                let ey = chunk_edge_y[j];
-                if ey.w > 0.0 {
-                    gy += ey.xyz * (table[t + 2u * n] / ey.w);
+            } else {
+                for (var j = 0u; j < len; j++) {
+                    value += chunk_radiance[j] * table[(start + j) * 3u * n + k];
                 }
             }
         }
@@ -107,7 +120,9 @@ fn main(
     let first = out + FRAME_FLOATS;
     for (var c = 0u; c < 3u; c++) {
         coefficients[first + c * n + k] = value[c];
-        coefficients[first + 3u * n + c * n + k] = gx[c];
-        coefficients[first + 6u * n + c * n + k] = gy[c];
+        if gradients {
+            coefficients[first + 3u * n + c * n + k] = gx[c];
+            coefficients[first + 6u * n + c * n + k] = gy[c];
+        }
     }
 }

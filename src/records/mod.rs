@@ -1284,6 +1284,7 @@ impl RecordPass {
                 &cache.coefficients,
                 cache.count,
                 n,
+                false,
                 &mut timer,
             );
             let reduction = ReductionBatch {
@@ -1320,7 +1321,8 @@ impl RecordPass {
     /// Records the HSH projection (`radiance_project.wgsl`) of `count` planes of this
     /// pass's resolution in `samples`, traced from `sites`, into the coefficient blocks of
     /// records `first_record..` of `coefficients`; nothing for irradiance records. Stages
-    /// project their own planes with it (temporal caching: the planes estimated at t+1).
+    /// project their own planes with it (temporal caching: the planes estimated at t+1);
+    /// `values_only` leaves the coefficients' gradients out (and their floats as they are).
     #[allow(clippy::too_many_arguments)]
     pub fn record_projection(
         &self,
@@ -1332,6 +1334,7 @@ impl RecordPass {
         coefficients: &wgpu::Buffer,
         first_record: u32,
         count: u32,
+        values_only: bool,
         timer: &mut crate::gpu::timer::PassTimer,
     ) {
         if let Some(projection) = &self.projection {
@@ -1344,6 +1347,7 @@ impl RecordPass {
                 coefficients,
                 first_record,
                 count,
+                values_only,
                 timer.next("radiance projection"),
             );
         }

@@ -131,8 +131,9 @@ pub fn project(basis: &PlaneBasis, samples: &[PlaneSample]) -> Vec<f32> {
 
 /// The coefficients and their translational gradients along the plane's x and y axes
 /// (`9 order^2`, laid out as [`super::RecordKind::coefficient_floats`] after the frame):
-/// each pixel edge sweeps the radiance difference across it with the nearer depth
-/// (algorithms.md 3.3), summed in pixel order as the GPU.
+/// each pixel edge sweeps the radiance difference across it over the nearer depth (the
+/// edge's slope, algorithms.md 3.3) times the edge's weight, summed in pixel order as the
+/// GPU.
 pub fn project_with_gradients(basis: &PlaneBasis, samples: &[PlaneSample]) -> Vec<f32> {
     let n = coefficient_count(basis.order);
     let res = basis.resolution as usize;
@@ -146,14 +147,14 @@ pub fn project_with_gradients(basis: &PlaneBasis, samples: &[PlaneSample]) -> Ve
                     let right = &samples[p + 1];
                     let z = nearer_depth(s.depth, right.depth);
                     if z > 0.0 {
-                        gx += (right.radiance[c] - s.radiance[c]) * (basis.edge_x[p * n + k] / z);
+                        gx += (right.radiance[c] - s.radiance[c]) / z * basis.edge_x[p * n + k];
                     }
                 }
                 if p + res < samples.len() {
                     let up = &samples[p + res];
                     let z = nearer_depth(s.depth, up.depth);
                     if z > 0.0 {
-                        gy += (up.radiance[c] - s.radiance[c]) * (basis.edge_y[p * n + k] / z);
+                        gy += (up.radiance[c] - s.radiance[c]) / z * basis.edge_y[p * n + k];
                     }
                 }
             }
@@ -174,7 +175,8 @@ struct ProjectParams {
     count: u32,
     first_record: u32,
     stride: u32,
-    _pad: [u32; 2],
+    values_only: u32,
+    _pad: u32,
 }
 
 /// The GPU projection pass with its plane basis.
@@ -210,7 +212,9 @@ impl RadianceProjectionPass {
     /// Projects the `count` planes of `sites` (`samples`: `P^2` [`PlaneSample`]s each)
     /// into the radiance records `first_record..` of `out` (a coefficient buffer laid out
     /// as [`RecordKind::coefficient_floats`]): each record's frame, coefficients and their
-    /// gradients.
+    /// gradients; with `values_only`, the frame and coefficient values only (the
+    /// gradients' floats are left as they are: an estimate at t+1 that only gives tau
+    /// needs no gradients, and skipping them costs a third as much).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -222,6 +226,7 @@ impl RadianceProjectionPass {
         out: &wgpu::Buffer,
         first_record: u32,
         count: u32,
+        values_only: bool,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let n = coefficient_count(self.basis.order) as u32;
@@ -237,7 +242,8 @@ impl RadianceProjectionPass {
                 count,
                 first_record,
                 stride: kind.coefficient_floats() as u32,
-                _pad: [0; 2],
+                values_only: u32::from(values_only),
+                _pad: 0,
             },
         );
         let bind = self

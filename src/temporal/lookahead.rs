@@ -28,6 +28,12 @@ pub struct Lookahead<'a> {
     pub subset: &'a mut RecordCache,
     /// Keeps the sites and traced planes of the records computed.
     pub capture: Option<&'a mut PlaneCapture>,
+    /// Radiance records' estimates at t+1 carry their coefficient values only: with
+    /// interpolated temporal gradients the estimate only gives tau (the values' change),
+    /// and the coefficients' translational gradients are two thirds of the projection.
+    /// The estimates' gradients are then the records' own at t (see
+    /// `TemporalCache::read_computed`).
+    pub values_only: bool,
     /// The estimated planes at t+1 and the samples at t they were moved from, sized to the
     /// largest batch of the current `compute` call.
     estimates: Option<(wgpu::Buffer, wgpu::Buffer)>,
@@ -40,6 +46,7 @@ impl<'a> Lookahead<'a> {
         next: &'a mut RecordCache,
         subset: &'a mut RecordCache,
         capture: Option<&'a mut PlaneCapture>,
+        values_only: bool,
     ) -> Self {
         Self {
             next_frame,
@@ -47,6 +54,7 @@ impl<'a> Lookahead<'a> {
             next,
             subset,
             capture,
+            values_only,
             estimates: None,
         }
     }
@@ -160,6 +168,7 @@ impl RecordStage for Lookahead<'_> {
                 &self.next.coefficients,
                 batch.first_record,
                 batch.count,
+                self.values_only,
                 timer,
             );
         }

@@ -28,6 +28,7 @@ use crate::frame::{
     CachedFrameOptions, Frame, PreparedScene, RadianceCache, RadianceFrame, Renderer,
 };
 use crate::gpu::GpuContext;
+use crate::records::kind::FRAME_FLOATS;
 use crate::records::{
     CacheSettings, Record, RecordCache, RecordKind, RecordPass, RecordSite, RecordStage,
 };
@@ -850,6 +851,7 @@ impl TemporalCache {
                 &mut self.next_records,
                 &mut self.subset_records,
                 Some(&mut plan.capture),
+                self.settings.gradients == TemporalGradients::Interpolated,
             )
         });
         let mut radiance_lookahead = None;
@@ -865,6 +867,7 @@ impl TemporalCache {
                         &mut rc.next_records,
                         &mut rc.subset_records,
                         Some(&mut rp.capture),
+                        rc.settings.gradients == TemporalGradients::Interpolated,
                     )
                 });
                 Some(RadianceFrame {
@@ -1021,6 +1024,7 @@ impl TemporalCache {
                 &mut self.next_records,
                 &mut self.subset_records,
                 Some(&mut capture),
+                self.settings.gradients == TemporalGradients::Interpolated,
             )
         });
         let mut retraced_lists = Vec::new();
@@ -1241,12 +1245,26 @@ impl TemporalCache {
         } else {
             Vec::new()
         };
-        let blocks_next: Vec<f32> = if block_ranges == 2 {
+        let floats = self.frame_records.kind.coefficient_floats();
+        let mut blocks_next: Vec<f32> = if block_ranges == 2 {
             next_range(&mut read)
         } else {
             blocks_now.clone()
         };
-        let floats = self.frame_records.kind.coefficient_floats();
+        // Interpolated gradients: the estimates were projected without their gradients
+        // (Lookahead::values_only); an estimate keeps the record's own.
+        if self.settings.gradients == TemporalGradients::Interpolated
+            && floats > 0
+            && blocks_next.len() == blocks_now.len()
+        {
+            let gradients = FRAME_FLOATS + floats.saturating_sub(FRAME_FLOATS) / 3;
+            for (next, now) in blocks_next
+                .chunks_exact_mut(floats)
+                .zip(blocks_now.chunks_exact(floats))
+            {
+                next[gradients..].copy_from_slice(&now[gradients..]);
+            }
+        }
         if records.len() != computed
             || nexts.len() != computed
             || subsets.is_some_and(|s| s.len() != computed)
