@@ -166,6 +166,9 @@ pub fn project_with_gradients(basis: &PlaneBasis, samples: &[PlaneSample]) -> Ve
     out
 }
 
+/// Coefficients one invocation of `radiance_project.wgsl` sums (its `BLOCK`).
+const COEFFICIENTS_PER_INVOCATION: u32 = 16;
+
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct ProjectParams {
@@ -253,7 +256,11 @@ impl RadianceProjectionPass {
             enc,
             &scene.bind_group,
             &bind,
-            [n.div_ceil(64), count, 1],
+            [
+                count.div_ceil(64),
+                n.div_ceil(COEFFICIENTS_PER_INVOCATION),
+                1,
+            ],
             timestamps,
         );
     }
