@@ -77,16 +77,44 @@ fn kept_radiance_records_reproduce_the_static_render() {
     let still = renderer
         .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
         .expect("static frame");
-    let mut temporal = TemporalCache::new(&renderer.ctx, &settings(), &TemporalSettings::default())
-        .expect("temporal cache");
+    // Without a next frame; and estimated at t+1 (the same scene: nothing moves) from
+    // every other sample, whose radiance blocks must then keep the records unchanged.
+    for (next, stride) in [(None, None), (Some((&prepared, &scene)), Some(2))] {
+        let temporal_settings = TemporalSettings {
+            estimate_stride: stride,
+            ..TemporalSettings::default()
+        };
+        kept_records_match(
+            &renderer,
+            &scene,
+            &prepared,
+            next,
+            &temporal_settings,
+            &still,
+        );
+    }
+}
+
+/// Three frames of `scene` with temporal caching give `still`'s bytes, every radiance
+/// record kept after the first frame.
+fn kept_records_match(
+    renderer: &Renderer,
+    scene: &Scene,
+    prepared: &PreparedScene,
+    next: Option<(&PreparedScene, &Scene)>,
+    temporal_settings: &TemporalSettings,
+    still: &Frame,
+) {
+    let mut temporal =
+        TemporalCache::new(&renderer.ctx, &settings(), temporal_settings).expect("temporal cache");
     for t in 0..3 {
         let (frame, stats) = temporal
             .render_frame(
-                &renderer,
+                renderer,
                 FrameScenes {
-                    now: &prepared,
-                    scene: &scene,
-                    next: None,
+                    now: prepared,
+                    scene,
+                    next,
                 },
                 &scene.camera,
                 t,
