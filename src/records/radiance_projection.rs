@@ -8,8 +8,8 @@
 //!
 //! [`PlaneBasis`] computes `W` once per plane on the CPU (f64 quadrature, stored f32);
 //! [`RadianceProjectionPass`] (`wgsl/radiance_project.wgsl`) projects planes on the GPU,
-//! one invocation per (record, block of 16 coefficients) summing the pixels in order, so the result is
-//! deterministic; [`project_with_gradients`] is its CPU mirror. The translational gradient
+//! one invocation per (record, block of 16 coefficients) summing the pixels in order, so
+//! the result is deterministic; [`project_with_gradients`] is its CPU mirror. The translational gradient
 //! of every coefficient comes from the same plane (algorithms.md 3.3: each pixel edge
 //! sweeps the radiance difference across it, weighted by `H_k` at the edge).
 
