@@ -152,49 +152,25 @@ impl RecordStage for Lookahead<'_> {
             timer,
         )?;
         // Radiance records: the estimated plane projected onto HSH too, into the blocks at
-        // t+1; from a subset, with the coarser plane's basis, and the subset at t as well
-        // (the record moves by their difference: TemporalCache::read_computed).
+        // t+1 (stride 1 only: the projection's basis is the record plane's).
         if self.next.kind.coefficient_floats() > 0 {
-            match (&self.reprojection.projection, self.reprojection.stride) {
-                (_, 1) => pass.record_projection(
-                    ctx,
-                    enc,
-                    self.next_frame.scene,
-                    batch.sites,
-                    estimate,
-                    &self.next.coefficients,
-                    batch.first_record,
-                    batch.count,
-                    self.values_only,
-                    timer,
-                ),
-                (Some(projection), _) => {
-                    for (samples, records, at) in [
-                        (estimate, &self.next.coefficients, self.next_frame.scene),
-                        (subset, &self.subset.coefficients, scene),
-                    ] {
-                        projection.record(
-                            ctx,
-                            enc,
-                            at,
-                            batch.sites,
-                            samples,
-                            records,
-                            batch.first_record,
-                            batch.count,
-                            true,
-                            timer.next("radiance projection"),
-                        );
-                    }
-                }
-                (None, _) => {
-                    return Err(Error::Usage(
-                        "internal: radiance records estimated from a subset without its \
-                         projection"
-                            .into(),
-                    ));
-                }
+            if self.reprojection.stride != 1 {
+                return Err(Error::Usage(
+                    "internal: radiance records are estimated at t+1 with stride 1".into(),
+                ));
             }
+            pass.record_projection(
+                ctx,
+                enc,
+                self.next_frame.scene,
+                batch.sites,
+                estimate,
+                &self.next.coefficients,
+                batch.first_record,
+                batch.count,
+                self.values_only,
+                timer,
+            );
         }
         if self.reprojection.stride > 1 {
             pass.record_reduction(

@@ -320,68 +320,6 @@ pub fn scaled_by_estimate(record: &Record, subset: &Record, estimate: &Record) -
     r
 }
 
-/// The estimate stride of records of `kind` on planes of `resolution` pixels: the
-/// settings' ([`TemporalSettings::estimate_stride_for`]), except that radiance records
-/// keep at least four samples of the coarser plane per coefficient (`(P / stride)^2 >= 4
-/// order^2`), else estimate from the whole plane: fewer samples alias the coefficients.
-/// Measured (tests/temporal_radiance.rs, glossy cube in a box, order 8, 16x16 planes): an
-/// estimate from 8x8 cells was further from the record recomputed at t+1 than assuming no
-/// change (1.68 against 1.31, sums of relative L2 distances; 0.77 of it from the whole
-/// plane).
-fn estimate_stride(settings: &TemporalSettings, resolution: u32, kind: RecordKind) -> u32 {
-    let stride = settings.estimate_stride_for(resolution);
-    match kind {
-        RecordKind::Radiance { order } if settings.estimate_stride.is_none() => {
-            let cells = (resolution / stride.max(1)).pow(2);
-            if cells >= 4 * order * order {
-                stride
-            } else {
-                1
-            }
-        }
-        _ => stride,
-    }
-}
-
-/// Radiance records' blocks at t+1 (`next`, as read back) from their estimates, for
-/// records whose blocks at t are `now` (blocks of `floats` f32s). With a `subset` (an
-/// estimate stride above 1) `next` holds the estimate over the coarser plane, projected
-/// with that plane's basis as `subset` was: the record moves by their difference, value
-/// by value (`now + next - subset`, the additive form of [`scaled_by_estimate`]), so tau
-/// is `|c_Y(estimate) - c_Y(subset)| / |c_Y(now)|`. The estimates carry values only when
-/// projected from a subset or under interpolated gradients (`Lookahead::values_only`):
-/// the gradients at t+1 are then the record's own.
-fn estimate_blocks(
-    next: &mut [f32],
-    now: &[f32],
-    subset: &[f32],
-    floats: usize,
-    values_only: bool,
-) {
-    let gradients = FRAME_FLOATS + floats.saturating_sub(FRAME_FLOATS) / 3;
-    let from_subset = subset.len() == now.len();
-    for (k, (next, now)) in next
-        .chunks_exact_mut(floats)
-        .zip(now.chunks_exact(floats))
-        .enumerate()
-    {
-        if from_subset {
-            let subset = &subset[k * floats..(k + 1) * floats];
-            next[..FRAME_FLOATS].copy_from_slice(&now[..FRAME_FLOATS]);
-            for ((n, &c), &s) in next[FRAME_FLOATS..gradients]
-                .iter_mut()
-                .zip(&now[FRAME_FLOATS..gradients])
-                .zip(&subset[FRAME_FLOATS..gradients])
-            {
-                *n = c + (*n - s);
-            }
-        }
-        if values_only || from_subset {
-            next[gradients..].copy_from_slice(&now[gradients..]);
-        }
-    }
-}
-
 /// The lifespan rule (decision 9): the last frame at which a record born at `birth` with
 /// ratio `tau` is still valid, `t - t_k <= a_t / |tau - 1|` and `t - t_k < dt_max`;
 /// `dynamic` false (nothing in the scene moves or changes) lifts dt_max.
@@ -523,10 +461,13 @@ impl RadianceTemporal {
     /// The radiance records of `scene` under the user's `cache` settings, or None when
     /// they are off or no lobe qualifies. They live by the same temporal settings, except
     /// that their planes are traced, never refreshed (refresh retains planes of the
-    /// irradiance records' resolution), and replacement is decided on this frame (their
-    /// coverage is not counted). Their estimate at t+1 reprojects every stride-th sample
-    /// as irradiance records' do; the estimate and its subset are projected with a basis
-    /// of their own coarser plane (`ReprojectionPass::with_projection`).
+    /// irradiance records' resolution), their estimate at t+1 reprojects the whole plane
+    /// and replacement is decided on this frame (their coverage is not counted). An
+    /// estimate from every other sample (the subset and the estimate projected with a
+    /// basis of their coarser plane, the record moved by their difference) was tried and
+    /// predicted the recomputed record worse than assuming no change (glossy cube in a box,
+    /// order 8: 1.07 against 1.02 with 32x32 planes, 1.36 against 0.84 with 48x48; the
+    /// whole plane: 1.01 against 1.31), so radiance records keep stride 1.
     fn new(
         ctx: &GpuContext,
         scene: &crate::gpu::scene_buffers::GpuScene,
@@ -539,6 +480,7 @@ impl RadianceTemporal {
         };
         let settings = TemporalSettings {
             plane_refresh: RefreshMode::Off,
+            estimate_stride: Some(1),
             replacement: match settings.replacement {
                 Replacement::Covering => Replacement::Visible,
                 other => other,
@@ -672,9 +614,8 @@ impl TemporalCache {
             reprojection: ReprojectionPass::new(
                 ctx,
                 cache,
-                estimate_stride(settings, cache.plane_resolution, kind),
-            )?
-            .with_projection(ctx, cache, kind)?,
+                settings.estimate_stride_for(cache.plane_resolution),
+            )?,
             refresh: plane_refresh::RefreshPass::new(ctx)?,
             planes: plane_refresh::PlaneStore::new(
                 settings.plane_budget_bytes,
@@ -1257,10 +1198,7 @@ impl TemporalCache {
                 .coefficient_range(first as u32, computed as u32);
             ranges.push((&self.frame_records.coefficients, range.clone()));
             if has_next {
-                ranges.push((&self.next_records.coefficients, range.clone()));
-                if self.reprojection.stride > 1 {
-                    ranges.push((&self.subset_records.coefficients, range));
-                }
+                ranges.push((&self.next_records.coefficients, range));
             }
         }
         let block_ranges = ranges.len() - record_ranges;
@@ -1312,24 +1250,24 @@ impl TemporalCache {
             Vec::new()
         };
         let floats = self.frame_records.kind.coefficient_floats();
-        let mut blocks_next: Vec<f32> = if block_ranges >= 2 {
+        let mut blocks_next: Vec<f32> = if block_ranges == 2 {
             next_range(&mut read)
         } else {
             blocks_now.clone()
         };
-        let blocks_subset: Vec<f32> = if block_ranges == 3 {
-            next_range(&mut read)
-        } else {
-            Vec::new()
-        };
-        if floats > 0 && blocks_next.len() == blocks_now.len() {
-            estimate_blocks(
-                &mut blocks_next,
-                &blocks_now,
-                &blocks_subset,
-                floats,
-                self.settings.gradients == TemporalGradients::Interpolated,
-            );
+        // Interpolated gradients: the estimates were projected without their gradients
+        // (Lookahead::values_only); an estimate keeps the record's own.
+        if self.settings.gradients == TemporalGradients::Interpolated
+            && floats > 0
+            && blocks_next.len() == blocks_now.len()
+        {
+            let gradients = FRAME_FLOATS + floats.saturating_sub(FRAME_FLOATS) / 3;
+            for (next, now) in blocks_next
+                .chunks_exact_mut(floats)
+                .zip(blocks_now.chunks_exact(floats))
+            {
+                next[gradients..].copy_from_slice(&now[gradients..]);
+            }
         }
         if records.len() != computed
             || nexts.len() != computed
@@ -1817,60 +1755,6 @@ mod tests {
         // The threshold: saving exactly a fifth of the rays.
         assert!(refresh_pays((100, 0, 500), 8));
         assert!(!refresh_pays((100, 1, 500), 8));
-    }
-
-    #[test]
-    fn radiance_estimates_from_a_subset_move_the_record_by_their_difference() {
-        // Order 2: 4 coefficients per channel; a frame header, 12 values, 24 gradients.
-        let floats = FRAME_FLOATS + 36;
-        let block = |frame: f32, value: f32, gradient: f32| -> Vec<f32> {
-            let mut b = vec![frame; FRAME_FLOATS];
-            b.extend((0..12).map(|k| value + k as f32));
-            b.extend((0..24).map(|k| gradient + k as f32));
-            b
-        };
-        let now = [block(1.0, 10.0, 100.0), block(2.0, 20.0, 200.0)].concat();
-        let subset = [block(0.0, 9.0, 0.0), block(0.0, 21.0, 0.0)].concat();
-        let estimate = [block(0.0, 9.5, 0.0), block(0.0, 20.0, 0.0)].concat();
-        let mut next = estimate.clone();
-        estimate_blocks(&mut next, &now, &subset, floats, false);
-        // The record's frame and gradients; its values moved by estimate - subset.
-        let expected = [block(1.0, 10.5, 100.0), block(2.0, 19.0, 200.0)].concat();
-        assert_eq!(next, expected);
-        // The record's tau is the subset's change over the record's norm.
-        let tau = radiance::coefficient_ratio(&now[..floats], &next[..floats]);
-        assert!(tau > 1.0 && tau < 1.1, "{tau}");
-        // A whole-plane estimate: its own values; with values only, the record's gradients.
-        let mut whole = estimate.clone();
-        estimate_blocks(&mut whole, &now, &[], floats, false);
-        assert_eq!(whole, estimate);
-        estimate_blocks(&mut whole, &now, &[], floats, true);
-        let gradients = FRAME_FLOATS + 12;
-        assert_eq!(whole[..gradients], estimate[..gradients]);
-        assert_eq!(whole[gradients..floats], now[gradients..floats]);
-    }
-
-    #[test]
-    fn radiance_records_estimate_from_a_subset_only_with_samples_to_spare() {
-        let interpolated = TemporalSettings::default();
-        let order8 = RecordKind::Radiance { order: 8 };
-        // 48x48 planes: 24x24 cells hold 9 samples per coefficient; 16x16: 8x8 hold 1.
-        assert_eq!(estimate_stride(&interpolated, 48, order8), 2);
-        assert_eq!(estimate_stride(&interpolated, 16, order8), 1);
-        assert_eq!(
-            estimate_stride(&interpolated, 16, RecordKind::Radiance { order: 4 }),
-            2
-        );
-        assert_eq!(
-            estimate_stride(&interpolated, 16, RecordKind::Irradiance),
-            2
-        );
-        // A stride the user sets is kept.
-        let set = TemporalSettings {
-            estimate_stride: Some(2),
-            ..interpolated
-        };
-        assert_eq!(estimate_stride(&set, 16, order8), 2);
     }
 
     #[test]

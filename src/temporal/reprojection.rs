@@ -21,8 +21,7 @@ use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
-use crate::records::radiance_projection::RadianceProjectionPass;
-use crate::records::{CacheSettings, PlaneMode, PlaneTable, RecordKind};
+use crate::records::{CacheSettings, PlaneMode, PlaneTable};
 use crate::scene::Scene;
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
@@ -133,10 +132,6 @@ pub struct ReprojectionPass {
     pub stride: u32,
     /// The table of the estimated plane (P / stride cells each way), for its reduction.
     pub table: PlaneTable,
-    /// Radiance records estimated from a subset (stride above 1): the projection of the
-    /// estimated plane (P / stride pixels each way) onto HSH, for the estimate and the
-    /// subset it was moved from ([`Self::with_projection`]).
-    pub projection: Option<RadianceProjectionPass>,
 }
 
 impl ReprojectionPass {
@@ -158,7 +153,6 @@ impl ReprojectionPass {
         Ok(Self {
             stride,
             table: PlaneTable::new(ctx, settings.plane_resolution / stride, settings)?,
-            projection: None,
             reproject: ComputePass::new(
                 ctx,
                 "plane_reproject.wgsl",
@@ -201,22 +195,6 @@ impl ReprojectionPass {
                 ],
             )?,
         })
-    }
-
-    /// With records of `kind`: radiance records estimated from a subset (stride above 1)
-    /// project the estimated plane and its subset with a basis of the estimated plane's
-    /// own pixels (the records' basis is the full plane's).
-    pub fn with_projection(
-        mut self,
-        ctx: &GpuContext,
-        settings: &CacheSettings,
-        kind: RecordKind,
-    ) -> Result<Self> {
-        if let (RecordKind::Radiance { order }, true) = (kind, self.stride > 1) {
-            let plane = settings.plane(self.table.resolution);
-            self.projection = Some(RadianceProjectionPass::new(ctx, &plane, order, 16)?);
-        }
-        Ok(self)
     }
 
     /// Records the estimate at t+1 of `count` records' planes: reads their sites, plane
