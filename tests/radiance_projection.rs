@@ -85,25 +85,30 @@ fn gpu_projection_matches_the_cpu_and_keeps_the_irradiance() {
     let stride = RecordKind::Radiance { order: ORDER }.coefficient_floats();
     let samples_buf = ctx.storage_buffer("samples", &samples).expect("upload");
     let sites_buf = ctx.storage_buffer("sites", &sites).expect("upload");
-    let out = ctx
-        .storage_buffer_sized("coefficients", (sites.len() * stride * 4) as u64)
-        .expect("out");
-    let mut enc = ctx.device.create_command_encoder(&Default::default());
-    projection.record(
-        ctx,
-        &mut enc,
-        &prepared.gpu,
-        &sites_buf,
-        &samples_buf,
-        &out,
-        0,
-        sites.len() as u32,
-        false,
-        None,
-    );
-    ctx.queue.submit([enc.finish()]);
-    let gpu: Vec<f32> = ctx.read_buffer(&out).expect("read");
-    ctx.check().expect("no wgpu errors");
+    // The projection of every plane into a coefficient buffer that starts as `initial`.
+    let project_on_gpu = |values_only: bool, initial: f32| -> Vec<f32> {
+        let out = ctx
+            .storage_buffer("coefficients", &vec![initial; sites.len() * stride])
+            .expect("out");
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        projection.record(
+            ctx,
+            &mut enc,
+            &prepared.gpu,
+            &sites_buf,
+            &samples_buf,
+            &out,
+            0,
+            sites.len() as u32,
+            values_only,
+            None,
+        );
+        ctx.queue.submit([enc.finish()]);
+        let read: Vec<f32> = ctx.read_buffer(&out).expect("read");
+        ctx.check().expect("no wgpu errors");
+        read
+    };
+    let gpu = project_on_gpu(false, 0.0);
 
     // The cosine lobe in 4 coefficients (exact, hsh tests), padded to ORDER.
     let q = HemisphereQuadrature::new(16);
@@ -156,28 +161,7 @@ fn gpu_projection_matches_the_cpu_and_keeps_the_irradiance() {
     // Values only (the estimates at t+1 that give tau): the same values bit for bit, the
     // gradients' floats left as they were.
     const UNTOUCHED: f32 = 7.25;
-    let values_out = ctx
-        .storage_buffer(
-            "values-only coefficients",
-            &vec![UNTOUCHED; sites.len() * stride],
-        )
-        .expect("out");
-    let mut enc = ctx.device.create_command_encoder(&Default::default());
-    projection.record(
-        ctx,
-        &mut enc,
-        &prepared.gpu,
-        &sites_buf,
-        &samples_buf,
-        &values_out,
-        0,
-        sites.len() as u32,
-        true,
-        None,
-    );
-    ctx.queue.submit([enc.finish()]);
-    let values: Vec<f32> = ctx.read_buffer(&values_out).expect("read");
-    ctx.check().expect("no wgpu errors");
+    let values = project_on_gpu(true, UNTOUCHED);
     for r in 0..sites.len() {
         let (v, full) = (
             &values[r * stride..(r + 1) * stride],

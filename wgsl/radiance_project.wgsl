@@ -20,11 +20,12 @@ struct ProjectParams {
     first_record: u32,  // index of the batch's first record
     stride: u32,        // f32s per record block
     values_only: u32,   // 1: coefficient values only (gradients left as they are)
-    _pad0: u32,
+    table_section: u32, // f32s per section of a pixel's table (order^2 padded to BLOCK)
 }
 
 @group(1) @binding(0) var<uniform> params: ProjectParams;
-@group(1) @binding(1) var<storage, read> table: array<f32>;   // per pixel: W, edge x, edge y
+// Per pixel: W, edge x, edge y, each padded with zeros to table_section f32s.
+@group(1) @binding(1) var<storage, read> table: array<f32>;
 @group(1) @binding(2) var<storage, read> sites: array<RecordSite>;
 @group(1) @binding(3) var<storage, read> samples: array<PlaneSample>;
 @group(1) @binding(4) var<storage, read_write> coefficients: array<f32>;
@@ -68,14 +69,12 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
     if plane >= params.count {
         return;
     }
-    let n = params.coefficients;
     let res = params.resolution;
     let k0 = id.y * BLOCK;
     let gradients = params.values_only == 0u;
     let base = plane * params.pixels;
-    // Basis weights past the last coefficient read the next pixel's (or the table's end,
-    // clamped): summed, never written.
-    let last = arrayLength(&table) - 1u;
+    // Coefficients past the last (the section's zero padding) are summed, never written.
+    let w = params.table_section;
     var v0 = vec3f(0.0);
     var x0 = vec3f(0.0);
     var y0 = vec3f(0.0);
@@ -135,76 +134,76 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
             if p + res < params.pixels {
                 sy = edge_slope(s, samples[base + p + res]);
             }
-            let t = p * 3u * n + k0;
-            v0 += s.radiance * table[min(t + 0u, last)];
-            x0 += sx * table[min(t + n + 0u, last)];
-            y0 += sy * table[min(t + 2u * n + 0u, last)];
-            v1 += s.radiance * table[min(t + 1u, last)];
-            x1 += sx * table[min(t + n + 1u, last)];
-            y1 += sy * table[min(t + 2u * n + 1u, last)];
-            v2 += s.radiance * table[min(t + 2u, last)];
-            x2 += sx * table[min(t + n + 2u, last)];
-            y2 += sy * table[min(t + 2u * n + 2u, last)];
-            v3 += s.radiance * table[min(t + 3u, last)];
-            x3 += sx * table[min(t + n + 3u, last)];
-            y3 += sy * table[min(t + 2u * n + 3u, last)];
-            v4 += s.radiance * table[min(t + 4u, last)];
-            x4 += sx * table[min(t + n + 4u, last)];
-            y4 += sy * table[min(t + 2u * n + 4u, last)];
-            v5 += s.radiance * table[min(t + 5u, last)];
-            x5 += sx * table[min(t + n + 5u, last)];
-            y5 += sy * table[min(t + 2u * n + 5u, last)];
-            v6 += s.radiance * table[min(t + 6u, last)];
-            x6 += sx * table[min(t + n + 6u, last)];
-            y6 += sy * table[min(t + 2u * n + 6u, last)];
-            v7 += s.radiance * table[min(t + 7u, last)];
-            x7 += sx * table[min(t + n + 7u, last)];
-            y7 += sy * table[min(t + 2u * n + 7u, last)];
-            v8 += s.radiance * table[min(t + 8u, last)];
-            x8 += sx * table[min(t + n + 8u, last)];
-            y8 += sy * table[min(t + 2u * n + 8u, last)];
-            v9 += s.radiance * table[min(t + 9u, last)];
-            x9 += sx * table[min(t + n + 9u, last)];
-            y9 += sy * table[min(t + 2u * n + 9u, last)];
-            v10 += s.radiance * table[min(t + 10u, last)];
-            x10 += sx * table[min(t + n + 10u, last)];
-            y10 += sy * table[min(t + 2u * n + 10u, last)];
-            v11 += s.radiance * table[min(t + 11u, last)];
-            x11 += sx * table[min(t + n + 11u, last)];
-            y11 += sy * table[min(t + 2u * n + 11u, last)];
-            v12 += s.radiance * table[min(t + 12u, last)];
-            x12 += sx * table[min(t + n + 12u, last)];
-            y12 += sy * table[min(t + 2u * n + 12u, last)];
-            v13 += s.radiance * table[min(t + 13u, last)];
-            x13 += sx * table[min(t + n + 13u, last)];
-            y13 += sy * table[min(t + 2u * n + 13u, last)];
-            v14 += s.radiance * table[min(t + 14u, last)];
-            x14 += sx * table[min(t + n + 14u, last)];
-            y14 += sy * table[min(t + 2u * n + 14u, last)];
-            v15 += s.radiance * table[min(t + 15u, last)];
-            x15 += sx * table[min(t + n + 15u, last)];
-            y15 += sy * table[min(t + 2u * n + 15u, last)];
+            let t = p * 3u * w + k0;
+            v0 += s.radiance * table[t];
+            x0 += sx * table[t + w];
+            y0 += sy * table[t + 2u * w];
+            v1 += s.radiance * table[t + 1u];
+            x1 += sx * table[t + w + 1u];
+            y1 += sy * table[t + 2u * w + 1u];
+            v2 += s.radiance * table[t + 2u];
+            x2 += sx * table[t + w + 2u];
+            y2 += sy * table[t + 2u * w + 2u];
+            v3 += s.radiance * table[t + 3u];
+            x3 += sx * table[t + w + 3u];
+            y3 += sy * table[t + 2u * w + 3u];
+            v4 += s.radiance * table[t + 4u];
+            x4 += sx * table[t + w + 4u];
+            y4 += sy * table[t + 2u * w + 4u];
+            v5 += s.radiance * table[t + 5u];
+            x5 += sx * table[t + w + 5u];
+            y5 += sy * table[t + 2u * w + 5u];
+            v6 += s.radiance * table[t + 6u];
+            x6 += sx * table[t + w + 6u];
+            y6 += sy * table[t + 2u * w + 6u];
+            v7 += s.radiance * table[t + 7u];
+            x7 += sx * table[t + w + 7u];
+            y7 += sy * table[t + 2u * w + 7u];
+            v8 += s.radiance * table[t + 8u];
+            x8 += sx * table[t + w + 8u];
+            y8 += sy * table[t + 2u * w + 8u];
+            v9 += s.radiance * table[t + 9u];
+            x9 += sx * table[t + w + 9u];
+            y9 += sy * table[t + 2u * w + 9u];
+            v10 += s.radiance * table[t + 10u];
+            x10 += sx * table[t + w + 10u];
+            y10 += sy * table[t + 2u * w + 10u];
+            v11 += s.radiance * table[t + 11u];
+            x11 += sx * table[t + w + 11u];
+            y11 += sy * table[t + 2u * w + 11u];
+            v12 += s.radiance * table[t + 12u];
+            x12 += sx * table[t + w + 12u];
+            y12 += sy * table[t + 2u * w + 12u];
+            v13 += s.radiance * table[t + 13u];
+            x13 += sx * table[t + w + 13u];
+            y13 += sy * table[t + 2u * w + 13u];
+            v14 += s.radiance * table[t + 14u];
+            x14 += sx * table[t + w + 14u];
+            y14 += sy * table[t + 2u * w + 14u];
+            v15 += s.radiance * table[t + 15u];
+            x15 += sx * table[t + w + 15u];
+            y15 += sy * table[t + 2u * w + 15u];
         }
     } else {
         for (var p = 0u; p < params.pixels; p++) {
             let r = samples[base + p].radiance;
-            let t = p * 3u * n + k0;
-            v0 += r * table[min(t + 0u, last)];
-            v1 += r * table[min(t + 1u, last)];
-            v2 += r * table[min(t + 2u, last)];
-            v3 += r * table[min(t + 3u, last)];
-            v4 += r * table[min(t + 4u, last)];
-            v5 += r * table[min(t + 5u, last)];
-            v6 += r * table[min(t + 6u, last)];
-            v7 += r * table[min(t + 7u, last)];
-            v8 += r * table[min(t + 8u, last)];
-            v9 += r * table[min(t + 9u, last)];
-            v10 += r * table[min(t + 10u, last)];
-            v11 += r * table[min(t + 11u, last)];
-            v12 += r * table[min(t + 12u, last)];
-            v13 += r * table[min(t + 13u, last)];
-            v14 += r * table[min(t + 14u, last)];
-            v15 += r * table[min(t + 15u, last)];
+            let t = p * 3u * w + k0;
+            v0 += r * table[t];
+            v1 += r * table[t + 1u];
+            v2 += r * table[t + 2u];
+            v3 += r * table[t + 3u];
+            v4 += r * table[t + 4u];
+            v5 += r * table[t + 5u];
+            v6 += r * table[t + 6u];
+            v7 += r * table[t + 7u];
+            v8 += r * table[t + 8u];
+            v9 += r * table[t + 9u];
+            v10 += r * table[t + 10u];
+            v11 += r * table[t + 11u];
+            v12 += r * table[t + 12u];
+            v13 += r * table[t + 13u];
+            v14 += r * table[t + 14u];
+            v15 += r * table[t + 15u];
         }
     }
     let out = (params.first_record + plane) * params.stride;

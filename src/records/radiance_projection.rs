@@ -110,16 +110,26 @@ impl PlaneBasis {
         }
     }
 
-    /// The GPU table: per pixel `W`, edge-x and edge-y weights (`3 order^2` f32).
+    /// The GPU table: per pixel `W`, edge-x and edge-y weights, each padded with zeros to
+    /// [`Self::gpu_section`] f32s (a whole number of the kernel's coefficient blocks, so
+    /// it reads no weight past a section's end).
     pub fn gpu_table(&self) -> Vec<f32> {
         let n = coefficient_count(self.order);
-        let mut out = Vec::with_capacity(self.weights.len() * 3);
+        let section = self.gpu_section() as usize;
+        let mut out = Vec::with_capacity(self.weights.len() / n * 3 * section);
         for p in 0..self.weights.len() / n {
-            out.extend_from_slice(&self.weights[p * n..(p + 1) * n]);
-            out.extend_from_slice(&self.edge_x[p * n..(p + 1) * n]);
-            out.extend_from_slice(&self.edge_y[p * n..(p + 1) * n]);
+            for weights in [&self.weights, &self.edge_x, &self.edge_y] {
+                out.extend_from_slice(&weights[p * n..(p + 1) * n]);
+                out.resize(out.len() + section - n, 0.0);
+            }
         }
         out
+    }
+
+    /// f32s per section of [`Self::gpu_table`]: `order^2` rounded up to a multiple of
+    /// the coefficients one invocation sums.
+    pub fn gpu_section(&self) -> u32 {
+        (coefficient_count(self.order) as u32).next_multiple_of(COEFFICIENTS_PER_INVOCATION)
     }
 }
 
@@ -179,7 +189,7 @@ struct ProjectParams {
     first_record: u32,
     stride: u32,
     values_only: u32,
-    _pad: u32,
+    table_section: u32,
 }
 
 /// The GPU projection pass with its plane basis.
@@ -246,7 +256,7 @@ impl RadianceProjectionPass {
                 first_record,
                 stride: kind.coefficient_floats() as u32,
                 values_only: u32::from(values_only),
-                _pad: 0,
+                table_section: self.basis.gpu_section(),
             },
         );
         let bind = self

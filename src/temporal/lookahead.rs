@@ -28,11 +28,9 @@ pub struct Lookahead<'a> {
     pub subset: &'a mut RecordCache,
     /// Keeps the sites and traced planes of the records computed.
     pub capture: Option<&'a mut PlaneCapture>,
-    /// Radiance records' estimates at t+1 carry their coefficient values only: with
-    /// interpolated temporal gradients the estimate only gives tau (the values' change),
-    /// and the coefficients' translational gradients are two thirds of the projection.
-    /// The estimates' gradients are then the records' own at t (see
-    /// `TemporalCache::read_computed`).
+    /// Radiance records' estimates at t+1 carry their coefficient values only
+    /// ([`super::TemporalSettings::estimates_values_only`]; the translational gradients
+    /// are two thirds of the projection).
     pub values_only: bool,
     /// The estimated planes at t+1 and the samples at t they were moved from, sized to the
     /// largest batch of the current `compute` call.

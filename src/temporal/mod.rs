@@ -28,7 +28,6 @@ use crate::frame::{
     CachedFrameOptions, Frame, PreparedScene, RadianceCache, RadianceFrame, Renderer,
 };
 use crate::gpu::GpuContext;
-use crate::records::kind::FRAME_FLOATS;
 use crate::records::{
     CacheSettings, Record, RecordCache, RecordKind, RecordPass, RecordSite, RecordStage,
 };
@@ -142,6 +141,14 @@ impl TemporalSettings {
         if let Some(d) = max_lifespan.or(animation.and_then(|a| a.max_lifespan)) {
             self.max_lifespan = d;
         }
+    }
+
+    /// Whether radiance records' estimates at t+1 carry coefficient values only
+    /// (`Lookahead::values_only`): with interpolated gradients an estimate only gives tau,
+    /// a function of the values, and a record with no successor extrapolates with its own
+    /// translational gradients ([`radiance::keep_gradients`]).
+    pub fn estimates_values_only(&self) -> bool {
+        self.gradients == TemporalGradients::Interpolated
     }
 
     /// The estimate stride for planes of `plane_resolution` pixels: the one set, else 2
@@ -855,7 +862,7 @@ impl TemporalCache {
                 &mut self.next_records,
                 &mut self.subset_records,
                 Some(&mut plan.capture),
-                self.settings.gradients == TemporalGradients::Interpolated,
+                self.settings.estimates_values_only(),
             )
         });
         let mut radiance_lookahead = None;
@@ -871,7 +878,7 @@ impl TemporalCache {
                         &mut rc.next_records,
                         &mut rc.subset_records,
                         Some(&mut rp.capture),
-                        rc.settings.gradients == TemporalGradients::Interpolated,
+                        rc.settings.estimates_values_only(),
                     )
                 });
                 Some(RadianceFrame {
@@ -1028,7 +1035,7 @@ impl TemporalCache {
                 &mut self.next_records,
                 &mut self.subset_records,
                 Some(&mut capture),
-                self.settings.gradients == TemporalGradients::Interpolated,
+                self.settings.estimates_values_only(),
             )
         });
         let mut retraced_lists = Vec::new();
@@ -1255,18 +1262,13 @@ impl TemporalCache {
         } else {
             blocks_now.clone()
         };
-        // Interpolated gradients: the estimates were projected without their gradients
-        // (Lookahead::values_only); an estimate keeps the record's own.
-        if self.settings.gradients == TemporalGradients::Interpolated
-            && floats > 0
-            && blocks_next.len() == blocks_now.len()
-        {
-            let gradients = FRAME_FLOATS + floats.saturating_sub(FRAME_FLOATS) / 3;
+        // Estimates projected without their gradients keep the record's own.
+        if self.settings.estimates_values_only() && floats > 0 {
             for (next, now) in blocks_next
                 .chunks_exact_mut(floats)
                 .zip(blocks_now.chunks_exact(floats))
             {
-                next[gradients..].copy_from_slice(&now[gradients..]);
+                radiance::keep_gradients(next, now);
             }
         }
         if records.len() != computed

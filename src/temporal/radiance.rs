@@ -58,6 +58,16 @@ pub fn coefficient_ratio(now: &[f32], next: &[f32]) -> f32 {
     }
 }
 
+/// Block `next` (an estimate at t+1 projected with values only,
+/// `Lookahead::values_only`) given the translational gradients of block `now`, the
+/// record's own at t; frame and values stay `next`'s.
+pub fn keep_gradients(next: &mut [f32], now: &[f32]) {
+    let gradients = FRAME_FLOATS + 3 * per_channel(now.len());
+    if next.len() == now.len() && next.len() > gradients {
+        next[gradients..].copy_from_slice(&now[gradients..]);
+    }
+}
+
 /// Block `from` with every coefficient (values and gradients) moved the fraction `f`
 /// towards `to`; the frame header stays `from`'s.
 pub fn blend_coefficients(from: &[f32], to: &[f32], f: f32) -> Vec<f32> {
@@ -132,6 +142,19 @@ mod tests {
             coefficient_ratio(&block([0.0; 4]), &block([1.0, 0.0, 0.0, 0.0])),
             f32::INFINITY
         );
+    }
+
+    #[test]
+    fn an_estimate_of_values_keeps_the_records_gradients() {
+        let now = block([1.0, 2.0, 3.0, 4.0]);
+        let mut next = block([5.0, 6.0, 7.0, 8.0]);
+        next[FRAME_FLOATS + 12..].fill(0.0);
+        keep_gradients(&mut next, &now);
+        assert_eq!(
+            &next[..FRAME_FLOATS + 12],
+            &block([5.0, 6.0, 7.0, 8.0])[..FRAME_FLOATS + 12]
+        );
+        assert_eq!(&next[FRAME_FLOATS + 12..], &now[FRAME_FLOATS + 12..]);
     }
 
     #[test]
