@@ -6,6 +6,7 @@ mod common;
 
 use glam::Vec3;
 use radsplat::Renderer;
+use radsplat::direct::reference::DirectReference;
 use radsplat::records::plane_error::monte_carlo_irradiance;
 use radsplat::records::reference::{RecordReference, reduce_plane};
 use radsplat::records::{CacheSettings, Record, RecordCache, RecordPass, RecordRadius, RecordSite};
@@ -113,10 +114,63 @@ fn gpu_hessian_radii_match_the_cpu_reference() {
     );
 }
 
+/// Choosing one light per plane hit is unbiased: at surfaces of the box with five lights,
+/// the mean over 4,096 light-sample indices of the chosen light's irradiance (divided by
+/// its probability) is every light's within 2 %.
+#[test]
+fn one_light_per_plane_hit_is_unbiased() {
+    let scene = common::many_lights_cornell_box();
+    let shading = DirectReference::new(&scene, 1);
+    let cam = GpuCamera::new(&scene.camera);
+    let luminance = |e: Vec3| e.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+    for (x, y) in [(3, 16), (16, 16), (28, 16), (16, 3), (16, 29), (9, 25)] {
+        let dir = cam.ray_dir(x, y);
+        let hit = shading
+            .tracer
+            .closest_hit(cam.origin.into(), dir, 0.0, f32::INFINITY)
+            .expect("the box is closed but for its front");
+        let s = shading.surface_at(&hit, dir);
+        let (mut all, mut one) = (Vec3::ZERO, Vec3::ZERO);
+        for first in 0..4096 {
+            all += shading.direct_irradiance_at(&s, 7, first);
+            one += shading.plane_direct_irradiance_at(&s, 7, first);
+        }
+        let (all, one) = (luminance(all), luminance(one));
+        eprintln!("pixel ({x}, {y}): every light {all}, one light {one}");
+        assert!(all > 0.0, "pixel ({x}, {y}) unlit: the test sees nothing");
+        assert!(
+            (one - all).abs() <= 0.02 * all,
+            "pixel ({x}, {y}): one light {one} against every light {all}"
+        );
+    }
+}
+
+/// Plane hits under several lights take one light each (`shadow_loop_start_one_light`):
+/// the GPU's choice, weights and shadow rays match the CPU reference's.
+#[test]
+fn gpu_planes_under_several_lights_match_the_cpu_reference() {
+    planes_and_records_match_the_cpu_reference_in(
+        &common::many_lights_cornell_box(),
+        &CacheSettings {
+            plane_refine: 0.0,
+            ..CacheSettings::default()
+        },
+    );
+}
+
 /// Traces and reduces 12 records of the Cornell box on the GPU and checks planes and
 /// records against the CPU reference; returns the GPU's records.
 fn planes_and_records_match_the_cpu_reference(settings: &CacheSettings) -> Vec<Record> {
     let scene = common::load("cornell-box.toml", Some((32, 32)));
+    planes_and_records_match_the_cpu_reference_in(&scene, settings)
+}
+
+/// The same in `scene`.
+fn planes_and_records_match_the_cpu_reference_in(
+    scene: &Scene,
+    settings: &CacheSettings,
+) -> Vec<Record> {
+    let scene = scene.clone();
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let settings = settings.clone();
     let sites = sites(&scene, &renderer, &settings, 12);

@@ -139,12 +139,36 @@ impl<'a> DirectReference<'a> {
         s: &Surface,
         seed: u32,
         first: u32,
+        visible_sample: impl FnMut(Vec3, Vec3),
+    ) -> Vec3 {
+        self.direct_light_from(s, seed, first, None, visible_sample)
+    }
+
+    /// Direct irradiance of a hemisphere-plane hit, as WGSL `shadow_loop_start_one_light`:
+    /// with two lights or more, one light chosen with probability proportional to
+    /// [`light_choice_weight`], its irradiance divided by that probability.
+    pub fn plane_direct_irradiance_at(&self, s: &Surface, seed: u32, first: u32) -> Vec3 {
+        let choice = choose_light(&self.scene.lights, s, seed, first);
+        self.direct_light_from(s, seed, first, choice, |_, _| {})
+    }
+
+    /// [`DirectReference::direct_light_at`] from every light (`only` None), from one
+    /// light `Some((index, weight))` scaled by `weight`, or from none (`Some((lights, _))`).
+    fn direct_light_from(
+        &self,
+        s: &Surface,
+        seed: u32,
+        first: u32,
+        only: Option<(usize, f32)>,
         mut visible_sample: impl FnMut(Vec3, Vec3),
     ) -> Vec3 {
         let (n, ng) = (s.shading_normal, s.geometric_normal);
         let count = self.light_samples;
         let mut e = Vec3::ZERO;
         for (li, light) in self.scene.lights.iter().enumerate() {
+            if only.is_some_and(|(chosen, _)| chosen != li) {
+                continue;
+            }
             match *light {
                 Light::Point {
                     position,
@@ -223,6 +247,10 @@ impl<'a> DirectReference<'a> {
                     }
                     e += radiance * sum * (area / count as f32);
                 }
+            }
+            if let Some((_, weight)) = only {
+                // The chosen light is all `e` holds (as WGSL `shadow_loop_next`).
+                e *= weight;
             }
         }
         let env = self.scene.environment;
@@ -356,4 +384,182 @@ pub fn sample_texture(t: &Texture, uv: Vec2) -> Vec3 {
     let top = texel(t, xi, yi).lerp(texel(t, xi + 1, yi), fx);
     let bottom = texel(t, xi, yi + 1).lerp(texel(t, xi + 1, yi + 1), fx);
     top.lerp(bottom, fy)
+}
+
+/// Scrambles the choice of one light (WGSL `LIGHT_CHOICE_SEED`).
+const LIGHT_CHOICE_SEED: u32 = 0x5e_1ec7;
+
+/// What `light` could give surface `s` unoccluded, up to a common factor (WGSL
+/// `light_choice_weight`): zero exactly where it cannot light `s`, positive wherever it
+/// can, so that choosing lights by it is unbiased. A rect light is taken at its centre,
+/// its cosines floored at 0.05 and its distance softened by its area.
+pub fn light_choice_weight(s: &Surface, light: &Light) -> f32 {
+    let n = s.shading_normal;
+    let power = |c: Vec3| c.x + c.y + c.z;
+    match *light {
+        Light::Sun {
+            direction,
+            irradiance,
+        } => power(irradiance) * n.dot(direction.normalize()).max(0.0),
+        Light::Rect {
+            corner,
+            edge_u,
+            edge_v,
+            radiance,
+        } => {
+            let cr = edge_u.cross(edge_v);
+            let area = cr.length();
+            let nl = cr / area;
+            let a = corner - s.position;
+            if nl.dot(a) >= 0.0 {
+                return 0.0;
+            }
+            let (ab, ac) = (a + edge_u, a + edge_v);
+            let highest = n
+                .dot(a)
+                .max(n.dot(ab))
+                .max(n.dot(ac).max(n.dot(ab + edge_v)));
+            if highest <= 0.0 {
+                return 0.0;
+            }
+            let d = a + 0.5 * (edge_u + edge_v);
+            let d2 = d.dot(d);
+            let inv = 1.0 / d2.sqrt();
+            let cos_s = (n.dot(d) * inv).max(0.05);
+            let cos_l = (-nl.dot(d) * inv).max(0.05);
+            power(radiance) * area * cos_s * cos_l / (d2 + area)
+        }
+        Light::Point {
+            position,
+            intensity,
+        } => {
+            let to_light = position - s.position;
+            let d2 = to_light.dot(to_light);
+            power(intensity) * n.dot(to_light).max(0.0) / (d2 * d2.sqrt())
+        }
+        Light::Spot {
+            position,
+            intensity,
+            direction,
+            cos_inner,
+            cos_outer,
+        } => {
+            let to_light = position - s.position;
+            let d2 = to_light.dot(to_light);
+            let cone = smoothstep(
+                cos_outer,
+                cos_inner,
+                (-to_light / d2.sqrt()).dot(direction.normalize()),
+            );
+            power(intensity) * cone * n.dot(to_light).max(0.0) / (d2 * d2.sqrt())
+        }
+    }
+}
+
+/// The one light a plane hit at `s` samples (WGSL `shadow_loop_start_one_light`): `None`
+/// (every light) with fewer than two lights, else `Some((index, 1 / probability))`, or
+/// `Some((lights, 1))` (none) when no light can light `s`.
+pub fn choose_light(lights: &[Light], s: &Surface, seed: u32, first: u32) -> Option<(usize, f32)> {
+    if lights.len() < 2 {
+        return None;
+    }
+    let weights: Vec<f32> = lights.iter().map(|l| light_choice_weight(s, l)).collect();
+    let total = weights.iter().fold(0.0f32, |t, &w| t + w);
+    if total.is_nan() || total <= 0.0 {
+        return Some((lights.len(), 1.0));
+    }
+    let goal = sobol_2d(first, hash_combine(seed, LIGHT_CHOICE_SEED)).x * total;
+    let (mut sum, mut chosen, mut weight) = (0.0f32, lights.len(), 0.0f32);
+    for (i, &w) in weights.iter().enumerate() {
+        if w > 0.0 {
+            chosen = i;
+            weight = w;
+        }
+        sum += w;
+        if w > 0.0 && goal < sum {
+            break;
+        }
+    }
+    Some((chosen, total / weight))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn floor_point() -> Surface {
+        Surface {
+            position: Vec3::ZERO,
+            geometric_normal: Vec3::Y,
+            shading_normal: Vec3::Y,
+            uv: Vec2::ZERO,
+            material: 0,
+            front_face: true,
+        }
+    }
+
+    fn panel(x: f32, facing_down: bool) -> Light {
+        let (edge_u, edge_v) = if facing_down {
+            (Vec3::Z, -Vec3::X)
+        } else {
+            (-Vec3::X, Vec3::Z)
+        };
+        Light::Rect {
+            corner: Vec3::new(x, 2.0, 0.0),
+            edge_u: 0.5 * edge_u,
+            edge_v: 0.5 * edge_v,
+            radiance: Vec3::splat(5.0),
+        }
+    }
+
+    /// Over 4,096 consecutive sequence indices each light is chosen in proportion to its
+    /// weight (within 0.5 % of all choices: the choice is stratified), with weight 1 / p;
+    /// lights that cannot light the point (a panel facing away, a sun below the horizon)
+    /// weigh zero and are never chosen.
+    #[test]
+    fn lights_are_chosen_in_proportion_to_their_weight() {
+        let s = floor_point();
+        let lights = [
+            panel(0.0, true),
+            panel(3.0, true),
+            panel(1.0, false),
+            Light::Point {
+                position: Vec3::new(-1.0, 1.0, 0.5),
+                intensity: Vec3::splat(2.0),
+            },
+            Light::Sun {
+                direction: Vec3::new(0.0, -1.0, 0.2).normalize(),
+                irradiance: Vec3::splat(10.0),
+            },
+        ];
+        let w: Vec<f32> = lights.iter().map(|l| light_choice_weight(&s, l)).collect();
+        assert!(w[0] > w[1] && w[1] > 0.0 && w[3] > 0.0, "weights {w:?}");
+        assert_eq!((w[2], w[4]), (0.0, 0.0), "weights {w:?}");
+        let total: f32 = w.iter().sum();
+        let n = 4096;
+        let mut chosen = [0usize; 5];
+        for first in 0..n {
+            let (i, weight) = choose_light(&lights, &s, 9, first).expect("several lights");
+            assert!((weight - total / w[i]).abs() <= 1e-4 * weight);
+            chosen[i] += 1;
+        }
+        for i in 0..lights.len() {
+            let share = chosen[i] as f32 / n as f32;
+            assert!(
+                (share - w[i] / total).abs() <= 0.005,
+                "light {i}: chosen {share}, weight share {}",
+                w[i] / total
+            );
+        }
+        assert_eq!(
+            choose_light(&lights[..1], &s, 9, 0),
+            None,
+            "one light: no choice"
+        );
+        assert_eq!(
+            choose_light(&[lights[2].clone(), lights[4].clone()], &s, 9, 0),
+            Some((2, 1.0)),
+            "no light can light the point: none sampled"
+        );
+    }
 }

@@ -86,7 +86,7 @@ impl<'a> RecordReference<'a> {
             return miss;
         };
         let s = self.shading.surface_at(&hit, dir);
-        let e = self.shading.direct_irradiance_at(
+        let e = self.shading.plane_direct_irradiance_at(
             &s,
             site.seed,
             plane_light_first(index, self.shading.light_samples),

@@ -90,7 +90,7 @@ pub fn reproject_plane(
             }
         }
         let s = next.surface_at(&hit, view.normalize());
-        let e = next.direct_irradiance_at(
+        let e = next.plane_direct_irradiance_at(
             &s,
             site.seed,
             plane_light_first(k as u32, next.light_samples),

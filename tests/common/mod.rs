@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use radsplat::gpu::GpuContext;
-use radsplat::scene::{Scene, load_scene};
+use radsplat::scene::{Light, Scene, load_scene};
 use std::path::{Path, PathBuf};
 
 /// A fresh, empty directory for one test's files (`radsplat-<name>-<pid>` under the system's
@@ -217,4 +217,38 @@ pub fn compare_blocks(
         mean(indirect) / mean(reference),
         (diff / norm).sqrt() as f32,
     )
+}
+
+/// The Cornell box at 32x32 with four more lights, one of each kind and a second rect
+/// below the ceiling panel (no geometry of their own): a scene where hemisphere-plane hits
+/// choose one light of several, some of which cannot light them.
+pub fn many_lights_cornell_box() -> Scene {
+    let mut scene = load("cornell-box.toml", Some((32, 32)));
+    scene.lights.extend([
+        Light::Point {
+            position: Vec3::new(0.15, 0.45, 0.3),
+            intensity: Vec3::new(0.02, 0.03, 0.04),
+        },
+        Light::Spot {
+            position: Vec3::new(0.45, 0.5, 0.1),
+            direction: Vec3::new(0.0, -1.0, 0.3).normalize(),
+            intensity: Vec3::new(0.08, 0.05, 0.02),
+            cos_inner: 0.9,
+            cos_outer: 0.6,
+        },
+        // Near the open front, facing the back wall (+z): what lies in front of it (z
+        // under 0.05) sees its back.
+        Light::Rect {
+            corner: Vec3::new(0.1, 0.1, 0.05),
+            edge_u: Vec3::new(0.1, 0.0, 0.0),
+            edge_v: Vec3::new(0.0, 0.1, 0.0),
+            radiance: Vec3::new(1.0, 2.0, 3.0),
+        },
+        // Through the open front (closed box: mostly occluded).
+        Light::Sun {
+            direction: Vec3::new(0.2, 0.3, -1.0).normalize(),
+            irradiance: Vec3::new(3.0, 3.0, 3.0),
+        },
+    ]);
+    scene
 }

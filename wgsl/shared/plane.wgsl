@@ -20,7 +20,8 @@ fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32 {
 }
 
 // One ray through plane pixel `pixel` of the record at `site`, its hit shaded with direct
-// light (shadow rays or light-map lookups) plus emission not already sampled as a light. Misses add nothing:
+// light from one light chosen by its weight (`shadow_loop_start_one_light`; shadow rays or
+// light-map lookups) plus emission not already sampled as a light. Misses add nothing:
 // the constant environment is sampled as a light by direct lighting (at the pixel and at
 // every plane hit), so counting it again here would double it (Ward's "count as zero any
 // samples that intersect a light source"; decision 7's "misses see the environment" holds
@@ -41,7 +42,7 @@ fn trace_plane_ray(site: RecordSite, dir: vec3f, index: u32) -> TracedSample {
         // The ray and its hit's shadow rays through one traversal (cheaper to compile).
         let shaded = trace_and_shade_at(
             Ray(origin, 0.0, dir, INF), site.seed, plane_light_first(index, params.light_samples),
-            params.light_samples);
+            params.light_samples, true);
         let hit = shaded.hit;
         if hit.instance != NO_HIT {
             out.sample.radiance = hit_radiance(shaded, site.seed, index);

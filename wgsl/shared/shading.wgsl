@@ -189,7 +189,15 @@ struct ShadowLoop {
     light: Light,      // the current slot's light, loaded once per slot (any light for
     kind: u32,         // the environment's slot, unused there) and its kind
     sample: ShadowSample,
+    chosen: u32,       // the one light sampled (`shadow_loop_start_one_light`), or ALL_LIGHTS
+    chosen_weight: f32, // 1 / the probability it was chosen with
 }
+
+// `ShadowLoop::chosen` when every light is sampled.
+const ALL_LIGHTS: u32 = 0xffffffffu;
+
+// Scrambles the choice of one light (with the surface's seed).
+const LIGHT_CHOICE_SEED: u32 = 0x5e1ec7u;
 
 fn shadow_loop_start(s: Surface, seed: u32, count: u32) -> ShadowLoop {
     return shadow_loop_start_at(s, seed, 0u, count);
@@ -212,6 +220,99 @@ fn shadow_loop_start_at(s: Surface, seed: u32, first: u32, count: u32) -> Shadow
     st.sum = vec3f(0.0);
     st.unoccluded = 0u;
     st.e = vec3f(0.0);
+    st.chosen = ALL_LIGHTS;
+    st.chosen_weight = 1.0;
+    shadow_loop_enter(&st);
+    return st;
+}
+
+// What light `light` could give surface `s` unoccluded, up to a common factor: the weight
+// of its choice by `shadow_loop_start_one_light`. Zero exactly where it cannot light `s`
+// (a sun or point below the shading horizon, a rect seen from behind or wholly below the
+// horizon), positive wherever it can, so that the choice is unbiased. A rect light is
+// taken at its centre with its cosines floored at 0.05 (a corner may be above the horizon
+// while the centre is not) and its distance softened by its area (near the light).
+// Mirrored by `direct::reference::light_choice_weight`.
+fn light_choice_weight(s: Surface, light: Light) -> f32 {
+    let kind = bitcast<u32>(light.a.w);
+    let n = s.shading_normal;
+    let power = light.d.x + light.d.y + light.d.z;
+    if kind == LIGHT_SUN {
+        return power * max(dot(n, light.a.xyz), 0.0);
+    }
+    if kind == LIGHT_RECT {
+        let cr = cross(light.b.xyz, light.c.xyz);
+        let area = length(cr);
+        let nl = cr / area;
+        let a = light.a.xyz - s.position;
+        if dot(nl, a) >= 0.0 {
+            return 0.0;   // behind the light (or in its plane)
+        }
+        let ab = a + light.b.xyz;
+        let ac = a + light.c.xyz;
+        let highest = max(max(dot(n, a), dot(n, ab)), max(dot(n, ac), dot(n, ab + light.c.xyz)));
+        if highest <= 0.0 {
+            return 0.0;   // wholly below the horizon
+        }
+        let d = a + 0.5 * (light.b.xyz + light.c.xyz);
+        let d2 = dot(d, d);
+        let inv = 1.0 / sqrt(d2);
+        let cos_s = max(dot(n, d) * inv, 0.05);
+        let cos_l = max(-dot(nl, d) * inv, 0.05);
+        return power * area * cos_s * cos_l / (d2 + area);
+    }
+    // Point and spot lights.
+    let to_light = light.a.xyz - s.position;
+    let d2 = dot(to_light, to_light);
+    var cone = 1.0;
+    if kind == LIGHT_SPOT {
+        cone = smoothstep(light.c.w, light.b.w, dot(-to_light / sqrt(d2), light.b.xyz));
+    }
+    return power * cone * max(dot(n, to_light), 0.0) / (d2 * sqrt(d2));
+}
+
+// The shadow loop of `shadow_loop_start_at` with one light instead of every light, chosen
+// with probability proportional to `light_choice_weight` and its irradiance divided by that
+// probability (unbiased; the environment's slot is sampled as before). For hemisphere-plane
+// hits: a record averages hundreds of them, so one shadow ray a hit instead of one per
+// light costs little error where lights are many (the conference room's six panels took
+// six of every seven rays a plane traced). The choice's number is dimension 0 of the
+// scrambled Sobol sequence at `first`, so that the hits of one plane share the lights out
+// in proportion. With fewer than two lights it is `shadow_loop_start_at`.
+fn shadow_loop_start_one_light(s: Surface, seed: u32, first: u32, count: u32) -> ShadowLoop {
+    var st = shadow_loop_start_at(s, seed, first, count);
+    let n = scene_info.light_count;
+    if n < 2u {
+        return st;
+    }
+    var total = 0.0;
+    for (var i = 0u; i < n; i++) {
+        total += light_choice_weight(s, lights[i]);
+    }
+    if total <= 0.0 {
+        // None can light s: skip them all.
+        st.slot = n;
+        shadow_loop_enter(&st);
+        return st;
+    }
+    // The first light whose running sum passes the goal (the last one that can light s
+    // when rounding leaves the goal past the sum).
+    let goal = sobol_2d(first, hash_combine(seed, LIGHT_CHOICE_SEED)).x * total;
+    var sum = 0.0;
+    var weight = 0.0;
+    for (var i = 0u; i < n; i++) {
+        let w = light_choice_weight(s, lights[i]);
+        if w > 0.0 {
+            st.chosen = i;
+            weight = w;
+        }
+        sum += w;
+        if w > 0.0 && goal < sum {
+            break;
+        }
+    }
+    st.chosen_weight = total / weight;
+    st.slot = st.chosen;
     shadow_loop_enter(&st);
     return st;
 }
@@ -309,6 +410,11 @@ fn shadow_loop_next(st: ptr<function, ShadowLoop>, s: Surface) -> bool {
                     * (PI * f32((*st).unoccluded) / f32((*st).count));
             }
             (*st).slot += 1u;
+            if (*st).chosen != ALL_LIGHTS && (*st).slot == (*st).chosen + 1u {
+                // The chosen light is all `e` holds: weigh it, skip the other lights.
+                (*st).e *= (*st).chosen_weight;
+                (*st).slot = scene_info.light_count;
+            }
             (*st).k = 0u;
             (*st).sum = vec3f(0.0);
             (*st).unoccluded = 0u;
@@ -367,7 +473,18 @@ fn direct_irradiance_samples(s: Surface, seed: u32, count: u32) -> vec3f {
 // The same with the samples from index `first` of their sequences on
 // (`shadow_loop_start_at`: a plane sample re-shaded with its plane's light samples).
 fn direct_irradiance_samples_at(s: Surface, seed: u32, first: u32, count: u32) -> vec3f {
-    var st = shadow_loop_start_at(s, seed, first, count);
+    return direct_irradiance_loop(s, shadow_loop_start_at(s, seed, first, count));
+}
+
+// The same from one light (`shadow_loop_start_one_light`): a plane sample re-shaded as
+// its plane shaded it.
+fn plane_direct_irradiance(s: Surface, seed: u32, first: u32, count: u32) -> vec3f {
+    return direct_irradiance_loop(s, shadow_loop_start_one_light(s, seed, first, count));
+}
+
+// Runs shadow loop `start` to its end, a shadow ray per sample.
+fn direct_irradiance_loop(s: Surface, start: ShadowLoop) -> vec3f {
+    var st = start;
     while shadow_loop_next(&st, s) {
         if visible(s, st.sample.target_point, st.sample.to_infinity) {
             shadow_loop_add(&st);
