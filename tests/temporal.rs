@@ -473,6 +473,38 @@ fn gpu_reprojection_matches_the_cpu_reference() {
     assert!(differ * 200 <= total, "{differ} of {total} cells differ");
 }
 
+/// Plane hits under several lights are re-shaded at t+1 from one light chosen as the plane
+/// pass chooses it (`plane_direct_irradiance`): GPU and CPU reference agree while the cube
+/// slides and a point light moves.
+#[test]
+fn gpu_reprojection_under_several_lights_matches_the_cpu_reference() {
+    use radsplat::scene::Light;
+    let mut scene = common::load("cube-in-box.toml", Some((32, 32)));
+    scene.lights.extend([
+        Light::Point {
+            position: Vec3::new(-1.0, 2.5, 0.5),
+            intensity: Vec3::new(4.0, 3.0, 2.0),
+        },
+        Light::Rect {
+            corner: Vec3::new(1.0, 3.0, 1.0),
+            edge_u: Vec3::new(0.0, 0.0, -0.5),
+            edge_v: Vec3::new(0.0, -0.5, 0.0),
+            radiance: Vec3::new(5.0, 6.0, 7.0),
+        },
+    ]);
+    let base = scene.instances[1].transform;
+    let mut next = cube_moved(&scene, base, 0.15);
+    if let Light::Point { position, .. } = &mut next.lights[1] {
+        *position += Vec3::new(0.3, 0.0, 0.0);
+    }
+    let (_, total, differ, changed) = reproject_against_cpu(&scene, &next, false, 1);
+    assert!(
+        changed * 4 > total,
+        "the point light's move should change most cells"
+    );
+    assert!(differ * 200 <= total, "{differ} of {total} cells differ");
+}
+
 /// Only the cube moves: the GPU keeps the radiance traced at t wherever no shadow ray can
 /// meet the cube (the CPU reference re-shades every hit), and records anchored to the
 /// cube see the plane from where they are carried.
