@@ -432,7 +432,14 @@ fn gpu_refined_planes_and_records_match_the_cpu_reference() {
     };
     let k = settings.refined_pixels() as usize;
     assert_eq!(k, 86);
-    let sites = sites(&scene, &renderer, &settings, 12);
+    let mut sites = sites(&scene, &renderer, &settings, 12);
+    // A site on top of the box facing up: every ray misses, a plane without light, which
+    // refines its border (the grazing band) instead of its contrast.
+    let mut dark = sites[0];
+    dark.position = [0.278, 0.7, 0.279];
+    dark.normal = [0.0, 1.0, 0.0];
+    dark.geometric_normal = [0.0, 1.0, 0.0];
+    sites.push(dark);
     let prepared = renderer.prepare(&scene).expect("prepare");
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let reference = RecordReference::new(&scene, &settings);
@@ -440,6 +447,14 @@ fn gpu_refined_planes_and_records_match_the_cpu_reference() {
         .trace_planes_refined(&renderer.ctx, &prepared.gpu, &sites)
         .expect("refined planes");
     let per = (settings.plane_resolution * settings.plane_resolution) as usize;
+    let res = settings.plane_resolution;
+    let dark_selected = &gpu.selected[(sites.len() - 1) * k..];
+    assert!(
+        dark_selected
+            .iter()
+            .all(|&p| p % res == 0 || p % res == res - 1 || p < res || p >= res * (res - 1)),
+        "a plane without light refines its border: selected {dark_selected:?}"
+    );
     assert_eq!(gpu.selected.len(), sites.len() * k);
     let (mut compared, mut differ, mut changed) = (0, 0, 0);
     for (i, site) in sites.iter().enumerate() {

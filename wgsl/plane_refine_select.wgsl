@@ -28,6 +28,7 @@ struct SelectParams {
 @group(1) @binding(4) var<storage, read_write> selected: array<u32>;
 
 var<workgroup> histogram: array<atomic<u32>, 256>;
+var<workgroup> lit: atomic<u32>;   // any sample of the plane has light
 var<workgroup> counts: array<u32, THREADS>;
 var<workgroup> prefix_key: u32;
 var<workgroup> remaining: u32;
@@ -60,9 +61,30 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     let chunk = (n + THREADS - 1u) / THREADS;
     let first = min(lane * chunk, n);
     let last = min(first + chunk, n);
+    // A plane without light anywhere (the record's irradiance would be exactly zero)
+    // refines its border instead: the stretched border pixels stand for the grazing band,
+    // where light the centre rays missed can lie (a floor under an arcade lit only by a
+    // sunlit floor at a few degrees of elevation). CPU mirror: `contrast_keys`.
+    if lane == 0u {
+        atomicStore(&lit, 0u);
+    }
+    workgroupBarrier();
     for (var k = first; k < last; k++) {
-        let y = channel_sum(samples[base + k]);
+        if channel_sum(samples[base + k]) != 0.0 {
+            atomicOr(&lit, 1u);
+            break;
+        }
+    }
+    workgroupBarrier();
+    let dark = atomicLoad(&lit) == 0u;
+    for (var k = first; k < last; k++) {
         let i = k % res;
+        if dark {
+            let border = i == 0u || i + 1u == res || k < res || k + res >= n;
+            keys[base + k] = select(0u, bitcast<u32>(plane[k].weights.x), border);
+            continue;
+        }
+        let y = channel_sum(samples[base + k]);
         var c = 0.0;
         if i > 0u {
             c = max(c, abs(y - channel_sum(samples[base + k - 1u])));

@@ -36,9 +36,28 @@ fn channel_sum(s: &PlaneSample) -> f32 {
 /// largest `|y - y_neighbour|` over its 4-neighbours on the plane, y the channel sum, times
 /// the pixel's cosine weight (the share of E a wrong pixel costs). As
 /// `plane_refine_select.wgsl`, bit for bit.
+///
+/// A plane with no light in any sample (its record's irradiance would be exactly zero)
+/// ranks its border pixels by their cosine weight instead, every other pixel zero: the
+/// stretched border pixels stand for the grazing band, and their sub-samples reach toward
+/// the horizon, where light the centre rays missed can lie (Sponza's floor under the
+/// arcades sees the sunlit floor only a few degrees above its horizon).
 pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample]) -> Vec<u32> {
     let res = plane.resolution as usize;
     let n = res * res;
+    if samples[..n].iter().all(|s| channel_sum(s) == 0.0) {
+        return (0..n)
+            .map(|k| {
+                let i = k % res;
+                let border = i == 0 || i + 1 == res || k < res || k + res >= n;
+                if border {
+                    plane.pixels[k].cos_weight.to_bits()
+                } else {
+                    0
+                }
+            })
+            .collect();
+    }
     (0..n)
         .map(|k| {
             let y = channel_sum(&samples[k]);
