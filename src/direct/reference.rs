@@ -394,6 +394,12 @@ const LIGHT_CHOICE_SEED: u32 = 0x5e_1ec7;
 /// can, so that choosing lights by it is unbiased. A rect light is taken at its centre,
 /// its cosines floored at 0.05 and its distance softened by its area.
 pub fn light_choice_weight(s: &Surface, light: &Light) -> f32 {
+    // NaN (a surface at a point light) weighs nothing, infinity a finite large weight.
+    let w = light_choice_weight_raw(s, light);
+    if w > 0.0 { w.min(1.0e30) } else { 0.0 }
+}
+
+fn light_choice_weight_raw(s: &Surface, light: &Light) -> f32 {
     let n = s.shading_normal;
     let power = |c: Vec3| c.x + c.y + c.z;
     match *light {
@@ -465,7 +471,7 @@ pub fn choose_light(lights: &[Light], s: &Surface, seed: u32, first: u32) -> Opt
     }
     let weights: Vec<f32> = lights.iter().map(|l| light_choice_weight(s, l)).collect();
     let total = weights.iter().fold(0.0f32, |t, &w| t + w);
-    if total.is_nan() || total <= 0.0 {
+    if total <= 0.0 {
         return Some((lights.len(), 1.0));
     }
     let goal = sobol_2d(first, hash_combine(seed, LIGHT_CHOICE_SEED)).x * total;
@@ -555,6 +561,15 @@ mod tests {
             choose_light(&lights[..1], &s, 9, 0),
             None,
             "one light: no choice"
+        );
+        let at_point = Light::Point {
+            position: s.position,
+            intensity: Vec3::ONE,
+        };
+        assert_eq!(
+            light_choice_weight(&s, &at_point),
+            0.0,
+            "NaN weighs nothing"
         );
         assert_eq!(
             choose_light(&[lights[2].clone(), lights[4].clone()], &s, 9, 0),

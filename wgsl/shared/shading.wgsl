@@ -234,6 +234,12 @@ fn shadow_loop_start_at(s: Surface, seed: u32, first: u32, count: u32) -> Shadow
 // while the centre is not) and its distance softened by its area (near the light).
 // Mirrored by `direct::reference::light_choice_weight`.
 fn light_choice_weight(s: Surface, light: Light) -> f32 {
+    // NaN (a surface at a point light) weighs nothing, infinity a finite large weight.
+    let w = light_choice_weight_raw(s, light);
+    return select(0.0, min(w, 1.0e30), w > 0.0);
+}
+
+fn light_choice_weight_raw(s: Surface, light: Light) -> f32 {
     let kind = bitcast<u32>(light.a.w);
     let n = s.shading_normal;
     let power = light.d.x + light.d.y + light.d.z;
