@@ -377,6 +377,12 @@ struct CacheArgs {
     /// Light samples per area light at each plane hit.
     #[arg(long, default_value_t = CacheSettings::default().plane_light_samples, value_parser = parse_at_least_one)]
     plane_light_samples: u32,
+    /// Lights sampled at each plane hit where a scene has more: chosen by what they give the
+    /// hit unoccluded (exact: a rect light's clipped Lambert formula), by systematic
+    /// resampling (unbiased; a light above 1/N of the total is never missed). 0: every
+    /// light, one shadow ray each (docs/results.md: conference room).
+    #[arg(long, default_value_t = CacheSettings::default().plane_light_choices)]
+    plane_light_choices: u32,
     /// Bounces of indirect light (Radiance's `-ab`): 1 reflects direct light once; N > 1
     /// lets plane hits reflect a surface cache of N - 1 more bounces (docs/architecture.md).
     #[arg(long, default_value_t = CacheSettings::default().bounce.bounces, value_parser = parse_bounces)]
@@ -659,6 +665,7 @@ impl CacheArgs {
             plane_fov_degrees: self.plane_fov,
             plane_spacing: self.plane_spacing,
             plane_light_samples: self.plane_light_samples,
+            plane_light_choices: self.plane_light_choices,
             r_min_pixels: self.r_min_pixels,
             r_min_scene: self.r_min_scene,
             r_max_factor: self.r_max_factor,

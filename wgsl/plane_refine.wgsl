@@ -15,7 +15,7 @@ struct RefineParams {
     light_samples: u32,
     subsamples: u32,        // split^2
     centre_weight: f32,     // 1 / (1 + split^2)
-    _pad0: u32,
+    light_choices: u32,     // lights sampled per hit (`shadow_loop_start_chosen`)
     _pad1: u32,
 }
 

@@ -31,7 +31,8 @@ fn main(
     // The hit moves with its instance: same triangle and barycentrics at t+1; with
     // `--bounces` above 1 it reflects frame t+1's bounce cache too (as `hit_radiance`).
     let h = hits[sample];
-    let e = plane_direct_irradiance(m.surface, m.seed, m.first, params.light_samples)
+    let e = plane_direct_irradiance(m.surface, m.seed, m.first, params.light_samples,
+                                    params.light_choices)
         + bounce_irradiance(Hit(0.0, h.instance, h.triangle, h.u, h.v), m.surface.front_face);
     let radiance = surface_albedo(m.surface) * (1.0 / PI) * e + indirect_emission(m.surface);
     moved[sample] = vec4f(radiance, moved[sample].w);

@@ -11,6 +11,10 @@ struct PlaneParams {
     count: u32,
     light_samples: u32,
     record_hits: u32,
+    light_choices: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: PlaneParams;

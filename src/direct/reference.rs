@@ -144,31 +144,39 @@ impl<'a> DirectReference<'a> {
         self.direct_light_from(s, seed, first, None, visible_sample)
     }
 
-    /// Direct irradiance of a hemisphere-plane hit, as WGSL `shadow_loop_start_one_light`:
-    /// with two lights or more, one light chosen with probability proportional to
-    /// [`light_choice_weight`], its irradiance divided by that probability.
-    pub fn plane_direct_irradiance_at(&self, s: &Surface, seed: u32, first: u32) -> Vec3 {
-        let choice = choose_light(&self.scene.lights, s, seed, first);
-        self.direct_light_from(s, seed, first, choice, |_, _| {})
+    /// Direct irradiance of a hemisphere-plane hit, as WGSL `shadow_loop_start_chosen`:
+    /// from `choices` lights chosen by weight ([`choose_lights`]), or every light.
+    pub fn plane_direct_irradiance_at(
+        &self,
+        s: &Surface,
+        seed: u32,
+        first: u32,
+        choices: u32,
+    ) -> Vec3 {
+        let factors = choose_lights(&self.scene.lights, s, seed, first, choices);
+        self.direct_light_from(s, seed, first, factors.as_deref(), |_, _| {})
     }
 
-    /// [`DirectReference::direct_light_at`] from every light (`only` None), from one
-    /// light `Some((index, weight))` scaled by `weight`, or from none (`Some((lights, _))`).
+    /// [`DirectReference::direct_light_at`] from every light (`factors` None) or from the
+    /// lights with a non-zero factor, what each adds multiplied by it (as WGSL: `e_before +
+    /// (e - e_before) factor`).
     fn direct_light_from(
         &self,
         s: &Surface,
         seed: u32,
         first: u32,
-        only: Option<(usize, f32)>,
+        factors: Option<&[f32]>,
         mut visible_sample: impl FnMut(Vec3, Vec3),
     ) -> Vec3 {
         let (n, ng) = (s.shading_normal, s.geometric_normal);
         let count = self.light_samples;
         let mut e = Vec3::ZERO;
         for (li, light) in self.scene.lights.iter().enumerate() {
-            if only.is_some_and(|(chosen, _)| chosen != li) {
+            let factor = factors.map(|f| f[li]);
+            if factor == Some(0.0) {
                 continue;
             }
+            let e_before = e;
             match *light {
                 Light::Point {
                     position,
@@ -248,9 +256,9 @@ impl<'a> DirectReference<'a> {
                     e += radiance * sum * (area / count as f32);
                 }
             }
-            if let Some((_, weight)) = only {
-                // The chosen light is all `e` holds (as WGSL `shadow_loop_next`).
-                e *= weight;
+            if let Some(factor) = factor {
+                // A chosen light: what it added, weighed (as WGSL `shadow_loop_next`).
+                e = e_before + (e - e_before) * factor;
             }
         }
         let env = self.scene.environment;
@@ -389,10 +397,9 @@ pub fn sample_texture(t: &Texture, uv: Vec2) -> Vec3 {
 /// Scrambles the choice of one light (WGSL `LIGHT_CHOICE_SEED`).
 const LIGHT_CHOICE_SEED: u32 = 0x5e_1ec7;
 
-/// What `light` could give surface `s` unoccluded, up to a common factor (WGSL
-/// `light_choice_weight`): zero exactly where it cannot light `s`, positive wherever it
-/// can, so that choosing lights by it is unbiased. A rect light is taken at its centre,
-/// its cosines floored at 0.05 and its distance softened by its area.
+/// The weight of `light`'s choice at `s` (WGSL `light_choice_weight`): what it gives `s`
+/// unoccluded, exactly, up to the sum of its colour channels (a rect light's radiance
+/// times [`rect_projected_solid_angle`]); zero exactly where it cannot light `s`.
 pub fn light_choice_weight(s: &Surface, light: &Light) -> f32 {
     // NaN (a surface at a point light) weighs nothing, infinity a finite large weight.
     let w = light_choice_weight_raw(s, light);
@@ -413,27 +420,11 @@ fn light_choice_weight_raw(s: &Surface, light: &Light) -> f32 {
             edge_v,
             radiance,
         } => {
-            let cr = edge_u.cross(edge_v);
-            let area = cr.length();
-            let nl = cr / area;
             let a = corner - s.position;
-            if nl.dot(a) >= 0.0 {
+            if edge_u.cross(edge_v).normalize().dot(a) >= 0.0 {
                 return 0.0;
             }
-            let (ab, ac) = (a + edge_u, a + edge_v);
-            let highest = n
-                .dot(a)
-                .max(n.dot(ab))
-                .max(n.dot(ac).max(n.dot(ab + edge_v)));
-            if highest <= 0.0 {
-                return 0.0;
-            }
-            let d = a + 0.5 * (edge_u + edge_v);
-            let d2 = d.dot(d);
-            let inv = 1.0 / d2.sqrt();
-            let cos_s = (n.dot(d) * inv).max(0.05);
-            let cos_l = (-nl.dot(d) * inv).max(0.05);
-            power(radiance) * area * cos_s * cos_l / (d2 + area)
+            power(radiance) * rect_projected_solid_angle(n, a, edge_u, edge_v)
         }
         Light::Point {
             position,
@@ -462,31 +453,75 @@ fn light_choice_weight_raw(s: &Surface, light: &Light) -> f32 {
     }
 }
 
-/// The one light a plane hit at `s` samples (WGSL `shadow_loop_start_one_light`): `None`
-/// (every light) with fewer than two lights, else `Some((index, 1 / probability))`, or
-/// `Some((lights, 1))` (none) when no light can light `s`.
-pub fn choose_light(lights: &[Light], s: &Surface, seed: u32, first: u32) -> Option<(usize, f32)> {
-    if lights.len() < 2 {
+/// The cosine-weighted solid angle of the parallelogram `a + u b + v c` (relative to the
+/// surface) above the plane of normal `n` (WGSL `rect_projected_solid_angle`): Lambert's
+/// formula after clipping the polygon to `n.x >= 0`.
+pub fn rect_projected_solid_angle(n: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    let quad = [a, a + b, a + b + c, a + c];
+    let mut clipped = Vec::with_capacity(5);
+    for k in 0..4 {
+        let (p0, p1) = (quad[k], quad[(k + 1) % 4]);
+        let (d0, d1) = (n.dot(p0), n.dot(p1));
+        if d0 > 0.0 {
+            clipped.push(p0);
+        }
+        if (d0 > 0.0) != (d1 > 0.0) {
+            clipped.push(p0 + (d0 / (d0 - d1)) * (p1 - p0));
+        }
+    }
+    let m = clipped.len();
+    if m < 3 {
+        return 0.0;
+    }
+    let mut sum = 0.0f32;
+    for k in 0..m {
+        let (u0, u1) = (clipped[k].normalize(), clipped[(k + 1) % m].normalize());
+        let cr = u0.cross(u1);
+        let len = cr.length();
+        if len > 0.0 {
+            sum += len.atan2(u0.dot(u1)) * (n.dot(cr) / len);
+        }
+    }
+    0.5 * sum.abs()
+}
+
+/// The lights a plane hit at `s` samples with `choices` choices (WGSL
+/// `shadow_loop_start_chosen`, `shadow_loop_seek`): `None` (every light) when `choices` is 0
+/// or at least the number of lights, else each light's factor `t T / (m w)` (0: not
+/// sampled), the goals `(xi + c) T / m` falling on the lights by systematic resampling.
+pub fn choose_lights(
+    lights: &[Light],
+    s: &Surface,
+    seed: u32,
+    first: u32,
+    choices: u32,
+) -> Option<Vec<f32>> {
+    if choices == 0 || choices as usize >= lights.len() {
         return None;
     }
     let weights: Vec<f32> = lights.iter().map(|l| light_choice_weight(s, l)).collect();
     let total = weights.iter().fold(0.0f32, |t, &w| t + w);
     if total <= 0.0 {
-        return Some((lights.len(), 1.0));
+        return Some(vec![0.0; lights.len()]);
     }
-    let goal = sobol_2d(first, hash_combine(seed, LIGHT_CHOICE_SEED)).x * total;
-    let (mut sum, mut chosen, mut weight) = (0.0f32, lights.len(), 0.0f32);
-    for (i, &w) in weights.iter().enumerate() {
-        if w > 0.0 {
-            chosen = i;
-            weight = w;
-        }
-        sum += w;
-        if w > 0.0 && goal < sum {
-            break;
-        }
-    }
-    Some((chosen, total / weight))
+    let xi = sobol_2d(first, hash_combine(seed, LIGHT_CHOICE_SEED)).x;
+    let scale = choices as f32 / total;
+    let mut cum = 0.0f32;
+    Some(
+        weights
+            .iter()
+            .map(|&w| {
+                let before = (cum * scale - xi).ceil();
+                cum += w;
+                let t = (cum * scale - xi).ceil() - before;
+                if w > 0.0 && t > 0.0 {
+                    t / (w * scale)
+                } else {
+                    0.0
+                }
+            })
+            .collect(),
+    )
 }
 
 #[cfg(test)]
@@ -518,10 +553,50 @@ mod tests {
         }
     }
 
-    /// Over 4,096 consecutive sequence indices each light is chosen in proportion to its
-    /// weight (within 0.5 % of all choices: the choice is stratified), with weight 1 / p;
+    /// Lambert's formula against a midpoint-rule integral of cos_s cos_l / d^2 over the
+    /// rect (400 x 400 cells), above the horizon, crossing it, and close to the light.
+    #[test]
+    fn rect_projected_solid_angle_is_the_integral_of_the_cosines() {
+        let b = Vec3::new(0.0, 0.0, 0.4);
+        let c = Vec3::new(-0.8, 0.0, 0.0);
+        let nl = b.cross(c).normalize();
+        for (p, n) in [
+            (Vec3::new(0.3, -1.5, 0.2), Vec3::Y),
+            (Vec3::new(0.3, -1.5, 0.2), Vec3::new(0.6, 0.8, 0.0)),
+            (Vec3::new(-0.4, -0.3, 0.2), Vec3::new(1.0, 0.0, 0.0)),
+            (
+                Vec3::new(-0.7, -0.05, -0.1),
+                Vec3::new(0.0, 0.2, 1.0).normalize(),
+            ),
+        ] {
+            let a = -p;
+            let k = 400;
+            let mut integral = 0.0f64;
+            for i in 0..k {
+                for j in 0..k {
+                    let d =
+                        a + ((i as f32 + 0.5) / k as f32) * b + ((j as f32 + 0.5) / k as f32) * c;
+                    let d2 = d.dot(d);
+                    let cs = (n.dot(d) / d2.sqrt()).max(0.0);
+                    let cl = (-nl.dot(d) / d2.sqrt()).max(0.0);
+                    integral += f64::from(cs * cl / d2);
+                }
+            }
+            integral *= f64::from(b.cross(c).length()) / f64::from(k * k);
+            let lambert = f64::from(rect_projected_solid_angle(n, a, b, c));
+            assert!(
+                (lambert - integral).abs() <= 0.01 * integral,
+                "p {p}, n {n}: Lambert {lambert}, integral {integral}"
+            );
+        }
+    }
+
+    /// Over 4,096 consecutive sequence indices each light that can light the point has a
+    /// mean factor of 1 (within 1 %: the choice is unbiased and stratified), with one
+    /// choice and with two; with one its share of the choices is its share of the weight;
     /// lights that cannot light the point (a panel facing away, a sun below the horizon)
-    /// weigh zero and are never chosen.
+    /// weigh zero and are never sampled; a light above half the weight is sampled at
+    /// every index with two choices.
     #[test]
     fn lights_are_chosen_in_proportion_to_their_weight() {
         let s = floor_point();
@@ -542,26 +617,46 @@ mod tests {
         assert!(w[0] > w[1] && w[1] > 0.0 && w[3] > 0.0, "weights {w:?}");
         assert_eq!((w[2], w[4]), (0.0, 0.0), "weights {w:?}");
         let total: f32 = w.iter().sum();
-        let n = 4096;
-        let mut chosen = [0usize; 5];
-        for first in 0..n {
-            let (i, weight) = choose_light(&lights, &s, 9, first).expect("several lights");
-            assert!((weight - total / w[i]).abs() <= 1e-4 * weight);
-            chosen[i] += 1;
-        }
-        for i in 0..lights.len() {
-            let share = chosen[i] as f32 / n as f32;
-            assert!(
-                (share - w[i] / total).abs() <= 0.005,
-                "light {i}: chosen {share}, weight share {}",
-                w[i] / total
-            );
-        }
-        assert_eq!(
-            choose_light(&lights[..1], &s, 9, 0),
-            None,
-            "one light: no choice"
+        assert!(
+            w[3] > 0.5 * total,
+            "weights {w:?}: the test wants a dominant light"
         );
+        let n = 4096;
+        for choices in [1u32, 2, 3] {
+            let mut sampled = [0usize; 5];
+            let mut factor_sum = [0.0f64; 5];
+            for first in 0..n {
+                let f = choose_lights(&lights, &s, 9, first, choices).expect("several lights");
+                for i in 0..lights.len() {
+                    sampled[i] += usize::from(f[i] > 0.0);
+                    factor_sum[i] += f64::from(f[i]);
+                }
+                if choices == 1 {
+                    assert_eq!(f.iter().filter(|&&x| x > 0.0).count(), 1, "index {first}");
+                } else {
+                    assert!(f[3] > 0.0, "index {first}: the dominant light was missed");
+                }
+            }
+            for i in 0..lights.len() {
+                let mean = factor_sum[i] / f64::from(n);
+                if w[i] == 0.0 {
+                    assert_eq!(sampled[i], 0, "light {i} cannot light the point");
+                } else {
+                    assert!(
+                        (mean - 1.0).abs() <= 0.01,
+                        "{choices} choices, light {i}: mean factor {mean}"
+                    );
+                }
+                if choices == 1 {
+                    let share = sampled[i] as f32 / n as f32;
+                    assert!(
+                        (share - w[i] / total).abs() <= 0.005,
+                        "light {i}: chosen {share}, weight share {}",
+                        w[i] / total
+                    );
+                }
+            }
+        }
         let at_point = Light::Point {
             position: s.position,
             intensity: Vec3::ONE,
@@ -571,9 +666,15 @@ mod tests {
             0.0,
             "NaN weighs nothing"
         );
+        assert_eq!(choose_lights(&lights, &s, 9, 0, 0), None, "0: every light");
         assert_eq!(
-            choose_light(&[lights[2].clone(), lights[4].clone()], &s, 9, 0),
-            Some((2, 1.0)),
+            choose_lights(&lights, &s, 9, 0, 5),
+            None,
+            "as many as lights: every light"
+        );
+        assert_eq!(
+            choose_lights(&[lights[2].clone(), lights[4].clone()], &s, 9, 0, 1),
+            Some(vec![0.0, 0.0]),
             "no light can light the point: none sampled"
         );
     }

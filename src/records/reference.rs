@@ -90,6 +90,7 @@ impl<'a> RecordReference<'a> {
             &s,
             site.seed,
             plane_light_first(index, self.shading.light_samples),
+            self.settings.plane_light_choices,
         );
         let m = &scene.materials[s.material as usize];
         let emission = if s.front_face && !m.sampled_light {

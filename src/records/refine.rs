@@ -150,7 +150,8 @@ struct RefineParams {
     light_samples: u32,
     subsamples: u32,
     centre_weight: f32,
-    _pad: [u32; 2],
+    light_choices: u32,
+    _pad: u32,
 }
 
 /// The GPU passes of refinement for one [`CacheSettings`] (built only when
@@ -164,6 +165,7 @@ pub struct RefinePass {
     refined: u32,
     split: u32,
     light_samples: u32,
+    light_choices: u32,
 }
 
 impl RefinePass {
@@ -209,6 +211,7 @@ impl RefinePass {
             refined,
             split,
             light_samples: settings.plane_light_samples,
+            light_choices: settings.plane_light_choices,
         }))
     }
 
@@ -260,7 +263,8 @@ impl RefinePass {
                 light_samples: self.light_samples,
                 subsamples: self.split * self.split,
                 centre_weight: centre_weight(self.split),
-                _pad: [0; 2],
+                light_choices: self.light_choices,
+                _pad: 0,
             },
         );
         let bind = self.refine.bind(

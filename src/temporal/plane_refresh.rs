@@ -231,6 +231,8 @@ impl PlaneRefresh<'_> {
                 count,
                 light_samples: settings.plane_light_samples,
                 record_hits: 1,
+                light_choices: settings.plane_light_choices,
+                _pad: [0; 3],
             },
         );
         let bind = self.pass.retrace.bind(

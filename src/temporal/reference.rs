@@ -94,6 +94,7 @@ pub fn reproject_plane(
             &s,
             site.seed,
             plane_light_first(k as u32, next.light_samples),
+            at_t.settings.plane_light_choices,
         );
         let m = &next.scene.materials[s.material as usize];
         let emission = if s.front_face && !m.sampled_light {

@@ -45,7 +45,8 @@ struct ReprojectParams {
     movers_hi: [f32; 4],
     estimate_resolution: u32,
     stride: u32,
-    _pad: [u32; 2],
+    light_choices: u32,
+    _pad: u32,
 }
 
 #[repr(C)]
@@ -252,7 +253,8 @@ impl ReprojectionPass {
                 movers_hi: next.movers.union.1,
                 estimate_resolution: cells_res,
                 stride: self.stride,
-                _pad: [0; 2],
+                light_choices: settings.plane_light_choices,
+                _pad: 0,
             },
         );
         let bind = self.reproject.bind(

@@ -2,7 +2,7 @@
 // plane pass (hemisphere_plane.wgsl) and the plane refresh's re-trace
 // (plane_retrace.wgsl), which must give the same bytes. The including pass declares
 // `plane: array<PlanePixel>` (the plane table), a `params` uniform with a
-// `light_samples` field, the light-map bindings of shared/light_map_lookup.wgsl and
+// `light_samples` and a `light_choices` field, the light-map bindings of shared/light_map_lookup.wgsl and
 // `hit_indirect_irradiance` (shared/trace_and_shade.wgsl).
 //!include shared/trace_and_shade.wgsl
 //!include shared/light_map_lookup.wgsl
@@ -20,7 +20,7 @@ fn shadow_from_maps(st: ShadowLoop, s: Surface) -> f32 {
 }
 
 // One ray through plane pixel `pixel` of the record at `site`, its hit shaded with direct
-// light from one light chosen by its weight (`shadow_loop_start_one_light`; shadow rays or
+// light from the lights chosen by weight (`shadow_loop_start_chosen`; shadow rays or
 // light-map lookups) plus emission not already sampled as a light. Misses add nothing:
 // the constant environment is sampled as a light by direct lighting (at the pixel and at
 // every plane hit), so counting it again here would double it (Ward's "count as zero any
@@ -42,7 +42,7 @@ fn trace_plane_ray(site: RecordSite, dir: vec3f, index: u32) -> TracedSample {
         // The ray and its hit's shadow rays through one traversal (cheaper to compile).
         let shaded = trace_and_shade_at(
             Ray(origin, 0.0, dir, INF), site.seed, plane_light_first(index, params.light_samples),
-            params.light_samples, true);
+            params.light_samples, params.light_choices);
         let hit = shaded.hit;
         if hit.instance != NO_HIT {
             out.sample.radiance = hit_radiance(shaded, site.seed, index);

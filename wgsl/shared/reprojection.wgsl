@@ -18,7 +18,7 @@ struct ReprojectParams {
     movers_hi: vec4f,
     estimate_resolution: u32,  // P / stride: cells of the estimated plane
     stride: u32,               // the estimate reprojects every stride-th sample each way
-    _pad0: u32,
+    light_choices: u32,        // lights sampled per plane hit (`shadow_loop_start_chosen`)
     _pad1: u32,
 }
 

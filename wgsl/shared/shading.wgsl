@@ -189,12 +189,23 @@ struct ShadowLoop {
     light: Light,      // the current slot's light, loaded once per slot (any light for
     kind: u32,         // the environment's slot, unused there) and its kind
     sample: ShadowSample,
-    chosen: u32,       // the one light sampled (`shadow_loop_start_one_light`), or ALL_LIGHTS
-    chosen_weight: f32, // 1 / the probability it was chosen with
+    // Lights chosen by weight (`shadow_loop_start_chosen`; 0: every light is sampled): the
+    // number of choices, their total weight, the shared offset of their goals, the weight
+    // of the slots before the current one, the current slot's factor t T / (m w), and `e`
+    // before the current slot.
+    choices: u32,
+    choice_total: f32,
+    choice_xi: f32,
+    choice_cum: f32,
+    chosen_weight: f32,
+    e_before: vec3f,
+    // The weights of the first CHOICE_WEIGHTS lights, kept from the sum (a rect's
+    // weight is a clipped polygon's Lambert sum: dearer than a weight of slots).
+    choice_weights: array<f32, CHOICE_WEIGHTS>,
 }
 
-// `ShadowLoop::chosen` when every light is sampled.
-const ALL_LIGHTS: u32 = 0xffffffffu;
+// Lights whose choice weights a shadow loop keeps (the rest are computed again).
+const CHOICE_WEIGHTS: u32 = 8u;
 
 // Scrambles the choice of one light (with the surface's seed).
 const LIGHT_CHOICE_SEED: u32 = 0x5e1ec7u;
@@ -220,18 +231,27 @@ fn shadow_loop_start_at(s: Surface, seed: u32, first: u32, count: u32) -> Shadow
     st.sum = vec3f(0.0);
     st.unoccluded = 0u;
     st.e = vec3f(0.0);
-    st.chosen = ALL_LIGHTS;
+    st.choices = 0u;
+    st.choice_total = 0.0;
+    st.choice_xi = 0.0;
+    st.choice_cum = 0.0;
     st.chosen_weight = 1.0;
+    st.e_before = vec3f(0.0);
     shadow_loop_enter(&st);
     return st;
 }
 
-// What light `light` could give surface `s` unoccluded, up to a common factor: the weight
-// of its choice by `shadow_loop_start_one_light`. Zero exactly where it cannot light `s`
-// (a sun or point below the shading horizon, a rect seen from behind or wholly below the
-// horizon), positive wherever it can, so that the choice is unbiased. A rect light is
-// taken at its centre with its cosines floored at 0.05 (a corner may be above the horizon
-// while the centre is not) and its distance softened by its area (near the light).
+// The weight of light `light`'s choice at surface `s` by `shadow_loop_start_chosen`: what
+// it gives `s` unoccluded, exactly (up to the sum of the light's colour channels): a
+// sun's or point's cosine law, a rect light's radiance times its cosine-weighted solid
+// angle above the horizon (`rect_projected_solid_angle`). A chosen light's sample over its
+// weight is then its visibility times its own sampling noise, and the total T is the
+// unoccluded irradiance. (Weights from a rect's centre fell far below the samples of a
+// surface a few millimetres under a panel; an upper bound of one sample, L A min(up /
+// d_min, 1) h / d_min^3 capped at pi L, rose far above what such a surface receives and
+// multiplied the other lights' samples: conference-room records 20 and 250 times too
+// bright.) Zero exactly where the light cannot light `s` (below the shading horizon, a
+// rect seen from behind or wholly below the horizon), so that the choice is unbiased.
 // Mirrored by `direct::reference::light_choice_weight`.
 fn light_choice_weight(s: Surface, light: Light) -> f32 {
     // NaN (a surface at a point light) weighs nothing, infinity a finite large weight.
@@ -247,25 +267,11 @@ fn light_choice_weight_raw(s: Surface, light: Light) -> f32 {
         return power * max(dot(n, light.a.xyz), 0.0);
     }
     if kind == LIGHT_RECT {
-        let cr = cross(light.b.xyz, light.c.xyz);
-        let area = length(cr);
-        let nl = cr / area;
         let a = light.a.xyz - s.position;
-        if dot(nl, a) >= 0.0 {
+        if dot(normalize_rect_normal(light), a) >= 0.0 {
             return 0.0;   // behind the light (or in its plane)
         }
-        let ab = a + light.b.xyz;
-        let ac = a + light.c.xyz;
-        let highest = max(max(dot(n, a), dot(n, ab)), max(dot(n, ac), dot(n, ab + light.c.xyz)));
-        if highest <= 0.0 {
-            return 0.0;   // wholly below the horizon
-        }
-        let d = a + 0.5 * (light.b.xyz + light.c.xyz);
-        let d2 = dot(d, d);
-        let inv = 1.0 / sqrt(d2);
-        let cos_s = max(dot(n, d) * inv, 0.05);
-        let cos_l = max(-dot(nl, d) * inv, 0.05);
-        return power * area * cos_s * cos_l / (d2 + area);
+        return power * rect_projected_solid_angle(n, a, light.b.xyz, light.c.xyz);
     }
     // Point and spot lights.
     let to_light = light.a.xyz - s.position;
@@ -277,23 +283,70 @@ fn light_choice_weight_raw(s: Surface, light: Light) -> f32 {
     return power * cone * max(dot(n, to_light), 0.0) / (d2 * sqrt(d2));
 }
 
-// The shadow loop of `shadow_loop_start_at` with one light instead of every light, chosen
-// with probability proportional to `light_choice_weight` and its irradiance divided by that
-// probability (unbiased; the environment's slot is sampled as before). For hemisphere-plane
-// hits: a record averages hundreds of them, so one shadow ray a hit instead of one per
-// light costs little error where lights are many (the conference room's six panels took
-// six of every seven rays a plane traced). The choice's number is dimension 0 of the
-// scrambled Sobol sequence at `first`, so that the hits of one plane share the lights out
-// in proportion. With fewer than two lights it is `shadow_loop_start_at`.
-fn shadow_loop_start_one_light(s: Surface, seed: u32, first: u32, count: u32) -> ShadowLoop {
+// The cosine-weighted solid angle of the parallelogram `a + u b + v c` (u, v in [0, 1];
+// relative to the surface) above the plane of normal `n`: E / L of a uniform emitter, by
+// Lambert's formula (half the sum over the edges of their angle times n . their unit
+// normal) after clipping the polygon to n.x >= 0. Mirrored by
+// `direct::reference::rect_projected_solid_angle`.
+fn rect_projected_solid_angle(n: vec3f, a: vec3f, b: vec3f, c: vec3f) -> f32 {
+    let quad = array<vec3f, 4>(a, a + b, a + b + c, a + c);
+    var clipped: array<vec3f, 5>;
+    var m = 0u;
+    for (var k = 0u; k < 4u; k++) {
+        let p0 = quad[k];
+        let p1 = quad[(k + 1u) % 4u];
+        let d0 = dot(n, p0);
+        let d1 = dot(n, p1);
+        if d0 > 0.0 {
+            clipped[m] = p0;
+            m++;
+        }
+        if (d0 > 0.0) != (d1 > 0.0) {
+            clipped[m] = p0 + (d0 / (d0 - d1)) * (p1 - p0);
+            m++;
+        }
+    }
+    if m < 3u {
+        return 0.0;
+    }
+    var sum = 0.0;
+    for (var k = 0u; k < m; k++) {
+        let u0 = normalize(clipped[k]);
+        let u1 = normalize(clipped[(k + 1u) % m]);
+        let cr = cross(u0, u1);
+        let len = length(cr);
+        if len > 0.0 {
+            sum += atan2(len, dot(u0, u1)) * (dot(n, cr) / len);
+        }
+    }
+    return 0.5 * abs(sum);
+}
+
+// The shadow loop of `shadow_loop_start_at` with `m` lights chosen instead of every light
+// (`m` 0, or at least the number of lights: every light), by systematic resampling of the
+// lights' `light_choice_weight`s: with T their sum and one number xi, the goals
+// `(xi + c) T / m`, c = 0..m, fall on the lights, light i taking t_i of them with
+// E[t_i] = m w_i / T, so that a light with t_i > 0 is sampled once and its irradiance
+// multiplied by t_i T / (m w_i): unbiased, and a light heavier than T / m is never
+// missed. The environment's slot is sampled as before. For hemisphere-plane hits: a
+// record averages hundreds of them, so m shadow rays a hit instead of one per light cost
+// little error where lights are many (the conference room's six panels took six of every
+// seven rays a plane traced). xi is dimension 0 of the record's scrambled Sobol sequence
+// at `first`, so that the hits of one plane share the lights out in proportion. Mirrored
+// by `direct::reference::choose_lights`.
+fn shadow_loop_start_chosen(s: Surface, seed: u32, first: u32, count: u32, m: u32) -> ShadowLoop {
     var st = shadow_loop_start_at(s, seed, first, count);
     let n = scene_info.light_count;
-    if n < 2u {
+    if m == 0u || m >= n {
         return st;
     }
     var total = 0.0;
     for (var i = 0u; i < n; i++) {
-        total += light_choice_weight(s, lights[i]);
+        let w = light_choice_weight(s, lights[i]);
+        if i < CHOICE_WEIGHTS {
+            st.choice_weights[i] = w;
+        }
+        total += w;
     }
     if total <= 0.0 {
         // None can light s: skip them all.
@@ -301,26 +354,39 @@ fn shadow_loop_start_one_light(s: Surface, seed: u32, first: u32, count: u32) ->
         shadow_loop_enter(&st);
         return st;
     }
-    // The first light whose running sum passes the goal (the last one that can light s
-    // when rounding leaves the goal past the sum).
-    let goal = sobol_2d(first, hash_combine(seed, LIGHT_CHOICE_SEED)).x * total;
-    var sum = 0.0;
-    var weight = 0.0;
-    for (var i = 0u; i < n; i++) {
-        let w = light_choice_weight(s, lights[i]);
-        if w > 0.0 {
-            st.chosen = i;
-            weight = w;
-        }
-        sum += w;
-        if w > 0.0 && goal < sum {
+    st.choices = m;
+    st.choice_total = total;
+    st.choice_xi = sobol_2d(first, hash_combine(seed, LIGHT_CHOICE_SEED)).x;
+    shadow_loop_seek(&st, s);
+    return st;
+}
+
+// From the current slot on, moves to the first light some goal falls on (or past the
+// lights) and enters it, with its factor t T / (m w).
+fn shadow_loop_seek(st: ptr<function, ShadowLoop>, s: Surface) {
+    let n = scene_info.light_count;
+    let scale = f32((*st).choices) / (*st).choice_total;
+    loop {
+        if (*st).slot >= n {
             break;
         }
+        var w: f32;
+        if (*st).slot < CHOICE_WEIGHTS {
+            w = (*st).choice_weights[(*st).slot];
+        } else {
+            w = light_choice_weight(s, lights[(*st).slot]);
+        }
+        let before = ceil((*st).choice_cum * scale - (*st).choice_xi);
+        (*st).choice_cum += w;
+        let t = ceil((*st).choice_cum * scale - (*st).choice_xi) - before;
+        if w > 0.0 && t > 0.0 {
+            (*st).chosen_weight = t / (w * scale);
+            break;
+        }
+        (*st).slot += 1u;
     }
-    st.chosen_weight = total / weight;
-    st.slot = st.chosen;
-    shadow_loop_enter(&st);
-    return st;
+    (*st).e_before = (*st).e;
+    shadow_loop_enter(st);
 }
 
 // Loads the light and kind of the current slot: once per slot, not per sample (a storage
@@ -415,15 +481,17 @@ fn shadow_loop_next(st: ptr<function, ShadowLoop>, s: Surface) -> bool {
                 (*st).e += scene_info.environment
                     * (PI * f32((*st).unoccluded) / f32((*st).count));
             }
-            (*st).slot += 1u;
-            if (*st).chosen != ALL_LIGHTS && (*st).slot == (*st).chosen + 1u {
-                // The chosen light is all `e` holds: weigh it, skip the other lights.
-                (*st).e *= (*st).chosen_weight;
-                (*st).slot = scene_info.light_count;
-            }
             (*st).k = 0u;
             (*st).sum = vec3f(0.0);
             (*st).unoccluded = 0u;
+            if (*st).choices != 0u && (*st).slot < scene_info.light_count {
+                // A chosen light: weigh what it added, go on to the next chosen one.
+                (*st).e = (*st).e_before + ((*st).e - (*st).e_before) * (*st).chosen_weight;
+                (*st).slot += 1u;
+                shadow_loop_seek(st, s);
+                continue;
+            }
+            (*st).slot += 1u;
             shadow_loop_enter(st);
             continue;
         }
@@ -482,10 +550,10 @@ fn direct_irradiance_samples_at(s: Surface, seed: u32, first: u32, count: u32) -
     return direct_irradiance_loop(s, shadow_loop_start_at(s, seed, first, count));
 }
 
-// The same from one light (`shadow_loop_start_one_light`): a plane sample re-shaded as
-// its plane shaded it.
-fn plane_direct_irradiance(s: Surface, seed: u32, first: u32, count: u32) -> vec3f {
-    return direct_irradiance_loop(s, shadow_loop_start_one_light(s, seed, first, count));
+// The same from `m` lights chosen by weight (`shadow_loop_start_chosen`): a plane sample
+// re-shaded as its plane shaded it.
+fn plane_direct_irradiance(s: Surface, seed: u32, first: u32, count: u32, m: u32) -> vec3f {
+    return direct_irradiance_loop(s, shadow_loop_start_chosen(s, seed, first, count, m));
 }
 
 // Runs shadow loop `start` to its end, a shadow ray per sample.

@@ -19,13 +19,13 @@ struct ShadedHit {
 // visibility in [0, 1] of the current sample from light-space maps, or a negative value
 // to trace its shadow ray (shared/light_map_lookup.wgsl; `return -1.0;` traces them all).
 fn trace_and_shade(primary: Ray, seed: u32, count: u32) -> ShadedHit {
-    return trace_and_shade_at(primary, seed, 0u, count, false);
+    return trace_and_shade_at(primary, seed, 0u, count, 0u);
 }
 
 // The same with the light samples from index `first` of their sequences on
-// (`shadow_loop_start_at`), and with `one_light` from one light chosen by its weight
-// (`shadow_loop_start_one_light`: hemisphere-plane hits).
-fn trace_and_shade_at(primary: Ray, seed: u32, first: u32, count: u32, one_light: bool) -> ShadedHit {
+// (`shadow_loop_start_at`), and with `choices` above 0 from that many lights chosen by
+// weight (`shadow_loop_start_chosen`: hemisphere-plane hits).
+fn trace_and_shade_at(primary: Ray, seed: u32, first: u32, count: u32, choices: u32) -> ShadedHit {
     var out: ShadedHit;
     out.irradiance = vec3f(0.0);
     var st: ShadowLoop;
@@ -39,11 +39,7 @@ fn trace_and_shade_at(primary: Ray, seed: u32, first: u32, count: u32, one_light
                 break;
             }
             out.surface = surface_at(h, primary.dir);
-            if one_light {
-                st = shadow_loop_start_one_light(out.surface, seed, first, count);
-            } else {
-                st = shadow_loop_start_at(out.surface, seed, first, count);
-            }
+            st = shadow_loop_start_chosen(out.surface, seed, first, count, choices);
         } else if h.instance == NO_HIT {
             shadow_loop_add(&st);
         }
