@@ -429,25 +429,28 @@ fn light_choice_weight_raw(s: &Surface, light: &Light) -> f32 {
         Light::Point {
             position,
             intensity,
-        } => {
-            let to_light = position - s.position;
-            let d2 = to_light.dot(to_light);
-            power(intensity) * n.dot(to_light).max(0.0) / (d2 * d2.sqrt())
         }
-        Light::Spot {
+        | Light::Spot {
             position,
             intensity,
-            direction,
-            cos_inner,
-            cos_outer,
+            ..
         } => {
             let to_light = position - s.position;
             let d2 = to_light.dot(to_light);
-            let cone = smoothstep(
-                cos_outer,
+            let mut cone = 1.0;
+            if let Light::Spot {
+                direction,
                 cos_inner,
-                (-to_light / d2.sqrt()).dot(direction.normalize()),
-            );
+                cos_outer,
+                ..
+            } = *light
+            {
+                cone = smoothstep(
+                    cos_outer,
+                    cos_inner,
+                    (-to_light / d2.sqrt()).dot(direction.normalize()),
+                );
+            }
             power(intensity) * cone * n.dot(to_light).max(0.0) / (d2 * d2.sqrt())
         }
     }

@@ -190,11 +190,11 @@ struct ShadowLoop {
     kind: u32,         // the environment's slot, unused there) and its kind
     sample: ShadowSample,
     // Lights chosen by weight (`shadow_loop_start_chosen`; 0: every light is sampled): the
-    // number of choices, their total weight, the shared offset of their goals, the weight
-    // of the slots before the current one, the current slot's factor t T / (m w), and `e`
-    // before the current slot.
+    // number of choices m, m / T (T: the weights' sum), the shared offset of their goals,
+    // the weight of the slots before the current one, the current slot's factor
+    // t T / (m w), and `e` before the current slot.
     choices: u32,
-    choice_total: f32,
+    choice_scale: f32,
     choice_xi: f32,
     choice_cum: f32,
     chosen_weight: f32,
@@ -232,7 +232,7 @@ fn shadow_loop_start_at(s: Surface, seed: u32, first: u32, count: u32) -> Shadow
     st.unoccluded = 0u;
     st.e = vec3f(0.0);
     st.choices = 0u;
-    st.choice_total = 0.0;
+    st.choice_scale = 0.0;
     st.choice_xi = 0.0;
     st.choice_cum = 0.0;
     st.chosen_weight = 1.0;
@@ -355,7 +355,7 @@ fn shadow_loop_start_chosen(s: Surface, seed: u32, first: u32, count: u32, m: u3
         return st;
     }
     st.choices = m;
-    st.choice_total = total;
+    st.choice_scale = f32(m) / total;
     st.choice_xi = sobol_2d(first, hash_combine(seed, LIGHT_CHOICE_SEED)).x;
     shadow_loop_seek(&st, s);
     return st;
@@ -365,7 +365,7 @@ fn shadow_loop_start_chosen(s: Surface, seed: u32, first: u32, count: u32, m: u3
 // lights) and enters it, with its factor t T / (m w).
 fn shadow_loop_seek(st: ptr<function, ShadowLoop>, s: Surface) {
     let n = scene_info.light_count;
-    let scale = f32((*st).choices) / (*st).choice_total;
+    let scale = (*st).choice_scale;
     loop {
         if (*st).slot >= n {
             break;
