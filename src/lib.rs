@@ -26,6 +26,7 @@ pub mod gpu;
 pub mod hsh;
 pub mod light_maps;
 pub mod output;
+pub mod parallel;
 pub mod photons;
 pub mod placement;
 pub mod radiance_export;

@@ -14,6 +14,7 @@ fn layers() -> BTreeMap<&'static str, u32> {
         // Foundations.
         ("error", 0),
         ("sampling", 0),
+        ("parallel", 0),
         ("scene", 0),
         ("hsh", 0),
         // The GPU scene: the BVH and the device that holds it (each uses the other).

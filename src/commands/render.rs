@@ -53,6 +53,9 @@ pub fn render(args: RenderArgs) -> Result<()> {
         ));
     }
     let bar = progress(quiet, 5);
+    // Where the command's wall time goes, outside the frame's own passes (--stats
+    // `command_ms`): on a fast GPU the frame is the smaller part (docs/results.md, H200).
+    let mut phases = Phases::start();
     bar.set_message("loading scene");
     let scene = load_scene_with(scene_path, None, size, light_samples)?;
     let output = output.unwrap_or_else(|| {
@@ -66,13 +69,16 @@ pub fn render(args: RenderArgs) -> Result<()> {
     outputs.plan_opt(png.as_deref())?;
     outputs.plan_opt(record_map.as_deref())?;
     outputs.plan_opt(stats.as_deref())?;
+    phases.end("load scene");
     bar.inc(1);
     bar.set_message("starting GPU");
     let renderer = Renderer::new(GpuContext::new()?)?;
     crate::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
+    phases.end("start GPU");
     bar.inc(1);
     bar.set_message("building BVH");
     let prepared = renderer.prepare(&scene)?;
+    phases.end("prepare scene (BVH, upload)");
     bar.inc(1);
     bar.set_message("rendering");
     let mut records = Vec::new();
@@ -90,10 +96,12 @@ pub fn render(args: RenderArgs) -> Result<()> {
             frame
         }
     };
+    phases.end("frame");
     bar.inc(1);
     bar.set_message("writing");
     let exposure = scene.settings.exposure;
     outputs.stage(&output, &format.encode_frame(&output, &frame, exposure)?)?;
+    phases.end("encode image");
     if let Some(path) = &record_map {
         let camera = crate::visibility::GpuCamera::new(&scene.camera);
         let rgb = crate::output::record_map(&frame, &camera, &records, exposure);
@@ -106,7 +114,9 @@ pub fn render(args: RenderArgs) -> Result<()> {
         let radii = cache
             .as_ref()
             .map(|c| crate::records::RadiusStats::of(&records, c.r_max_factor));
-        let json = serde_json_string(&prepared.bvh_stats, &frame.stats, radii);
+        // The commit (writing the files) comes after the stats are encoded: not counted.
+        phases.end("other outputs");
+        let json = serde_json_string(&prepared.bvh_stats, &frame.stats, radii, &phases.done);
         outputs.stage(stats_path, json.as_bytes())?;
     }
     outputs.commit()?;
@@ -168,6 +178,7 @@ fn serde_json_string(
     bvh: &crate::frame::BvhStats,
     frame: &crate::FrameStats,
     record_radii: Option<crate::records::RadiusStats>,
+    command_ms: &[(&'static str, f64)],
 ) -> String {
     #[derive(serde::Serialize)]
     struct Stats<'a> {
@@ -175,11 +186,36 @@ fn serde_json_string(
         frame: &'a crate::FrameStats,
         #[serde(skip_serializing_if = "Option::is_none")]
         record_radii: Option<crate::records::RadiusStats>,
+        command_ms: &'a [(&'static str, f64)],
     }
     serde_json::to_string_pretty(&Stats {
         bvh,
         frame,
         record_radii,
+        command_ms,
     })
     .unwrap_or_default()
+}
+
+/// Wall time of the command's phases, in milliseconds, in order.
+struct Phases {
+    since: std::time::Instant,
+    done: Vec<(&'static str, f64)>,
+}
+
+impl Phases {
+    fn start() -> Self {
+        Phases {
+            since: std::time::Instant::now(),
+            done: Vec::new(),
+        }
+    }
+
+    /// Ends the phase running since the last call (or the start).
+    fn end(&mut self, name: &'static str) {
+        let now = std::time::Instant::now();
+        self.done
+            .push((name, (now - self.since).as_secs_f64() * 1e3));
+        self.since = now;
+    }
 }

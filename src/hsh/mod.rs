@@ -36,7 +36,14 @@ pub fn index(l: u32, m: i32) -> usize {
 /// Condon-Shortley phase, by the stable recurrences of eqs. 3.4-3.6; `out[l][m]`.
 pub(crate) fn legendre(order: u32, x: f64) -> Vec<Vec<f64>> {
     let n = order as usize;
-    let mut p = vec![vec![0.0; n]; n];
+    let mut table = [[0.0; MAX_ORDER as usize]; MAX_ORDER as usize];
+    legendre_into(order, x, &mut table);
+    table[..n].iter().map(|row| row[..n].to_vec()).collect()
+}
+
+/// [`legendre`] into a fixed table (no allocation; the same arithmetic, so the same bits).
+fn legendre_into(order: u32, x: f64, p: &mut [[f64; MAX_ORDER as usize]; MAX_ORDER as usize]) {
+    let n = order as usize;
     let s = (1.0 - x * x).max(0.0).sqrt();
     let mut pmm = 1.0;
     for m in 0..n {
@@ -53,7 +60,6 @@ pub(crate) fn legendre(order: u32, x: f64) -> Vec<Vec<f64>> {
                 / (l - m) as f64;
         }
     }
-    p
 }
 
 /// `K_l^m` of the hemispherical basis.
@@ -70,22 +76,48 @@ pub(crate) fn normalisation(l: u32, m: u32) -> f64 {
 /// frame, `w.z >= 0`; below the horizon the basis is not defined and this returns zeros).
 pub fn basis(order: u32, w: DVec3) -> Vec<f64> {
     let mut out = vec![0.0; coefficient_count(order)];
+    basis_into(order, w, &mut out);
+    out
+}
+
+/// [`basis`] into `out` (`order^2` values; no allocation): what the plane bases of radiance
+/// records evaluate a million times per plane resolution (`PlaneBasis::new`).
+pub fn basis_into(order: u32, w: DVec3, out: &mut [f64]) {
+    let out = &mut out[..coefficient_count(order)];
     if w.z < 0.0 {
-        return out;
+        out.fill(0.0);
+        return;
     }
+    let k = scaled_normalisations();
     let cos_theta = w.z.min(1.0);
     let phi = w.y.atan2(w.x);
-    let p = legendre(order, 2.0 * cos_theta - 1.0);
+    let mut p = [[0.0; MAX_ORDER as usize]; MAX_ORDER as usize];
+    legendre_into(order, 2.0 * cos_theta - 1.0, &mut p);
     for l in 0..order {
-        out[index(l, 0)] = normalisation(l, 0) * p[l as usize][0];
+        out[index(l, 0)] = k[index(l, 0)] * p[l as usize][0];
         for m in 1..=l {
-            let k = std::f64::consts::SQRT_2 * normalisation(l, m) * p[l as usize][m as usize];
+            let k = k[index(l, m as i32)] * p[l as usize][m as usize];
             let a = f64::from(m) * phi;
             out[index(l, m as i32)] = k * a.cos();
             out[index(l, -(m as i32))] = k * a.sin();
         }
     }
-    out
+}
+
+/// `K_l^0` and `sqrt(2) K_l^m` (m > 0) at `index(l, m)` for every `l < MAX_ORDER`, computed
+/// once as [`basis`] used to compute them per call (the same products, the same bits).
+fn scaled_normalisations() -> &'static [f64] {
+    static TABLE: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut k = vec![0.0; coefficient_count(MAX_ORDER)];
+        for l in 0..MAX_ORDER {
+            k[index(l, 0)] = normalisation(l, 0);
+            for m in 1..=l {
+                k[index(l, m as i32)] = std::f64::consts::SQRT_2 * normalisation(l, m);
+            }
+        }
+        k
+    })
 }
 
 /// A quadrature rule on the upper hemisphere: directions and solid-angle weights

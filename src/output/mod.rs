@@ -74,7 +74,7 @@ impl ImageFormat {
         };
         match self {
             ImageFormat::Exr => {
-                exr_out::encode_exr(frame.width, frame.height, &exr_out::frame_channels(frame))
+                exr_out::encode_exr_owned(frame.width, frame.height, exr_out::frame_channels(frame))
                     .map_err(err)
             }
             ImageFormat::Png => {

@@ -40,7 +40,7 @@ pub mod cpu;
 use crate::frame::{Frame, PreparedScene, Renderer};
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
-use crate::output::exr_out::{Channels, encode_exr, frame_channels};
+use crate::output::exr_out::{Channels, encode_exr_owned, frame_channels};
 use crate::output::write_atomically;
 use crate::scene::Camera;
 use crate::visibility::GpuCamera;
@@ -195,18 +195,17 @@ impl ReferenceFrame {
 
     /// Encodes the frame and its AOVs (with `indirect.*`) as EXR bytes.
     pub fn encode_exr(&self) -> Result<Vec<u8>> {
-        encode_exr(self.frame.width, self.frame.height, &self.channels())
+        encode_exr_owned(self.frame.width, self.frame.height, self.channels())
             .map_err(|e| Error::Gpu(format!("internal: encoding EXR: {e}")))
     }
 
     /// Writes the EXR atomically; returns its bytes.
     pub fn write_exr(&self, path: &Path) -> Result<Vec<u8>> {
-        let bytes = encode_exr(self.frame.width, self.frame.height, &self.channels()).map_err(
-            |message| Error::Output {
+        let bytes = encode_exr_owned(self.frame.width, self.frame.height, self.channels())
+            .map_err(|message| Error::Output {
                 path: path.to_path_buf(),
                 message,
-            },
-        )?;
+            })?;
         write_atomically(path, &bytes)?;
         Ok(bytes)
     }
