@@ -463,6 +463,16 @@ fn refined_planes_and_records_match_the_cpu_reference(scene: Scene) {
     dark.normal = [0.0, 1.0, 0.0];
     dark.geometric_normal = [0.0, 1.0, 0.0];
     sites.push(dark);
+    let dark_index = sites.len() - 1;
+    // A site inside the tall block, facing up: every ray hits the block's unlit inside, a
+    // plane that sees surfaces but no light. Its record takes the split sphere's radius,
+    // not R_max (which spread such zeros over whole floors: docs/results.md, "Dark records").
+    let mut inside = sites[0];
+    inside.position = [0.3685, 0.1, 0.3515];
+    inside.normal = [0.0, 1.0, 0.0];
+    inside.geometric_normal = [0.0, 1.0, 0.0];
+    sites.push(inside);
+    let inside_index = sites.len() - 1;
     let prepared = renderer.prepare(&scene).expect("prepare");
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let reference = RecordReference::new(&scene, &settings);
@@ -471,7 +481,7 @@ fn refined_planes_and_records_match_the_cpu_reference(scene: Scene) {
         .expect("refined planes");
     let per = (settings.plane_resolution * settings.plane_resolution) as usize;
     let res = settings.plane_resolution;
-    let dark_selected = &gpu.selected[(sites.len() - 1) * k..];
+    let dark_selected = &gpu.selected[dark_index * k..(dark_index + 1) * k];
     assert!(
         dark_selected
             .iter()
@@ -538,6 +548,18 @@ fn refined_planes_and_records_match_the_cpu_reference(scene: Scene) {
             "R {i}"
         );
     }
+    let inside = &runs[0][inside_index];
+    let r_max = sites[inside_index].r_min * settings.r_max_factor;
+    assert_eq!(
+        inside.irradiance(),
+        Vec3::ZERO,
+        "the block's inside is dark"
+    );
+    assert!(
+        inside.radius < 0.5 * r_max,
+        "a record that saw no light is not sized R_max: R {} of R_max {r_max}",
+        inside.radius
+    );
 }
 
 /// Neighbour clamping past `neighbour_grid::MIN_RECORDS` earlier records searches a grid

@@ -101,13 +101,17 @@ fn unclamped_radius(sum: Partial, site: RecordSite) -> f32 {
     let r_max = site.r_min * params.r_max_factor;
     // Harmonic mean distance, cosine-weighted (misses add 0 to the sum of 1/r).
     var radius = r_max;
-    if RECORD_RADIUS_HESSIAN {
+    let lum = dot(sum.irradiance, LUMINANCE) * INV_PI;
+    // A plane that saw no light at all (lum 0) says nothing of the irradiance's curvature:
+    // it takes the split sphere's radius, as Ward's records, rather than R_max, which
+    // spread its zero over whole floors (docs/results.md, "Dark records").
+    let split_sphere = !RECORD_RADIUS_HESSIAN || lum <= 0.0;
+    if !split_sphere {
         // Second-order error control (records::RecordRadius::Hessian): the relative
         // curvature lambda / E of the irradiance sets R, so that the error left after the
         // gradients, lambda d^2 / 2E, is (a hessian_scale)^2 / 2 at d = a R.
-        let lum = dot(sum.irradiance, LUMINANCE) * INV_PI;
         let lambda = largest_eigenvalue(sum.hessian);
-        if lum > 0.0 && lambda > 0.0 {
+        if lambda > 0.0 {
             radius = clamp(params.hessian_scale * sqrt(lum / lambda), site.r_min, r_max);
         }
     } else if sum.inv_distance > 0.0 {

@@ -194,6 +194,9 @@ pub fn reduce_plane(
                 / std::f64::consts::PI;
             if lum > 0.0 && lambda > 0.0 {
                 (f64::from(scale) * (lum / lambda).sqrt()).clamp(r_min, r_max)
+            } else if lum <= 0.0 && inv_distance > 0.0 {
+                // A dark plane: the split sphere's radius (record_reduce.wgsl).
+                (weight_sum / inv_distance).clamp(r_min, r_max)
             } else {
                 r_max
             }
