@@ -34,14 +34,31 @@ pub fn index(l: u32, m: i32) -> usize {
 
 /// Every associated Legendre polynomial `P_l^m(x)`, `0 <= m <= l < order`, with the
 /// Condon-Shortley phase, by the stable recurrences of eqs. 3.4-3.6; `out[l][m]`.
+/// Any order (the SH rotation's quadrature asks for more than [`MAX_ORDER`]).
 pub(crate) fn legendre(order: u32, x: f64) -> Vec<Vec<f64>> {
     let n = order as usize;
-    let mut table = [[0.0; MAX_ORDER as usize]; MAX_ORDER as usize];
-    legendre_into(order, x, &mut table);
-    table[..n].iter().map(|row| row[..n].to_vec()).collect()
+    let mut p = vec![vec![0.0; n]; n];
+    let s = (1.0 - x * x).max(0.0).sqrt();
+    let mut pmm = 1.0;
+    for m in 0..n {
+        if m > 0 {
+            // P_m^m = -(2m - 1) sqrt(1 - x^2) P_{m-1}^{m-1}.
+            pmm *= -((2 * m - 1) as f64) * s;
+        }
+        p[m][m] = pmm;
+        if m + 1 < n {
+            p[m + 1][m] = x * (2 * m + 1) as f64 * pmm;
+        }
+        for l in m + 2..n {
+            p[l][m] = (x * (2 * l - 1) as f64 * p[l - 1][m] - (l + m - 1) as f64 * p[l - 2][m])
+                / (l - m) as f64;
+        }
+    }
+    p
 }
 
-/// [`legendre`] into a fixed table (no allocation; the same arithmetic, so the same bits).
+/// [`legendre`] for `order <= MAX_ORDER` into a fixed table (no allocation; the same
+/// arithmetic, so the same bits).
 fn legendre_into(order: u32, x: f64, p: &mut [[f64; MAX_ORDER as usize]; MAX_ORDER as usize]) {
     let n = order as usize;
     let s = (1.0 - x * x).max(0.0).sqrt();
@@ -88,6 +105,10 @@ pub fn basis_into(order: u32, w: DVec3, out: &mut [f64]) {
         out.fill(0.0);
         return;
     }
+    if order > MAX_ORDER {
+        basis_any_order(order, w, out);
+        return;
+    }
     let k = scaled_normalisations();
     let cos_theta = w.z.min(1.0);
     let phi = w.y.atan2(w.x);
@@ -97,6 +118,22 @@ pub fn basis_into(order: u32, w: DVec3, out: &mut [f64]) {
         out[index(l, 0)] = k[index(l, 0)] * p[l as usize][0];
         for m in 1..=l {
             let k = k[index(l, m as i32)] * p[l as usize][m as usize];
+            let a = f64::from(m) * phi;
+            out[index(l, m as i32)] = k * a.cos();
+            out[index(l, -(m as i32))] = k * a.sin();
+        }
+    }
+}
+
+/// [`basis_into`] above [`MAX_ORDER`] (w.z >= 0): the tables and the same arithmetic.
+fn basis_any_order(order: u32, w: DVec3, out: &mut [f64]) {
+    let cos_theta = w.z.min(1.0);
+    let phi = w.y.atan2(w.x);
+    let p = legendre(order, 2.0 * cos_theta - 1.0);
+    for l in 0..order {
+        out[index(l, 0)] = normalisation(l, 0) * p[l as usize][0];
+        for m in 1..=l {
+            let k = std::f64::consts::SQRT_2 * normalisation(l, m) * p[l as usize][m as usize];
             let a = f64::from(m) * phi;
             out[index(l, m as i32)] = k * a.cos();
             out[index(l, -(m as i32))] = k * a.sin();
@@ -238,6 +275,35 @@ pub(crate) fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
 
 #[cfg(test)]
 mod tests {
+
+    /// The allocation-free basis (tables of Legendre values and normalisations) gives the
+    /// bits of the direct formula at every order up to MAX_ORDER, and higher orders (the
+    /// SH rotation's quadrature) still evaluate.
+    #[test]
+    fn tabulated_basis_is_bit_identical_to_the_direct_formula() {
+        let dirs = [
+            DVec3::new(0.0, 0.0, 1.0),
+            DVec3::new(0.3, -0.5, 0.81).normalize(),
+            DVec3::new(-0.9, 0.1, 0.05).normalize(),
+            DVec3::new(0.999, 0.0, 1e-4).normalize(),
+        ];
+        for order in 1..=MAX_ORDER {
+            for &w in &dirs {
+                let mut direct = vec![0.0; coefficient_count(order)];
+                basis_any_order(order, w, &mut direct);
+                let fast = basis(order, w);
+                let same = fast
+                    .iter()
+                    .zip(&direct)
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
+                assert!(same, "order {order} at {w:?}");
+            }
+        }
+        let high = basis(MAX_ORDER + 5, dirs[1]);
+        assert_eq!(high.len(), coefficient_count(MAX_ORDER + 5));
+        assert!(high.iter().all(|v| v.is_finite()));
+    }
+
     use super::*;
 
     #[test]
