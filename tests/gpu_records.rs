@@ -456,23 +456,23 @@ fn refined_planes_and_records_match_the_cpu_reference(scene: Scene) {
     let k = settings.refined_pixels() as usize;
     assert_eq!(k, 86);
     let mut sites = sites(&scene, &renderer, &settings, 12);
+    // A site facing up at `position`, with the first site's footprint.
+    let facing_up = |position: [f32; 3]| {
+        let mut site = sites[0];
+        site.position = position;
+        site.normal = [0.0, 1.0, 0.0];
+        site.geometric_normal = [0.0, 1.0, 0.0];
+        site
+    };
     // A site on top of the box facing up: every ray misses, a plane without light, which
     // refines its border (the grazing band) instead of its contrast.
-    let mut dark = sites[0];
-    dark.position = [0.278, 0.7, 0.279];
-    dark.normal = [0.0, 1.0, 0.0];
-    dark.geometric_normal = [0.0, 1.0, 0.0];
-    sites.push(dark);
-    let dark_index = sites.len() - 1;
+    let dark = facing_up([0.278, 0.7, 0.279]);
     // A site inside the tall block, facing up: every ray hits the block's unlit inside, a
     // plane that sees surfaces but no light. Its record takes the split sphere's radius,
     // not R_max (which spread such zeros over whole floors: docs/results.md, "Dark records").
-    let mut inside = sites[0];
-    inside.position = [0.3685, 0.1, 0.3515];
-    inside.normal = [0.0, 1.0, 0.0];
-    inside.geometric_normal = [0.0, 1.0, 0.0];
-    sites.push(inside);
-    let inside_index = sites.len() - 1;
+    let inside = facing_up([0.3685, 0.1, 0.3515]);
+    let (dark_index, inside_index) = (sites.len(), sites.len() + 1);
+    sites.extend([dark, inside]);
     let prepared = renderer.prepare(&scene).expect("prepare");
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let reference = RecordReference::new(&scene, &settings);

@@ -37,29 +37,13 @@ pub fn index(l: u32, m: i32) -> usize {
 /// Any order (the SH rotation's quadrature asks for more than [`MAX_ORDER`]).
 pub(crate) fn legendre(order: u32, x: f64) -> Vec<Vec<f64>> {
     let n = order as usize;
-    let mut p = vec![vec![0.0; n]; n];
-    let s = (1.0 - x * x).max(0.0).sqrt();
-    let mut pmm = 1.0;
-    for m in 0..n {
-        if m > 0 {
-            // P_m^m = -(2m - 1) sqrt(1 - x^2) P_{m-1}^{m-1}.
-            pmm *= -((2 * m - 1) as f64) * s;
-        }
-        p[m][m] = pmm;
-        if m + 1 < n {
-            p[m + 1][m] = x * (2 * m + 1) as f64 * pmm;
-        }
-        for l in m + 2..n {
-            p[l][m] = (x * (2 * l - 1) as f64 * p[l - 1][m] - (l + m - 1) as f64 * p[l - 2][m])
-                / (l - m) as f64;
-        }
-    }
-    p
+    let mut p = vec![0.0; n * n];
+    legendre_rows(order, x, &mut p);
+    p.chunks(n.max(1)).map(<[f64]>::to_vec).collect()
 }
 
-/// [`legendre`] for `order <= MAX_ORDER` into a fixed table (no allocation; the same
-/// arithmetic, so the same bits).
-fn legendre_into(order: u32, x: f64, p: &mut [[f64; MAX_ORDER as usize]; MAX_ORDER as usize]) {
+/// [`legendre`] into `p[l * order + m]` (`order^2` values): no allocation of its own.
+fn legendre_rows(order: u32, x: f64, p: &mut [f64]) {
     let n = order as usize;
     let s = (1.0 - x * x).max(0.0).sqrt();
     let mut pmm = 1.0;
@@ -68,12 +52,13 @@ fn legendre_into(order: u32, x: f64, p: &mut [[f64; MAX_ORDER as usize]; MAX_ORD
             // P_m^m = -(2m - 1) sqrt(1 - x^2) P_{m-1}^{m-1}.
             pmm *= -((2 * m - 1) as f64) * s;
         }
-        p[m][m] = pmm;
+        p[m * n + m] = pmm;
         if m + 1 < n {
-            p[m + 1][m] = x * (2 * m + 1) as f64 * pmm;
+            p[(m + 1) * n + m] = x * (2 * m + 1) as f64 * pmm;
         }
         for l in m + 2..n {
-            p[l][m] = (x * (2 * l - 1) as f64 * p[l - 1][m] - (l + m - 1) as f64 * p[l - 2][m])
+            p[l * n + m] = (x * (2 * l - 1) as f64 * p[(l - 1) * n + m]
+                - (l + m - 1) as f64 * p[(l - 2) * n + m])
                 / (l - m) as f64;
         }
     }
@@ -97,27 +82,32 @@ pub fn basis(order: u32, w: DVec3) -> Vec<f64> {
     out
 }
 
-/// [`basis`] into `out` (`order^2` values; no allocation): what the plane bases of radiance
-/// records evaluate a million times per plane resolution (`PlaneBasis::new`).
+/// [`basis`] into `out` (`order^2` values; up to [`MAX_ORDER`] no allocation): what the
+/// plane bases of radiance records evaluate a million times per plane resolution
+/// (`PlaneBasis::new`).
 pub fn basis_into(order: u32, w: DVec3, out: &mut [f64]) {
     let out = &mut out[..coefficient_count(order)];
     if w.z < 0.0 {
         out.fill(0.0);
         return;
     }
-    if order > MAX_ORDER {
-        basis_any_order(order, w, out);
-        return;
-    }
-    let k = scaled_normalisations();
+    let n = order as usize;
+    let mut table = [0.0; (MAX_ORDER * MAX_ORDER) as usize];
+    let mut heap = Vec::new();
+    let p = if order <= MAX_ORDER {
+        &mut table[..n * n]
+    } else {
+        heap.resize(n * n, 0.0);
+        &mut heap[..]
+    };
     let cos_theta = w.z.min(1.0);
     let phi = w.y.atan2(w.x);
-    let mut p = [[0.0; MAX_ORDER as usize]; MAX_ORDER as usize];
-    legendre_into(order, 2.0 * cos_theta - 1.0, &mut p);
+    legendre_rows(order, 2.0 * cos_theta - 1.0, p);
     for l in 0..order {
-        out[index(l, 0)] = k[index(l, 0)] * p[l as usize][0];
+        let row = &p[l as usize * n..];
+        out[index(l, 0)] = scaled_normalisation(l, 0) * row[0];
         for m in 1..=l {
-            let k = k[index(l, m as i32)] * p[l as usize][m as usize];
+            let k = scaled_normalisation(l, m) * row[m as usize];
             let a = f64::from(m) * phi;
             out[index(l, m as i32)] = k * a.cos();
             out[index(l, -(m as i32))] = k * a.sin();
@@ -125,36 +115,29 @@ pub fn basis_into(order: u32, w: DVec3, out: &mut [f64]) {
     }
 }
 
-/// [`basis_into`] above [`MAX_ORDER`] (w.z >= 0): the tables and the same arithmetic.
-fn basis_any_order(order: u32, w: DVec3, out: &mut [f64]) {
-    let cos_theta = w.z.min(1.0);
-    let phi = w.y.atan2(w.x);
-    let p = legendre(order, 2.0 * cos_theta - 1.0);
-    for l in 0..order {
-        out[index(l, 0)] = normalisation(l, 0) * p[l as usize][0];
-        for m in 1..=l {
-            let k = std::f64::consts::SQRT_2 * normalisation(l, m) * p[l as usize][m as usize];
-            let a = f64::from(m) * phi;
-            out[index(l, m as i32)] = k * a.cos();
-            out[index(l, -(m as i32))] = k * a.sin();
+/// `K_l^0`, and `sqrt(2) K_l^m` for m > 0: the factor of `P_l^m` in [`basis`]; tabulated
+/// once below [`MAX_ORDER`] (the same products, the same bits).
+fn scaled_normalisation(l: u32, m: u32) -> f64 {
+    fn direct(l: u32, m: u32) -> f64 {
+        if m == 0 {
+            normalisation(l, 0)
+        } else {
+            std::f64::consts::SQRT_2 * normalisation(l, m)
         }
     }
-}
-
-/// `K_l^0` and `sqrt(2) K_l^m` (m > 0) at `index(l, m)` for every `l < MAX_ORDER`, computed
-/// once as [`basis`] used to compute them per call (the same products, the same bits).
-fn scaled_normalisations() -> &'static [f64] {
     static TABLE: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
+    if l >= MAX_ORDER {
+        return direct(l, m);
+    }
     TABLE.get_or_init(|| {
         let mut k = vec![0.0; coefficient_count(MAX_ORDER)];
         for l in 0..MAX_ORDER {
-            k[index(l, 0)] = normalisation(l, 0);
-            for m in 1..=l {
-                k[index(l, m as i32)] = std::f64::consts::SQRT_2 * normalisation(l, m);
+            for m in 0..=l {
+                k[index(l, m as i32)] = direct(l, m);
             }
         }
         k
-    })
+    })[index(l, m as i32)]
 }
 
 /// A quadrature rule on the upper hemisphere: directions and solid-angle weights
@@ -289,8 +272,21 @@ mod tests {
         ];
         for order in 1..=MAX_ORDER {
             for &w in &dirs {
+                // The formula as `basis` had it, with per-call tables.
                 let mut direct = vec![0.0; coefficient_count(order)];
-                basis_any_order(order, w, &mut direct);
+                let p = legendre(order, 2.0 * w.z.min(1.0) - 1.0);
+                let phi = w.y.atan2(w.x);
+                for l in 0..order {
+                    direct[index(l, 0)] = normalisation(l, 0) * p[l as usize][0];
+                    for m in 1..=l {
+                        let k = std::f64::consts::SQRT_2
+                            * normalisation(l, m)
+                            * p[l as usize][m as usize];
+                        let a = f64::from(m) * phi;
+                        direct[index(l, m as i32)] = k * a.cos();
+                        direct[index(l, -(m as i32))] = k * a.sin();
+                    }
+                }
                 let fast = basis(order, w);
                 let same = fast
                     .iter()
