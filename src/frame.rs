@@ -136,6 +136,10 @@ pub struct FrameStats {
     pub shader_compile_ms: Vec<(String, f64)>,
     /// Wall time of the frame on the CPU side, submit to readback, in ms.
     pub wall_ms: f64,
+    /// Times the host waited for the device during the frame (read-backs and timer
+    /// reads; shader compilations not counted): on a fast GPU each is a round trip of
+    /// launch latency that bounds the frame's wall time.
+    pub gpu_waits: u64,
     pub camera_rays: u64,
     /// Irradiance cache statistics (GI frames only).
     pub cache: Option<CacheFrameStats>,
@@ -617,6 +621,40 @@ impl Renderer {
 
     /// An empty irradiance cache with `settings` as a still frame uses them
     /// ([`CacheSettings::resolved`]).
+    /// Builds, each on its own thread, the passes a frame runs (a GI frame with `cache`'s
+    /// settings, or direct light only), and returns the cache for those settings. Passes
+    /// are otherwise built at first use, one after the other: on a GPU whose driver
+    /// compiles at creation that is 110-230 ms of a Sponza frame on the H200 machine, and
+    /// here it can run while the scene loads (`radsplat render`).
+    pub fn build_passes(&self, cache: Option<&CacheSettings>) -> Result<Option<IrradianceCache>> {
+        std::thread::scope(|s| {
+            let mut builds: Vec<std::thread::ScopedJoinHandle<'_, Result<()>>> = vec![
+                s.spawn(|| self.visibility_pass().map(|_| ())),
+                s.spawn(|| self.direct_pass().map(|_| ())),
+            ];
+            if cache.is_some() {
+                builds.push(s.spawn(|| self.splat_pass().map(|_| ())));
+                builds.push(s.spawn(|| self.placement_pass().map(|_| ())));
+                builds.push(s.spawn(|| self.light_map_pass().map(|_| ())));
+                builds.push(s.spawn(|| self.resolve_pass().map(|_| ())));
+            }
+            let new_cache = cache.map(|settings| {
+                s.spawn(move || {
+                    let cache = self.new_cache(settings)?;
+                    cache.pass.tail_pass(&self.ctx)?;
+                    Ok::<_, Error>(cache)
+                })
+            });
+            fn joined<T>(r: std::thread::Result<Result<T>>) -> Result<T> {
+                r.unwrap_or_else(|_| Err(Error::Gpu("building a pass panicked".into())))
+            }
+            for b in builds {
+                joined(b.join())?;
+            }
+            new_cache.map(|c| joined(c.join())).transpose()
+        })
+    }
+
     pub fn new_cache(&self, settings: &CacheSettings) -> Result<IrradianceCache> {
         Ok(IrradianceCache {
             records: RecordCache::new(&self.ctx)?,
@@ -842,6 +880,7 @@ impl Renderer {
             "--plane-light-samples",
         )?;
         let t0 = Instant::now();
+        ctx.take_waits();
         let mut times: Vec<(&'static str, f64)> = Vec::new();
 
         // Bounces past the first: the surface cache every plane hit reflects (once per
@@ -1024,6 +1063,7 @@ impl Renderer {
             pass_ms: sum_by_pass(times),
             shader_compile_ms: sum_by_pass(&ctx.take_compile_times()),
             wall_ms: t0.elapsed().as_secs_f64() * 1e3,
+            gpu_waits: ctx.take_waits(),
             camera_rays: u64::from(width) * u64::from(height),
             cache: Some(CacheFrameStats {
                 records: records.count,
@@ -1186,13 +1226,6 @@ impl Renderer {
         bvh: &mut Option<SceneBvh>,
         previous: Option<&PreparedScene>,
     ) -> Result<PreparedScene> {
-        // Direct light casts `light_samples` shadow rays per light and for the environment.
-        let sampled = scene.lights.len() as u64
-            + u64::from(scene.environment != glam::Vec3::ZERO || scene.environment_map.is_some());
-        self.ctx.check_shadow_rays(
-            sampled * u64::from(scene.settings.light_samples),
-            "render.light_samples",
-        )?;
         let t0 = Instant::now();
         match bvh.as_mut() {
             Some(b) => b.update_instances(scene),
@@ -1202,6 +1235,35 @@ impl Renderer {
             return Err(Error::Gpu("internal: no BVH".into()));
         };
         let build_ms = t0.elapsed().as_secs_f64() * 1e3;
+        self.upload(scene, bvh, build_ms, previous)
+    }
+
+    /// Prepares `scene` with its BVH built already (`build_ms` for the stats), e.g. while
+    /// the device was starting: uploads it.
+    pub fn prepare_built(
+        &self,
+        scene: &Scene,
+        bvh: &SceneBvh,
+        build_ms: f64,
+    ) -> Result<PreparedScene> {
+        self.upload(scene, bvh, build_ms, None)
+    }
+
+    /// Checks `scene`'s shadow-ray counts against the device and uploads it with `bvh`.
+    fn upload(
+        &self,
+        scene: &Scene,
+        bvh: &SceneBvh,
+        build_ms: f64,
+        previous: Option<&PreparedScene>,
+    ) -> Result<PreparedScene> {
+        // Direct light casts `light_samples` shadow rays per light and for the environment.
+        let sampled = scene.lights.len() as u64
+            + u64::from(scene.environment != glam::Vec3::ZERO || scene.environment_map.is_some());
+        self.ctx.check_shadow_rays(
+            sampled * u64::from(scene.settings.light_samples),
+            "render.light_samples",
+        )?;
         let gpu = GpuScene::upload_frame(
             &self.ctx,
             scene,
@@ -1276,6 +1338,7 @@ impl Renderer {
     pub fn render_frame(&self, scene: &PreparedScene, camera: &Camera) -> Result<Frame> {
         let ctx = &self.ctx;
         let t0 = Instant::now();
+        ctx.take_waits();
         let mut times = Vec::new();
         let (vis, direct) = self.visibility_and_direct(scene, camera, None, true, &mut times)?;
         let direct = direct.ok_or_else(|| Error::Gpu("internal: no direct light".into()))?;
@@ -1308,6 +1371,7 @@ impl Renderer {
                 pass_ms,
                 shader_compile_ms: sum_by_pass(&self.ctx.take_compile_times()),
                 wall_ms: t0.elapsed().as_secs_f64() * 1e3,
+                gpu_waits: self.ctx.take_waits(),
                 camera_rays: u64::from(width) * u64::from(height),
                 cache: None,
             },

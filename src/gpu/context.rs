@@ -75,6 +75,13 @@ pub struct GpuContext {
     /// The driver's pipeline cache, loaded from and saved to disk (headless contexts on
     /// devices with `PIPELINE_CACHE`; None otherwise).
     pub(crate) pipeline_cache: Option<PipelineCacheFile>,
+    /// Waits for the device since the last [`GpuContext::take_waits`]: each is a round trip
+    /// to the GPU that the host sits out (on a fast GPU they, not the passes, bound a
+    /// frame's wall time).
+    waits: Arc<std::sync::atomic::AtomicU64>,
+    /// Pass timers read later, in one wait ([`GpuContext::deferring_pass_times`]); None:
+    /// timers are read when their submission is done.
+    pub(crate) deferred_times: Arc<Mutex<Option<Vec<super::timer::DeferredTimes>>>>,
 }
 
 /// A wgpu pipeline cache kept in a file between runs, so a driver that compiles pipelines
@@ -198,6 +205,16 @@ impl GpuContext {
             .is_some_and(|i| i.name.to_ascii_lowercase().contains("llvmpipe"))
     }
 
+    /// Whether the driver may compile a pipeline only at its first dispatch (llvmpipe runs
+    /// its LLVM JIT then), so that [`super::pipeline::ComputePass`] compiles it by an empty
+    /// dispatch first. True also for devices handed to [`GpuContext::from_device`], whose
+    /// driver is unknown.
+    pub fn compiles_at_first_dispatch(&self) -> bool {
+        self.adapter_info
+            .as_ref()
+            .is_none_or(|i| i.name.to_ascii_lowercase().contains("llvmpipe"))
+    }
+
     /// Refuses `rays` shadow rays per invocation on llvmpipe beyond
     /// [`LLVMPIPE_MAX_SHADOW_RAYS`], naming the setting `field` that asked for them.
     pub fn check_shadow_rays(&self, rays: u64, field: &str) -> Result<()> {
@@ -277,6 +294,8 @@ impl GpuContext {
             fault,
             compile_times: Arc::default(),
             pipeline_cache: None,
+            waits: Arc::default(),
+            deferred_times: Arc::default(),
         }
     }
 
@@ -297,8 +316,15 @@ impl GpuContext {
         }
     }
 
+    /// The waits for the device ([`GpuContext::wait`]) since the last call.
+    pub fn take_waits(&self) -> u64 {
+        self.waits.swap(0, std::sync::atomic::Ordering::Relaxed)
+    }
+
     /// Waits for all submitted work, then reports errors.
     pub fn wait(&self) -> Result<()> {
+        self.waits
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| Error::Gpu(format!("waiting for the device: {e}")))?;

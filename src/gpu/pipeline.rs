@@ -19,7 +19,9 @@ pub enum Binding {
 /// count the compilation as that pass's GPU time. So the first dispatch of each pipeline
 /// is preceded by an empty one (zero workgroups, same bind groups) in a submission of its
 /// own, waited for and timed; the time goes to [`GpuContext::take_compile_times`] and the
-/// pass times stay those of the work. Later dispatches cost nothing extra.
+/// pass times stay those of the work. Later dispatches cost nothing extra. Drivers that
+/// compile at creation ([`GpuContext::compiles_at_first_dispatch`] false) skip it: there
+/// the creation is timed instead.
 pub struct ComputePass {
     pub name: &'static str,
     pub pipeline: wgpu::ComputePipeline,
@@ -46,6 +48,7 @@ impl ComputePass {
         constants: &[(&str, f64)],
     ) -> Result<Self> {
         let device = &ctx.device;
+        let t0 = std::time::Instant::now();
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = shader::module(device, name)?;
         let entries: Vec<_> = bindings
@@ -94,6 +97,16 @@ impl ComputePass {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("creating pass {name}: {e}")));
         }
+        // Drivers that compile when the pipeline is created (every GPU driver we ran on)
+        // have compiled it now: its creation is the compilation, and the empty first
+        // dispatch, two waits for the device, would only cost launch latency.
+        let lazy = ctx.compiles_at_first_dispatch();
+        if !lazy {
+            ctx.compile_times
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .push((name, t0.elapsed().as_secs_f64() * 1e3));
+        }
         Ok(Self {
             name,
             pipeline,
@@ -101,7 +114,7 @@ impl ComputePass {
             device: ctx.device.clone(),
             queue: ctx.queue.clone(),
             compile_times: ctx.compile_times.clone(),
-            compiled: std::sync::atomic::AtomicBool::new(false),
+            compiled: std::sync::atomic::AtomicBool::new(!lazy),
         })
     }
 

@@ -111,14 +111,13 @@ impl TailFill {
     }
 
     /// At most `share` of the visible pixels left uncovered, by records that cover on
-    /// average at least [`TAIL_MIN_PIXELS_PER_RECORD`] pixels each (`records` in the cache).
-    fn reached(&self, ctx: &GpuContext, mask: &CoverageMask, records: u32) -> Result<bool> {
-        let covered = self.covered + mask.marked(ctx)?.saturating_sub(self.marked);
+    /// average at least [`TAIL_MIN_PIXELS_PER_RECORD`] pixels each (`records` in the cache);
+    /// `marked`: the mask's marks now.
+    fn reached(&self, marked: u32, records: u32) -> bool {
+        let covered = self.covered + marked.saturating_sub(self.marked);
         let uncovered = self.visible.saturating_sub(covered);
-        Ok(
-            f64::from(uncovered) <= f64::from(self.share) * f64::from(self.visible)
-                && f64::from(covered) >= TAIL_MIN_PIXELS_PER_RECORD * f64::from(records.max(1)),
-        )
+        f64::from(uncovered) <= f64::from(self.share) * f64::from(self.visible)
+            && f64::from(covered) >= TAIL_MIN_PIXELS_PER_RECORD * f64::from(records.max(1))
     }
 }
 
@@ -139,7 +138,12 @@ impl PlacementPass {
         })
     }
 
-    /// Candidate pixels of one round, in cell order.
+    /// Candidate pixels of the parity classes `from..4` of one cell size, in cell order,
+    /// all selected against the same coverage, with the mask's marked count (for tail
+    /// fill): one submission and one wait. Placement uses the first class with
+    /// candidates; its records change the coverage, so the later classes are selected
+    /// again after them (a class without candidates has none after more coverage either).
+    #[allow(clippy::too_many_arguments)]
     fn candidates(
         &self,
         ctx: &GpuContext,
@@ -147,53 +151,97 @@ impl PlacementPass {
         vis: &VisibilityBuffer,
         mask: &CoverageMask,
         cell_size: u32,
-        parity: u32,
-    ) -> Result<Vec<u32>> {
+        from: u32,
+    ) -> Result<(Vec<Vec<u32>>, u32)> {
         let cells_x = vis.width.div_ceil(cell_size);
         let cells_y = vis.height.div_ceil(cell_size);
-        // Cells of this parity class; the shader writes one slot for each.
-        let half_x = (cells_x + 1 - parity % 2) / 2;
-        let half_y = (cells_y + 1 - parity / 2) / 2;
-        let active = half_x * half_y;
-        if active == 0 {
-            return Ok(Vec::new());
-        }
-        let params = ctx.uniform_buffer(
-            "select params",
-            &SelectParams {
-                width: vis.width,
-                height: vis.height,
-                cell_size,
-                cells_x,
-                cells_y,
-                parity,
-                _pad: [0; 2],
-            },
-        );
-        let out = ctx.storage_buffer_sized("candidates", u64::from(active) * 4)?;
-        let bind = self
-            .select
-            .bind(ctx, &[&params, &vis.samples, &mask.covered, &out]);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        self.select.record(
-            &mut enc,
-            &scene.bind_group,
-            &bind,
-            [active.div_ceil(64), 1, 1],
-            None,
-        );
+        let mut outs = Vec::new();
+        for parity in from..4 {
+            // Cells of this parity class; the shader writes one slot for each.
+            let half_x = (cells_x + 1 - parity % 2) / 2;
+            let half_y = (cells_y + 1 - parity / 2) / 2;
+            let active = half_x * half_y;
+            let out = ctx.storage_buffer_sized("candidates", u64::from(active.max(1)) * 4)?;
+            if active > 0 {
+                let params = ctx.uniform_buffer(
+                    "select params",
+                    &SelectParams {
+                        width: vis.width,
+                        height: vis.height,
+                        cell_size,
+                        cells_x,
+                        cells_y,
+                        parity,
+                        _pad: [0; 2],
+                    },
+                );
+                let bind = self
+                    .select
+                    .bind(ctx, &[&params, &vis.samples, &mask.covered, &out]);
+                self.select.record(
+                    &mut enc,
+                    &scene.bind_group,
+                    &bind,
+                    [active.div_ceil(64), 1, 1],
+                    None,
+                );
+            }
+            outs.push((out, active));
+        }
         ctx.queue.submit([enc.finish()]);
-        let mut all: Vec<u32> = ctx.read_buffer(&out)?;
-        all.truncate(active as usize);
-        Ok(all.into_iter().filter(|&p| p != NO_CANDIDATE).collect())
+        let mut reads: Vec<&wgpu::Buffer> = outs.iter().map(|(b, _)| b).collect();
+        reads.push(&mask.marked);
+        let mut all: Vec<Vec<u32>> = ctx.read_buffers(&reads)?;
+        let marked = all.pop().and_then(|m| m.first().copied()).unwrap_or(0);
+        let lists = all
+            .into_iter()
+            .zip(&outs)
+            .map(|(mut slots, &(_, active))| {
+                slots.truncate(active as usize);
+                slots.retain(|&p| p != NO_CANDIDATE);
+                slots
+            })
+            .collect();
+        Ok((lists, marked))
     }
 
     /// Adds records until every visible pixel is covered, `limit` records were added, or
     /// the cache reaches `budget`. `mask` must mark the pixels the records already in the
     /// cache cover; it is kept up to date (the weighted splat is the caller's, once
-    /// placement is done). `progress` gets the records added.
+    /// placement is done). `progress` gets the records added. The rounds' pass timers
+    /// are read once, at the end ([`GpuContext::deferring_pass_times`]): a round then
+    /// waits for the GPU twice (its candidates; the splat bins' sizes), not seven times.
     #[allow(clippy::too_many_arguments)]
     pub fn place(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        vis: &VisibilityBuffer,
+        cache: &mut RecordCache,
+        records: &RecordPass,
+        splat_pass: &SplatPass,
+        bounds: &TileBounds,
+        mask: &CoverageMask,
+        light_maps: Option<&LightMaps>,
+        limit: Option<u32>,
+        stage: Option<&mut (dyn RecordStage + '_)>,
+        times: &mut Vec<(&'static str, f64)>,
+        progress: impl FnMut(u32),
+    ) -> Result<PlacementStats> {
+        let (stats, deferred) = ctx.deferring_pass_times(|| {
+            self.place_rounds(
+                ctx, scene, vis, cache, records, splat_pass, bounds, mask, light_maps, limit,
+                stage, times, progress,
+            )
+        })?;
+        times.extend(deferred);
+        Ok(stats)
+    }
+
+    /// [`Self::place`]'s rounds.
+    #[allow(clippy::too_many_arguments)]
+    fn place_rounds(
         &self,
         ctx: &GpuContext,
         scene: &GpuScene,
@@ -229,24 +277,28 @@ impl PlacementPass {
             None
         };
         let mut cover_accuracy = settings.accuracy;
-        let enter_tail = |count: u32, cover_accuracy: &mut f32, stats: &mut PlacementStats| {
-            if let Some(tail) = &tail
-                && *cover_accuracy < tail_accuracy
-                && tail.reached(ctx, mask, count)?
-            {
-                *cover_accuracy = tail_accuracy;
-                stats.tail_from_record = Some(count);
-            }
-            Ok::<_, crate::Error>(())
-        };
-        enter_tail(cache.count, &mut cover_accuracy, &mut stats)?;
         loop {
             let mut placed = 0;
-            for parity in 0..4 {
-                let mut pixels = self.candidates(ctx, scene, vis, mask, cell, parity)?;
-                if pixels.is_empty() {
-                    continue;
+            let mut parity = 0;
+            while parity < 4 {
+                let (lists, marked) = self.candidates(ctx, scene, vis, mask, cell, parity)?;
+                // Tail fill begins once the records so far cover enough (the marks are
+                // those after the last round).
+                if let Some(tail) = &tail
+                    && cover_accuracy < tail_accuracy
+                    && tail.reached(marked, cache.count)
+                {
+                    cover_accuracy = tail_accuracy;
+                    stats.tail_from_record = Some(cache.count);
                 }
+                let Some((skipped, mut pixels)) = lists
+                    .into_iter()
+                    .enumerate()
+                    .find(|(_, pixels)| !pixels.is_empty())
+                else {
+                    break;
+                };
+                parity += skipped as u32 + 1;
                 let room_budget = settings.record_budget.saturating_sub(cache.count);
                 let room_limit = limit.map_or(u32::MAX, |l| l.saturating_sub(stats.new_records));
                 let room = room_budget.min(room_limit) as usize;
@@ -291,7 +343,6 @@ impl PlacementPass {
                         accuracy: cover_accuracy,
                     };
                     splat_pass.cover(ctx, new_records, mask, times)?;
-                    enter_tail(cache.count, &mut cover_accuracy, &mut stats)?;
                     stats.new_records += n;
                     stats.rounds += 1;
                     placed += n;
