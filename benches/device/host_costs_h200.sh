@@ -6,7 +6,9 @@
 #     the binary before the host changes (`radsplat-before`) on three points, interleaved.
 #  2. Conference room 160x120, the harness's radsplat points (three runs each) and two
 #     references (seeds 1 and 2) sized to about a minute each from a 4096-spp timing run.
-#  3. Determinism: Sponza defaults and the Cornell box rendered twice, bytes compared.
+#     (CONF_REFS=0: no references, when an earlier run brought them back).
+#  3. Glossy Spheres 96x72 frames 0..11, temporal and per frame (issue 18).
+#  4. Determinism: Sponza defaults and the Cornell box rendered twice, bytes compared.
 # rpict is not run here: its Sponza times are those of the first device run
 # (docs/data/peers/sponza-sun-1000x1000-h200-run2-results.txt), its conference images and
 # times are this machine's (rpict is single-threaded and its images do not depend on it).
@@ -51,6 +53,7 @@ done; done
 $B render $SC -o $W/sp/again.exr --quiet && cmp $W/sp/rs-defaults.exr $W/sp/again.exr && echo "DETERMINISM sponza defaults: identical bytes" | tee -a $R
 el "Sponza reference (1024 spp, seed 1) and errors"
 tm refA $B reference $SC --spp 1024 --seed 1 -o $W/sp/refA.exr --quiet
+echo "refA sha256 $(sha256sum < $W/sp/refA.exr | cut -c1-64)" | tee -a $R   # same as the first run's?
 for p in "${ab[@]}" "${pts[@]}"; do l=${p%%|*}
   $B compare $W/sp/rs-$l.exr $W/sp/refA.exr --downsample 4 --json $W/sp/cmp-rs-$l.json > /dev/null
   [ -e $W/sp/before-$l.exr ] && $B compare $W/sp/before-$l.exr $W/sp/refA.exr --downsample 4 --json $W/sp/cmp-before-$l.json > /dev/null
@@ -63,6 +66,7 @@ cpts=("defaults|" "split-sphere-a0.2|--record-radius split-sphere -a 0.2" "a0.5-
 for i in 1 2 3; do for p in "${cpts[@]}"; do l=${p%%|*}; f=${p#*|}
   tm conf-$l $B render $CS --size 160x120 -o $W/conf/rs-$l.exr --stats $W/conf/stats-$l-$i.json --quiet $f
 done; done
+if [ "${CONF_REFS:-1}" = 1 ]; then
 el "Conference references (light samples 1, as the harness)"
 tm conf-ref4096 $B reference $CS --size 160x120 --light-samples 1 --spp 4096 --seed 1 -o $W/conf/ref4096.exr --quiet
 t=$(awk '$1 == "conf-ref4096" {print $2}' $R)
@@ -71,7 +75,12 @@ el "reference spp: $spp"
 tm conf-refA timeout 150 $B reference $CS --size 160x120 --light-samples 1 --spp $spp --seed 1 -o $W/conf/refA.exr --quiet
 tm conf-refB timeout 150 $B reference $CS --size 160x120 --light-samples 1 --spp $spp --seed 2 -o $W/conf/refB.exr --quiet
 echo "conference reference spp $spp" >> $R
+fi
 (cd $W/conf && tar czf $OUT/conference.tgz *.exr *.json)
+el "Glossy Spheres 96x72, frames 0..11: temporal and per frame"
+tm spheres-temporal timeout 60 $B animate scenes/spheres-glossy.toml --frames 0..11 --size 96x72 -o $W/sph-####.exr --stats $W/sph-temporal.json --quiet
+tm spheres-off timeout 60 $B animate scenes/spheres-glossy.toml --frames 0..11 --size 96x72 --temporal off -o $W/sphoff-####.exr --stats $W/sph-off.json --quiet
+cp $W/sph-temporal.json $W/sph-off.json $OUT/ 2>/dev/null
 el "Cornell box twice"
 $B render scenes/cornell-box.toml --size 128x128 -o $W/c1.exr --quiet
 $B render scenes/cornell-box.toml --size 128x128 -o $W/c2.exr --quiet
