@@ -302,22 +302,26 @@ pub struct RotationTable {
 impl RotationTable {
     pub fn new(method: RotationMethod, order: u32, beta_max: f64, steps: u32) -> Self {
         let steps = steps.max(2);
-        let mut matrices = Vec::new();
         let n = coefficient_count(order);
-        for s in 0..steps {
-            let beta = beta_max * f64::from(s) / f64::from(steps - 1);
+        // One matrix per angle, each on whichever core takes it (a quadrature of a few
+        // hundred directions each: most of a glossy animation's first-frame host setup).
+        let per_step = crate::parallel::ordered_map(steps as usize, |s| {
+            let beta = beta_max * s as f64 / f64::from(steps - 1);
             // The entries between the two kinds are zero but for the quadrature's rounding
             // (`is_sine_kind`): store exact zeros, which the GPU's block-wise tilt skips.
-            matrices.extend(rotation_matrix(method, order, beta).iter().enumerate().map(
-                |(k, &x)| {
+            rotation_matrix(method, order, beta)
+                .iter()
+                .enumerate()
+                .map(|(k, &x)| {
                     if is_sine_kind(k / n) == is_sine_kind(k % n) {
                         x as f32
                     } else {
                         0.0
                     }
-                },
-            ));
-        }
+                })
+                .collect::<Vec<f32>>()
+        });
+        let matrices = per_step.concat();
         Self {
             method,
             order,
