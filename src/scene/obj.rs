@@ -184,12 +184,23 @@ fn read_text(path: &Path) -> Result<String> {
 /// comment, or a first word (the statement keyword) with a character that is not printable
 /// ASCII. Comments may hold anything but line breaks.
 fn check_text(path: &Path, text: &str) -> Result<()> {
+    // Pieces of lines on every core; the first error in file order is the one returned.
+    let pieces = line_pieces(text);
+    crate::parallel::ordered_map(pieces.len(), |i| {
+        check_lines(path, pieces[i].first_line, pieces[i].text)
+    })
+    .into_iter()
+    .collect()
+}
+
+/// [`check_text`] of the lines of one piece, the first of them line `first_line + 1`.
+fn check_lines(path: &Path, first_line: usize, text: &str) -> Result<()> {
     for (index, line) in text.split('\n').enumerate() {
         let content = line.split_once('#').map_or(line, |(before, _)| before);
         let err = |message: String| {
             Error::invalid(
                 path,
-                format!("line {}", index + 1),
+                format!("line {}", first_line + index + 1),
                 format!("{message}: this is not an OBJ/MTL text file"),
             )
         };
@@ -217,7 +228,49 @@ fn check_text(path: &Path, text: &str) -> Result<()> {
     Ok(())
 }
 
+/// A run of whole lines of a text, for the checks that run on every core.
+#[derive(Clone, Copy)]
+struct LinePiece<'a> {
+    /// Index of the piece's first line in the text (0-based).
+    first_line: usize,
+    /// The lines, each with its line end (the last one's may lack it).
+    text: &'a str,
+}
+
+/// `text` cut after line ends into a few pieces per core (one piece for a short text).
+fn line_pieces(text: &str) -> Vec<LinePiece<'_>> {
+    const MIN_PIECE: usize = 1 << 16;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let parts = (text.len() / MIN_PIECE).clamp(1, 4 * cores);
+    let bytes = text.as_bytes();
+    let mut pieces = Vec::with_capacity(parts);
+    let (mut start, mut first_line) = (0, 0);
+    for k in 1..=parts {
+        let mut end = (text.len() * k / parts).max(start);
+        if k < parts {
+            // Just after the next line end (always a character boundary).
+            end = bytes[end..]
+                .iter()
+                .position(|&b| b == b'\n')
+                .map_or(text.len(), |i| end + i + 1);
+        } else {
+            end = text.len();
+        }
+        if end > start {
+            let piece = &text[start..end];
+            pieces.push(LinePiece {
+                first_line,
+                text: piece,
+            });
+            first_line += piece.bytes().filter(|&b| b == b'\n').count();
+            start = end;
+        }
+    }
+    pieces
+}
+
 /// What the pre-scan of an OBJ file learned.
+#[derive(Debug)]
 struct ObjScan {
     /// `(line number, name)` of each `mtllib` line, to name the line if the MTL is missing.
     mtllibs: Vec<(usize, String)>,
@@ -231,7 +284,7 @@ struct ObjScan {
 
 /// Counts of `v`, `vt`, `vn` lines of a whole file: positive face indices may refer forward
 /// (tobj resolves them at the end of each object), so they are checked against these.
-#[derive(Default)]
+#[derive(Clone, Copy, Default)]
 struct ElementCounts {
     positions: usize,
     texcoords: usize,
@@ -252,25 +305,77 @@ impl ElementCounts {
 /// Checks every line tobj interprets, mirroring its parser (see `parse_obj_line` in tobj
 /// 4.0), so that every error tobj could raise is reported here first, with a line number.
 fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
+    // On every core, a piece of lines each: first the element counts (face indices are
+    // checked against the whole file's and against those before their line), then the
+    // checks, each piece starting from the counts of the pieces before it; the results
+    // merge in file order, so the first error and the first line of each name are those
+    // of one pass over the file.
+    let pieces = line_pieces(text);
+    let counts = crate::parallel::ordered_map(pieces.len(), |i| {
+        let mut c = ElementCounts::default();
+        for line in pieces[i].text.lines() {
+            c.count_line(line);
+        }
+        c
+    });
     let mut totals = ElementCounts::default();
-    for line in text.lines() {
-        totals.count_line(line);
+    let mut before = Vec::with_capacity(counts.len());
+    for c in &counts {
+        before.push(totals);
+        totals.positions += c.positions;
+        totals.texcoords += c.texcoords;
+        totals.normals += c.normals;
     }
-    let mut seen = ElementCounts::default();
+    let parts = crate::parallel::ordered_map(pieces.len(), |i| {
+        scan_lines(path, pieces[i], before[i], &totals)
+    });
     let mut scan = ObjScan {
         mtllibs: Vec::new(),
         usemtls: Vec::new(),
         short_faces: 0,
         has_polylines: false,
     };
-    for (index, line) in text.lines().enumerate() {
-        let line_no = index + 1;
+    for part in parts {
+        let part = part?;
+        for (list, names) in [
+            (&mut scan.mtllibs, part.mtllibs),
+            (&mut scan.usemtls, part.usemtls),
+        ] {
+            for (line, name) in names {
+                if !list.iter().any(|(_, n)| *n == name) {
+                    list.push((line, name));
+                }
+            }
+        }
+        scan.short_faces += part.short_faces;
+        scan.has_polylines |= part.has_polylines;
+    }
+    Ok(scan)
+}
+
+/// [`scan_obj`]'s checks over one piece of lines, `seen` the elements of the lines before.
+fn scan_lines(
+    path: &Path,
+    piece: LinePiece<'_>,
+    mut seen: ElementCounts,
+    totals: &ElementCounts,
+) -> Result<ObjScan> {
+    let mut scan = ObjScan {
+        mtllibs: Vec::new(),
+        usemtls: Vec::new(),
+        short_faces: 0,
+        has_polylines: false,
+    };
+    let mut args: Vec<&str> = Vec::new();
+    for (index, line) in piece.text.lines().enumerate() {
+        let line_no = piece.first_line + index + 1;
         let err = |message: String| Error::invalid(path, format!("line {line_no}"), message);
         let mut words = line.split_whitespace();
         let Some(keyword) = words.next() else {
             continue;
         };
-        let args: Vec<&str> = words.collect();
+        args.clear();
+        args.extend(words);
         match keyword {
             "v" => {
                 check_position(&args).map_err(err)?;
@@ -289,7 +394,7 @@ fn scan_obj(path: &Path, text: &str) -> Result<ObjScan> {
                     return Err(err(format!("'{keyword}' without vertices")));
                 }
                 for vertex in &args {
-                    check_face_vertex(vertex, &seen, &totals).map_err(err)?;
+                    check_face_vertex(vertex, &seen, totals).map_err(err)?;
                 }
                 match (keyword, args.len()) {
                     ("f", 1 | 2) => scan.short_faces += 1,
@@ -820,6 +925,78 @@ mod tests {
         assert_eq!(texture_file_name("-s 1 1 1 -bm 0.5 a.png"), "a.png");
         assert_eq!(texture_file_name("my texture.png"), "my texture.png");
         assert_eq!(texture_file_name("tex\\a.jpg"), "tex/a.jpg");
+    }
+
+    /// A large OBJ (many pieces): `n` quads of fresh vertices, with `usemtl` lines at
+    /// the start, the middle and the end, and `extra` inserted after line `at` (1-based).
+    fn big_obj(n: usize, at: usize, extra: &str) -> String {
+        let mut lines = vec!["mtllib a.mtl".to_string(), "usemtl first".to_string()];
+        for i in 0..n {
+            let x = i as f32;
+            for (dx, dy) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+                lines.push(format!("v {} {} 0.5", x + dx, dy));
+            }
+            if i == n / 2 {
+                lines.push("usemtl middle".to_string());
+                lines.push("usemtl first".to_string());
+            }
+            lines.push("f -4 -3 -2 -1".to_string());
+        }
+        lines.push("usemtl last".to_string());
+        lines.insert(at, extra.to_string());
+        lines.join("\n") + "\n"
+    }
+
+    #[test]
+    fn pieces_cover_the_text_at_line_ends() {
+        let text = big_obj(20_000, 1, "# comment");
+        let pieces = line_pieces(&text);
+        assert!(pieces.len() > 1, "one piece for {} bytes", text.len());
+        let mut joined = String::new();
+        for p in &pieces {
+            assert_eq!(p.first_line, joined.matches('\n').count());
+            joined.push_str(p.text);
+            assert!(p.text.ends_with('\n'));
+        }
+        assert_eq!(joined, text);
+    }
+
+    /// The checks run on every core over pieces of lines, and say what one pass over the
+    /// whole file would: the first error's line, forward face references resolved against
+    /// the whole file, each material name at its first line.
+    #[test]
+    fn checks_over_pieces_report_the_lines_of_one_pass() {
+        let path = Path::new("big.obj");
+        let n = 20_000;
+        let ok = big_obj(n, 1, "# comment");
+        let scan = scan_obj(path, &ok).expect("valid OBJ");
+        let names =
+            |l: &[(usize, String)]| -> Vec<String> { l.iter().map(|(_, n)| n.clone()).collect() };
+        assert_eq!(names(&scan.usemtls), ["first", "middle", "last"]);
+        let middle_line = ok
+            .lines()
+            .position(|l| l == "usemtl middle")
+            .expect("middle")
+            + 1;
+        assert_eq!(scan.usemtls[1].0, middle_line);
+        assert_eq!(scan.usemtls[0].0, 3);
+        // A face near the end refers forward to a vertex defined later: allowed.
+        let late = 5 * n - 10;
+        assert!(scan_obj(path, &big_obj(n, late, "f 1 2 80000")).is_ok());
+        // ...but not beyond the file's last vertex: the error names that line.
+        let err = scan_obj(path, &big_obj(n, late, "f 1 2 80001"))
+            .expect_err("out of range")
+            .to_string();
+        assert!(err.contains(&format!("line {}", late + 1)), "{err}");
+        // Of two bad lines, the earlier one is reported, far apart in the file.
+        let mut two = big_obj(n, late, "v 1 nan 2");
+        two = two.replacen("f -4 -3 -2 -1\n", "v 1 2\nf -4 -3 -2 -1\n", 1);
+        let err = scan_obj(path, &two).expect_err("bad vertices").to_string();
+        assert!(err.contains("line 7:"), "{err}");
+        // A control character deep in the file, caught by the text check with its line.
+        let bad = big_obj(n, late, "v 1 2 \u{1} 3");
+        let err = check_text(path, &bad).expect_err("control").to_string();
+        assert!(err.contains(&format!("line {}", late + 1)), "{err}");
     }
 
     #[test]
