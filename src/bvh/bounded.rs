@@ -99,13 +99,16 @@ pub const OVERLAP_LIMIT: f32 = 32.0;
 /// `corners`: each triangle's three vertex positions, for the fan test (none for
 /// instances).
 pub fn degenerate(boxes: &[Aabb], corners: Option<&[[Vec3A; 3]]>) -> Option<Degenerate> {
-    use std::collections::HashMap;
+    // Only counts are read from the maps, so any hash gives the same answer; SipHash was
+    // a tenth of loading the conference room (700k corners, 233k boxes).
+    type HashMap<K, V> = std::collections::HashMap<K, V, std::hash::BuildHasherDefault<WordHasher>>;
     if boxes.len() <= COINCIDENT_LIMIT as usize {
         return None;
     }
     let key = |p: Vec3A| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
     if let Some(corners) = corners {
-        let mut valence: HashMap<[u32; 3], u32> = HashMap::with_capacity(corners.len());
+        let mut valence: HashMap<[u32; 3], u32> =
+            HashMap::with_capacity_and_hasher(corners.len(), Default::default());
         let mut worst = 0;
         for tri in corners {
             for &p in tri {
@@ -118,7 +121,8 @@ pub fn degenerate(boxes: &[Aabb], corners: Option<&[[Vec3A; 3]]>) -> Option<Dege
             return Some(Degenerate::Fan(worst));
         }
     }
-    let mut same: HashMap<([u32; 3], [u32; 3]), u32> = HashMap::with_capacity(boxes.len());
+    let mut same: HashMap<([u32; 3], [u32; 3]), u32> =
+        HashMap::with_capacity_and_hasher(boxes.len(), Default::default());
     let mut worst = 0;
     let mut root = Aabb::empty();
     let mut area = 0.0f64;
@@ -137,6 +141,28 @@ pub fn degenerate(boxes: &[Aabb], corners: Option<&[[Vec3A; 3]]>) -> Option<Dege
         return Some(Degenerate::Overlap((area / root_area) as u32));
     }
     None
+}
+
+/// A multiply-rotate hash of 32-bit words (FxHash's), for maps keyed by float bits.
+#[derive(Default)]
+struct WordHasher(u64);
+
+impl std::hash::Hasher for WordHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(4) {
+            let mut word = [0u8; 4];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u32(u32::from_le_bytes(word));
+        }
+    }
+
+    fn write_u32(&mut self, word: u32) {
+        self.0 = (self.0.rotate_left(5) ^ u64::from(word)).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
 }
 
 /// One node still to be built: its slot, its primitive range in `refs`, its height bound.
