@@ -619,42 +619,60 @@ impl Renderer {
         self.resolve.get(|| ResolvePass::new(&self.ctx))
     }
 
-    /// An empty irradiance cache with `settings` as a still frame uses them
-    /// ([`CacheSettings::resolved`]).
-    /// Builds, each on its own thread, the passes a frame runs (a GI frame with `cache`'s
-    /// settings, or direct light only), and returns the cache for those settings. Passes
-    /// are otherwise built at first use, one after the other: on a GPU whose driver
-    /// compiles at creation that is 110-230 ms of a Sponza frame on the H200 machine, and
-    /// here it can run while the scene loads (`radsplat render`).
+    /// Builds the passes a frame runs (a GI frame with `cache`'s settings, or direct light
+    /// only) on as many threads as there are cores, and returns the cache for those
+    /// settings. Passes are otherwise built at first use, one after the other: on a GPU
+    /// whose driver compiles at creation that was 110-230 ms of a Sponza frame on the H200
+    /// machine (lavapipe translates at creation too: 0.4 s of a Cornell box frame here),
+    /// and `radsplat render` runs this while the scene loads. More threads than cores
+    /// only made the builds contend (Cornell box 128x128: 0.51 s against 0.4 s serial).
     pub fn build_passes(&self, cache: Option<&CacheSettings>) -> Result<Option<IrradianceCache>> {
+        type Build<'a> = Box<dyn Fn() -> Result<()> + Sync + 'a>;
+        let built_cache = std::sync::Mutex::new(None);
+        // The record pass (several pipelines) first: it is the longest.
+        let mut builds: Vec<Build> = Vec::new();
+        if let Some(settings) = cache {
+            builds.push(Box::new(|| {
+                let cache = self.new_cache(settings)?;
+                *built_cache.lock().unwrap_or_else(|p| p.into_inner()) = Some(cache);
+                Ok(())
+            }));
+        }
+        builds.push(Box::new(|| self.visibility_pass().map(|_| ())));
+        builds.push(Box::new(|| self.direct_pass().map(|_| ())));
+        if cache.is_some() {
+            builds.push(Box::new(|| self.splat_pass().map(|_| ())));
+            builds.push(Box::new(|| self.placement_pass().map(|_| ())));
+            builds.push(Box::new(|| self.light_map_pass().map(|_| ())));
+            builds.push(Box::new(|| self.resolve_pass().map(|_| ())));
+        }
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let worker = || -> Result<()> {
+            loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                match builds.get(i) {
+                    Some(build) => build()?,
+                    None => return Ok(()),
+                }
+            }
+        };
         std::thread::scope(|s| {
-            let mut builds: Vec<std::thread::ScopedJoinHandle<'_, Result<()>>> = vec![
-                s.spawn(|| self.visibility_pass().map(|_| ())),
-                s.spawn(|| self.direct_pass().map(|_| ())),
-            ];
-            if cache.is_some() {
-                builds.push(s.spawn(|| self.splat_pass().map(|_| ())));
-                builds.push(s.spawn(|| self.placement_pass().map(|_| ())));
-                builds.push(s.spawn(|| self.light_map_pass().map(|_| ())));
-                builds.push(s.spawn(|| self.resolve_pass().map(|_| ())));
+            let workers: Vec<_> = (0..cores.min(builds.len()))
+                .map(|_| s.spawn(worker))
+                .collect();
+            for w in workers {
+                w.join()
+                    .unwrap_or_else(|_| Err(Error::Gpu("building a pass panicked".into())))?;
             }
-            let new_cache = cache.map(|settings| {
-                s.spawn(move || {
-                    let cache = self.new_cache(settings)?;
-                    cache.pass.tail_pass(&self.ctx)?;
-                    Ok::<_, Error>(cache)
-                })
-            });
-            fn joined<T>(r: std::thread::Result<Result<T>>) -> Result<T> {
-                r.unwrap_or_else(|_| Err(Error::Gpu("building a pass panicked".into())))
-            }
-            for b in builds {
-                joined(b.join())?;
-            }
-            new_cache.map(|c| joined(c.join())).transpose()
-        })
+            Ok::<_, Error>(())
+        })?;
+        drop(builds);
+        Ok(built_cache.into_inner().unwrap_or_else(|p| p.into_inner()))
     }
 
+    /// An empty irradiance cache with `settings` as a still frame uses them
+    /// ([`CacheSettings::resolved`]).
     pub fn new_cache(&self, settings: &CacheSettings) -> Result<IrradianceCache> {
         Ok(IrradianceCache {
             records: RecordCache::new(&self.ctx)?,
