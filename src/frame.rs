@@ -628,14 +628,26 @@ impl Renderer {
     /// only made the builds contend (Cornell box 128x128: 0.51 s against 0.4 s serial).
     pub fn build_passes(&self, cache: Option<&CacheSettings>) -> Result<Option<IrradianceCache>> {
         type Build<'a> = Box<dyn Fn() -> Result<()> + Sync + 'a>;
-        let built_cache = std::sync::Mutex::new(None);
+        // The record pass's build hands the cache over here (None inside: it failed).
+        let built_cache = std::sync::Mutex::new(None::<Option<IrradianceCache>>);
+        let handed_over = std::sync::Condvar::new();
         // The record pass (several pipelines) first: it is the longest.
         let mut builds: Vec<Build> = Vec::new();
         if let Some(settings) = cache {
             builds.push(Box::new(|| {
-                let cache = self.new_cache(settings)?;
-                *built_cache.lock().unwrap_or_else(|p| p.into_inner()) = Some(cache);
-                Ok(())
+                // Even a panic hands over (nothing), so that the tail's build stops waiting.
+                let cache = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    self.new_cache(settings)
+                }))
+                .unwrap_or_else(|_| Err(Error::Gpu("building the record pass panicked".into())));
+                let mut slot = built_cache.lock().unwrap_or_else(|p| p.into_inner());
+                let (kept, result) = match cache {
+                    Ok(c) => (Some(c), Ok(())),
+                    Err(e) => (None, Err(e)),
+                };
+                *slot = Some(kept);
+                handed_over.notify_all();
+                result
             }));
         }
         builds.push(Box::new(|| self.visibility_pass().map(|_| ())));
@@ -646,8 +658,22 @@ impl Renderer {
             builds.push(Box::new(|| self.light_map_pass().map(|_| ())));
             builds.push(Box::new(|| self.resolve_pass().map(|_| ())));
         }
-        let next = std::sync::atomic::AtomicUsize::new(0);
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        // A spare core also builds the pass of tail fill's coarser planes, which large
+        // images use (otherwise built when the tail begins; small images never use it).
+        if cache.is_some() && cores > builds.len() {
+            builds.push(Box::new(|| {
+                let mut slot = built_cache.lock().unwrap_or_else(|p| p.into_inner());
+                while slot.is_none() {
+                    slot = handed_over.wait(slot).unwrap_or_else(|p| p.into_inner());
+                }
+                match slot.as_ref().and_then(Option::as_ref) {
+                    Some(cache) => cache.pass.tail_pass(&self.ctx).map(|_| ()),
+                    None => Ok(()),
+                }
+            }));
+        }
+        let next = std::sync::atomic::AtomicUsize::new(0);
         let worker = || -> Result<()> {
             loop {
                 let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
@@ -668,7 +694,10 @@ impl Renderer {
             Ok::<_, Error>(())
         })?;
         drop(builds);
-        Ok(built_cache.into_inner().unwrap_or_else(|p| p.into_inner()))
+        Ok(built_cache
+            .into_inner()
+            .unwrap_or_else(|p| p.into_inner())
+            .flatten())
     }
 
     /// An empty irradiance cache with `settings` as a still frame uses them
