@@ -627,6 +627,18 @@ impl Renderer {
     /// and `radsplat render` runs this while the scene loads. More threads than cores
     /// only made the builds contend (Cornell box 128x128: 0.51 s against 0.4 s serial).
     pub fn build_passes(&self, cache: Option<&CacheSettings>) -> Result<Option<IrradianceCache>> {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        self.build_passes_on(cache, cores)
+    }
+
+    /// [`Self::build_passes`] on up to `threads` threads (at least one); with more threads
+    /// than passes, one also builds tail fill's record pass.
+    pub fn build_passes_on(
+        &self,
+        cache: Option<&CacheSettings>,
+        threads: usize,
+    ) -> Result<Option<IrradianceCache>> {
+        let cores = threads.max(1);
         type Build<'a> = Box<dyn Fn() -> Result<()> + Sync + 'a>;
         // The record pass's build hands the cache over here (None inside: it failed).
         let built_cache = std::sync::Mutex::new(None::<Option<IrradianceCache>>);
@@ -658,7 +670,6 @@ impl Renderer {
             builds.push(Box::new(|| self.light_map_pass().map(|_| ())));
             builds.push(Box::new(|| self.resolve_pass().map(|_| ())));
         }
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         // A spare core also builds the pass of tail fill's coarser planes, which large
         // images use (otherwise built when the tail begins; small images never use it).
         if cache.is_some() && cores > builds.len() {

@@ -355,6 +355,53 @@ fn placement_waits_for_the_device_twice_per_round_and_still_times_its_passes() {
     }
 }
 
+/// Passes built ahead on many threads (`radsplat render` builds them while the scene
+/// loads; with threads to spare, tail fill's record pass too) render what passes built at
+/// first use do, byte for byte, and a failing record pass ends the build with its error
+/// instead of leaving the tail's build waiting.
+#[test]
+fn passes_built_ahead_on_many_threads_render_the_same_bytes() {
+    let scene = common::load("cornell-box.toml", Some((64, 64)));
+    let lazy = Renderer::new(common::gpu()).expect("renderer");
+    let mut cache = lazy.new_cache(&settings()).expect("cache");
+    let want = exr_out::encode_exr(
+        64,
+        64,
+        &exr_out::frame_channels(&render(&lazy, &scene, &mut cache)),
+    )
+    .expect("exr");
+    for threads in [1, 16] {
+        let ahead = Renderer::new(common::gpu()).expect("renderer");
+        let mut cache = ahead
+            .build_passes_on(Some(&settings()), threads)
+            .expect("passes")
+            .expect("a cache for GI settings");
+        let got = exr_out::encode_exr(
+            64,
+            64,
+            &exr_out::frame_channels(&render(&ahead, &scene, &mut cache)),
+        )
+        .expect("exr");
+        assert!(got == want, "{threads} threads: other bytes");
+        assert!(
+            ahead
+                .build_passes_on(None, threads)
+                .expect("direct passes")
+                .is_none(),
+            "a cache without GI settings"
+        );
+    }
+    let broken = CacheSettings {
+        plane_resolution: 0,
+        ..settings()
+    };
+    let ahead = Renderer::new(common::gpu()).expect("renderer");
+    assert!(
+        ahead.build_passes_on(Some(&broken), 16).is_err(),
+        "a zero plane resolution built"
+    );
+}
+
 /// SHA-256 of the 64x64 Cornell box GI EXR (test settings) on lavapipe, Mesa 22.3.6.
 /// Changed on purpose in issue 17's fourth pass (records sized by the irradiance's Hessian,
 /// a 0.25): the indirect light's relative RMSE against a 2,048-spp reference (`radsplat
