@@ -225,145 +225,123 @@ impl PlacementPass {
         mask: &CoverageMask,
         light_maps: Option<&LightMaps>,
         limit: Option<u32>,
-        stage: Option<&mut (dyn RecordStage + '_)>,
-        times: &mut Vec<(&'static str, f64)>,
-        progress: impl FnMut(u32),
-    ) -> Result<PlacementStats> {
-        let (stats, deferred) = ctx.deferring_pass_times(|| {
-            self.place_rounds(
-                ctx, scene, vis, cache, records, splat_pass, bounds, mask, light_maps, limit,
-                stage, times, progress,
-            )
-        })?;
-        times.extend(deferred);
-        Ok(stats)
-    }
-
-    /// [`Self::place`]'s rounds.
-    #[allow(clippy::too_many_arguments)]
-    fn place_rounds(
-        &self,
-        ctx: &GpuContext,
-        scene: &GpuScene,
-        vis: &VisibilityBuffer,
-        cache: &mut RecordCache,
-        records: &RecordPass,
-        splat_pass: &SplatPass,
-        bounds: &TileBounds,
-        mask: &CoverageMask,
-        light_maps: Option<&LightMaps>,
-        limit: Option<u32>,
         mut stage: Option<&mut (dyn RecordStage + '_)>,
         times: &mut Vec<(&'static str, f64)>,
         mut progress: impl FnMut(u32),
     ) -> Result<PlacementStats> {
-        let settings = &records.settings;
-        let mut stats = PlacementStats::default();
-        let mut cell = FIRST_CELL;
-        let mut fine_cycles = 0;
-        // Covers at the tail's accuracy once at most `tail_share` of the visible pixels is
-        // uncovered (checked before the first round too: held records may cover enough).
-        let tail_accuracy = settings.tail_accuracy();
-        let tail = if tail_accuracy > settings.accuracy {
-            Some(TailFill::start(
-                ctx,
-                scene,
-                vis,
-                splat_pass,
-                mask,
-                settings.tail_share,
-            )?)
-        } else {
-            None
-        };
-        let mut cover_accuracy = settings.accuracy;
-        loop {
-            let mut placed = 0;
-            let mut parity = 0;
-            while parity < 4 {
-                let (lists, marked) = self.candidates(ctx, scene, vis, mask, cell, parity)?;
-                // Tail fill begins once the records so far cover enough (the marks are
-                // those after the last round).
-                if let Some(tail) = &tail
-                    && cover_accuracy < tail_accuracy
-                    && tail.reached(marked, cache.count)
-                {
-                    cover_accuracy = tail_accuracy;
-                    stats.tail_from_record = Some(cache.count);
-                }
-                let Some((skipped, mut pixels)) = lists
-                    .into_iter()
-                    .enumerate()
-                    .find(|(_, pixels)| !pixels.is_empty())
-                else {
-                    break;
-                };
-                parity += skipped as u32 + 1;
-                let room_budget = settings.record_budget.saturating_sub(cache.count);
-                let room_limit = limit.map_or(u32::MAX, |l| l.saturating_sub(stats.new_records));
-                let room = room_budget.min(room_limit) as usize;
-                if pixels.len() > room {
-                    pixels.truncate(room);
-                    stats.limit_reached = true;
-                }
-                if !pixels.is_empty() {
-                    let n = pixels.len() as u32;
-                    let first = cache.count;
-                    let sites = records.sites_from_pixels(ctx, scene, vis, &pixels, first)?;
-                    // The tail's records trace coarser planes (they answer to its wider
-                    // accuracy).
-                    let in_tail = stats.tail_from_record.is_some();
-                    let pass = if in_tail {
-                        records.tail_pass(ctx)?
-                    } else {
-                        records
-                    };
-                    if in_tail {
-                        stats.tail_records += n;
-                    }
-                    if pass.settings.source != RecordSource::Vpl {
-                        stats.plane_rays += u64::from(n) * pass.settings.plane_rays_per_record();
-                    }
-                    times.extend(pass.compute(
-                        ctx,
-                        scene,
-                        &sites,
-                        n,
-                        cache,
-                        light_maps,
-                        stage.as_deref_mut(),
-                        |_| {},
-                    )?);
-                    let new_records = SplatSource {
-                        scene,
-                        vis,
-                        bounds,
-                        records: cache,
-                        first,
-                        accuracy: cover_accuracy,
-                    };
-                    splat_pass.cover(ctx, new_records, mask, times)?;
-                    stats.new_records += n;
-                    stats.rounds += 1;
-                    placed += n;
-                    progress(stats.new_records);
-                }
-                if stats.limit_reached {
-                    return Ok(stats);
-                }
-            }
-            if placed == 0 {
-                return Ok(stats);
-            }
-            if cell > LAST_CELL {
-                cell /= 2;
+        let (stats, deferred) = ctx.deferring_pass_times(|| {
+            let settings = &records.settings;
+            let mut stats = PlacementStats::default();
+            let mut cell = FIRST_CELL;
+            let mut fine_cycles = 0;
+            // Covers at the tail's accuracy once at most `tail_share` of the visible pixels is
+            // uncovered (checked before the first round too: held records may cover enough).
+            let tail_accuracy = settings.tail_accuracy();
+            let tail = if tail_accuracy > settings.accuracy {
+                Some(TailFill::start(
+                    ctx,
+                    scene,
+                    vis,
+                    splat_pass,
+                    mask,
+                    settings.tail_share,
+                )?)
             } else {
-                fine_cycles += 1;
-                if fine_cycles >= MAX_FINE_CYCLES {
-                    stats.limit_reached = true;
+                None
+            };
+            let mut cover_accuracy = settings.accuracy;
+            loop {
+                let mut placed = 0;
+                let mut parity = 0;
+                while parity < 4 {
+                    let (lists, marked) = self.candidates(ctx, scene, vis, mask, cell, parity)?;
+                    // Tail fill begins once the records so far cover enough (the marks are
+                    // those after the last round).
+                    if let Some(tail) = &tail
+                        && cover_accuracy < tail_accuracy
+                        && tail.reached(marked, cache.count)
+                    {
+                        cover_accuracy = tail_accuracy;
+                        stats.tail_from_record = Some(cache.count);
+                    }
+                    let Some((skipped, mut pixels)) = lists
+                        .into_iter()
+                        .enumerate()
+                        .find(|(_, pixels)| !pixels.is_empty())
+                    else {
+                        break;
+                    };
+                    parity += skipped as u32 + 1;
+                    let room_budget = settings.record_budget.saturating_sub(cache.count);
+                    let room_limit =
+                        limit.map_or(u32::MAX, |l| l.saturating_sub(stats.new_records));
+                    let room = room_budget.min(room_limit) as usize;
+                    if pixels.len() > room {
+                        pixels.truncate(room);
+                        stats.limit_reached = true;
+                    }
+                    if !pixels.is_empty() {
+                        let n = pixels.len() as u32;
+                        let first = cache.count;
+                        let sites = records.sites_from_pixels(ctx, scene, vis, &pixels, first)?;
+                        // The tail's records trace coarser planes (they answer to its wider
+                        // accuracy).
+                        let in_tail = stats.tail_from_record.is_some();
+                        let pass = if in_tail {
+                            records.tail_pass(ctx)?
+                        } else {
+                            records
+                        };
+                        if in_tail {
+                            stats.tail_records += n;
+                        }
+                        if pass.settings.source != RecordSource::Vpl {
+                            stats.plane_rays +=
+                                u64::from(n) * pass.settings.plane_rays_per_record();
+                        }
+                        times.extend(pass.compute(
+                            ctx,
+                            scene,
+                            &sites,
+                            n,
+                            cache,
+                            light_maps,
+                            stage.as_deref_mut(),
+                            |_| {},
+                        )?);
+                        let new_records = SplatSource {
+                            scene,
+                            vis,
+                            bounds,
+                            records: cache,
+                            first,
+                            accuracy: cover_accuracy,
+                        };
+                        splat_pass.cover(ctx, new_records, mask, times)?;
+                        stats.new_records += n;
+                        stats.rounds += 1;
+                        placed += n;
+                        progress(stats.new_records);
+                    }
+                    if stats.limit_reached {
+                        return Ok(stats);
+                    }
+                }
+                if placed == 0 {
                     return Ok(stats);
                 }
+                if cell > LAST_CELL {
+                    cell /= 2;
+                } else {
+                    fine_cycles += 1;
+                    if fine_cycles >= MAX_FINE_CYCLES {
+                        stats.limit_reached = true;
+                        return Ok(stats);
+                    }
+                }
             }
-        }
+        })?;
+        times.extend(deferred);
+        Ok(stats)
     }
 }
