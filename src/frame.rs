@@ -632,7 +632,7 @@ impl Renderer {
     }
 
     /// [`Self::build_passes`] on up to `threads` threads (at least one); with more threads
-    /// than passes, one also builds tail fill's record pass.
+    /// than passes, the record pass's thread also builds tail fill's record pass.
     pub fn build_passes_on(
         &self,
         cache: Option<&CacheSettings>,
@@ -640,49 +640,35 @@ impl Renderer {
     ) -> Result<Option<IrradianceCache>> {
         let cores = threads.max(1);
         type Build<'a> = Box<dyn Fn() -> Result<()> + Sync + 'a>;
-        // The record pass's build hands the cache over here (None inside: it failed).
-        let built_cache = std::sync::Mutex::new(None::<Option<IrradianceCache>>);
-        let handed_over = std::sync::Condvar::new();
-        // The record pass (several pipelines) first: it is the longest.
-        let mut builds: Vec<Build> = Vec::new();
+        let built_cache = std::sync::Mutex::new(None);
+        let mut builds: Vec<Build> = vec![
+            Box::new(|| self.visibility_pass().map(|_| ())),
+            Box::new(|| self.direct_pass().map(|_| ())),
+        ];
         if let Some(settings) = cache {
-            builds.push(Box::new(|| {
-                // Even a panic hands over (nothing), so that the tail's build stops waiting.
-                let cache = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                    self.new_cache(settings)
-                }))
-                .unwrap_or_else(|_| Err(Error::Gpu("building the record pass panicked".into())));
-                let mut slot = built_cache.lock().unwrap_or_else(|p| p.into_inner());
-                let (kept, result) = match cache {
-                    Ok(c) => (Some(c), Ok(())),
-                    Err(e) => (None, Err(e)),
-                };
-                *slot = Some(kept);
-                handed_over.notify_all();
-                result
-            }));
-        }
-        builds.push(Box::new(|| self.visibility_pass().map(|_| ())));
-        builds.push(Box::new(|| self.direct_pass().map(|_| ())));
-        if cache.is_some() {
-            builds.push(Box::new(|| self.splat_pass().map(|_| ())));
-            builds.push(Box::new(|| self.placement_pass().map(|_| ())));
-            builds.push(Box::new(|| self.light_map_pass().map(|_| ())));
-            builds.push(Box::new(|| self.resolve_pass().map(|_| ())));
-        }
-        // A spare core also builds the pass of tail fill's coarser planes, which large
-        // images use (otherwise built when the tail begins; small images never use it).
-        if cache.is_some() && cores > builds.len() {
-            builds.push(Box::new(|| {
-                let mut slot = built_cache.lock().unwrap_or_else(|p| p.into_inner());
-                while slot.is_none() {
-                    slot = handed_over.wait(slot).unwrap_or_else(|p| p.into_inner());
-                }
-                match slot.as_ref().and_then(Option::as_ref) {
-                    Some(cache) => cache.pass.tail_pass(&self.ctx).map(|_| ()),
-                    None => Ok(()),
-                }
-            }));
+            builds.extend([
+                Box::new(|| self.splat_pass().map(|_| ())) as Build,
+                Box::new(|| self.placement_pass().map(|_| ())),
+                Box::new(|| self.light_map_pass().map(|_| ())),
+                Box::new(|| self.resolve_pass().map(|_| ())),
+            ]);
+            // A spare core also builds the pass of tail fill's coarser planes after the
+            // record pass (large images use it; otherwise it is built when the tail
+            // begins, and small images never use it).
+            let tail = cores > builds.len() + 1;
+            let built = &built_cache;
+            // The record pass (several pipelines) first: it is the longest.
+            builds.insert(
+                0,
+                Box::new(move || {
+                    let cache = self.new_cache(settings)?;
+                    if tail {
+                        cache.pass.tail_pass(&self.ctx)?;
+                    }
+                    *built.lock().unwrap_or_else(|p| p.into_inner()) = Some(cache);
+                    Ok(())
+                }),
+            );
         }
         let next = std::sync::atomic::AtomicUsize::new(0);
         let worker = || -> Result<()> {
@@ -705,10 +691,7 @@ impl Renderer {
             Ok::<_, Error>(())
         })?;
         drop(builds);
-        Ok(built_cache
-            .into_inner()
-            .unwrap_or_else(|p| p.into_inner())
-            .flatten())
+        Ok(built_cache.into_inner().unwrap_or_else(|p| p.into_inner()))
     }
 
     /// An empty irradiance cache with `settings` as a still frame uses them

@@ -200,9 +200,15 @@ impl GpuContext {
     /// invocation may trace ([`LLVMPIPE_MAX_SHADOW_RAYS`]). False for devices handed to
     /// [`GpuContext::from_device`] (their adapter is unknown).
     pub fn stops_long_loops(&self) -> bool {
+        self.is_llvmpipe() == Some(true)
+    }
+
+    /// Whether the adapter is llvmpipe; None for devices handed to
+    /// [`GpuContext::from_device`] (their adapter is unknown).
+    fn is_llvmpipe(&self) -> Option<bool> {
         self.adapter_info
             .as_ref()
-            .is_some_and(|i| i.name.to_ascii_lowercase().contains("llvmpipe"))
+            .map(|i| i.name.to_ascii_lowercase().contains("llvmpipe"))
     }
 
     /// Whether the driver may compile a pipeline only at its first dispatch (llvmpipe runs
@@ -210,9 +216,7 @@ impl GpuContext {
     /// dispatch first. True also for devices handed to [`GpuContext::from_device`], whose
     /// driver is unknown.
     pub fn compiles_at_first_dispatch(&self) -> bool {
-        self.adapter_info
-            .as_ref()
-            .is_none_or(|i| i.name.to_ascii_lowercase().contains("llvmpipe"))
+        self.is_llvmpipe() != Some(false)
     }
 
     /// Refuses `rays` shadow rays per invocation on llvmpipe beyond

@@ -104,19 +104,30 @@ impl PassTimer {
             }
         }
         let ticks: Vec<u64> = ctx.read_buffer(buf)?;
-        let period = f64::from(ctx.queue.get_timestamp_period());
-        Ok(self
-            .names
-            .iter()
-            .enumerate()
-            .map(|(i, n)| {
-                (
-                    *n,
-                    ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * period * 1e-6,
-                )
-            })
-            .collect())
+        let mut times = Vec::with_capacity(self.names.len());
+        durations(ctx, &self.names, &ticks, &mut times)?;
+        Ok(times)
     }
+}
+
+/// Appends `(name, ms)` for each pass of `names` from its begin/end timestamp pair in
+/// `ticks`.
+fn durations(
+    ctx: &GpuContext,
+    names: &[&'static str],
+    ticks: &[u64],
+    out: &mut Vec<(&'static str, f64)>,
+) -> Result<()> {
+    let period = f64::from(ctx.queue.get_timestamp_period());
+    for (i, n) in names.iter().enumerate() {
+        let (Some(&begin), Some(&end)) = (ticks.get(2 * i), ticks.get(2 * i + 1)) else {
+            return Err(crate::Error::Gpu(
+                "internal: pass timer readback incomplete".into(),
+            ));
+        };
+        out.push((*n, end.saturating_sub(begin) as f64 * period * 1e-6));
+    }
+    Ok(())
 }
 
 /// A submitted timer whose timestamps are read later (its resolve buffer and pass names).
@@ -163,17 +174,9 @@ impl GpuContext {
         }
         let buffers: Vec<&wgpu::Buffer> = pending.iter().map(|p| &p.resolved).collect();
         let ticks: Vec<Vec<u64>> = self.read_buffers(&buffers)?;
-        let period = f64::from(self.queue.get_timestamp_period());
         let mut times = Vec::new();
         for (p, t) in pending.iter().zip(&ticks) {
-            for (i, n) in p.names.iter().enumerate() {
-                let (Some(&begin), Some(&end)) = (t.get(2 * i), t.get(2 * i + 1)) else {
-                    return Err(crate::Error::Gpu(
-                        "internal: pass timer readback incomplete".into(),
-                    ));
-                };
-                times.push((*n, end.saturating_sub(begin) as f64 * period * 1e-6));
-            }
+            durations(self, &p.names, t, &mut times)?;
         }
         Ok((r, times))
     }

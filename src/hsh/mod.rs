@@ -258,6 +258,7 @@ pub(crate) fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
 
     /// The allocation-free basis (tables of Legendre values and normalisations) gives the
     /// bits of the direct formula at every order up to MAX_ORDER, and higher orders (the
@@ -299,8 +300,6 @@ mod tests {
         assert_eq!(high.len(), coefficient_count(MAX_ORDER + 5));
         assert!(high.iter().all(|v| v.is_finite()));
     }
-
-    use super::*;
 
     #[test]
     fn the_basis_is_orthonormal_over_the_hemisphere() {

@@ -143,7 +143,6 @@ impl PlacementPass {
     /// fill): one submission and one wait. Placement uses the first class with
     /// candidates; its records change the coverage, so the later classes are selected
     /// again after them (a class without candidates has none after more coverage either).
-    #[allow(clippy::too_many_arguments)]
     fn candidates(
         &self,
         ctx: &GpuContext,

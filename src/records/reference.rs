@@ -177,11 +177,14 @@ pub fn reduce_plane(
     }
     let r_min = f64::from(site.r_min);
     let r_max = r_min * f64::from(settings.r_max_factor);
+    // Ward's split sphere: the cosine-weighted harmonic mean distance (R_max without hits).
+    let split_sphere = if inv_distance > 0.0 {
+        (weight_sum / inv_distance).clamp(r_min, r_max)
+    } else {
+        r_max
+    };
     let mut radius = match settings.record_radius {
-        super::RecordRadius::SplitSphere if inv_distance > 0.0 => {
-            (weight_sum / inv_distance).clamp(r_min, r_max)
-        }
-        super::RecordRadius::SplitSphere => r_max,
+        super::RecordRadius::SplitSphere => split_sphere,
         super::RecordRadius::Hessian { scale } => {
             let far = super::hessian::MISS_DISTANCE * r_max;
             let h = super::hessian::plane_hessian(plane, samples, far);
@@ -194,9 +197,9 @@ pub fn reduce_plane(
                 / std::f64::consts::PI;
             if lum > 0.0 && lambda > 0.0 {
                 (f64::from(scale) * (lum / lambda).sqrt()).clamp(r_min, r_max)
-            } else if lum <= 0.0 && inv_distance > 0.0 {
+            } else if lum <= 0.0 {
                 // A dark plane: the split sphere's radius (record_reduce.wgsl).
-                (weight_sum / inv_distance).clamp(r_min, r_max)
+                split_sphere
             } else {
                 r_max
             }
