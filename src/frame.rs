@@ -155,7 +155,8 @@ pub struct CacheFrameStats {
     #[serde(flatten)]
     pub placement: PlacementStats,
     /// Hemisphere-plane rays traced this frame (one per plane pixel, plus the sub-samples
-    /// of refined pixels; shadow rays of the plane hits not counted).
+    /// of refined pixels, every pixel's for planes that saw no light; shadow rays of the
+    /// plane hits not counted).
     pub plane_rays: u64,
     /// Visible pixels no record covers after placement.
     pub uncovered_pixels: u64,
@@ -1027,6 +1028,7 @@ impl Renderer {
         // Radiance records: their own placement over the pixels with lobes they shade, at
         // their own accuracy, then their gather.
         let mut radiance_stats = (0, 0, 0);
+        let mut radiance_pass = None;
         let mut radiance_covers_all = false;
         let radiance_sums = match radiance {
             Some(rf) => {
@@ -1060,6 +1062,7 @@ impl Renderer {
                     &mut times,
                     |_| {},
                 )?;
+                radiance_pass = Some(rf.pass);
                 radiance_stats = (
                     rf.records.count,
                     placed.new_records,
@@ -1097,6 +1100,12 @@ impl Renderer {
             Some(v) => u64::from(placement.new_records) * u64::from(v.slots),
             None => placement.plane_rays,
         };
+        // Planes that saw no light were refined everywhere: their rays beyond the count
+        // above.
+        let mut dark_plane_rays = pass.take_dark_plane_rays(ctx)?;
+        if let Some(p) = radiance_pass {
+            dark_plane_rays += p.take_dark_plane_rays(ctx)?;
+        }
         let (width, height) = (camera.width, camera.height);
         let stats = |times: &[(&'static str, f64)], uncovered_pixels| FrameStats {
             width,
@@ -1110,7 +1119,10 @@ impl Renderer {
                 records: records.count,
                 reused_records,
                 plane_rays: record_rays
-                    + u64::from(radiance_stats.1) * pass.settings.plane_rays_per_record(),
+                    + radiance_pass.map_or(0, |p| {
+                        u64::from(radiance_stats.1) * p.settings.plane_rays_per_record()
+                    })
+                    + dark_plane_rays,
                 placement,
                 uncovered_pixels,
                 radiance_records: radiance_stats.0,

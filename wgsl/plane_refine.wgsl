@@ -4,7 +4,9 @@
 // replaced by the weighted mean of its centre ray and those: radiance
 // `L_c w_c + sum L_i w_i`, depth the same weighted harmonic mean of the hit depths (misses
 // add 0 to the sum of 1/Z, as in R), so the reduction (record_reduce.wgsl, unchanged)
-// reads refined pixels. One invocation per (selected pixel, record).
+// reads refined pixels. One invocation per (selected pixel, record). A dark plane's
+// selection is DARK_PLANE in every slot: then the record's invocations share all its
+// pixels, each refined once (records::refine::refine_plane).
 //!include shared/plane.wgsl
 //!include shared/bounce_cache.wgsl
 
@@ -18,6 +20,9 @@ struct RefineParams {
     light_choices: u32,     // lights sampled per hit (`shadow_loop_start_chosen`)
     _pad1: u32,
 }
+
+// Every slot of a dark plane's selection (plane_refine_select.wgsl).
+const DARK_PLANE: u32 = 0xffffffffu;
 
 // Rust: records::plane::RefineSample.
 struct RefineSample {
@@ -49,23 +54,41 @@ fn main(
     @builtin(local_invocation_index) lane: u32,
 ) {
     bvh_stack_init(lane);
-    if id.x >= params.refined || id.z >= params.count {
+    if id.z >= params.count {
         return;
     }
     let n = params.resolution * params.resolution;
-    let pixel = selected[id.z * params.refined + id.x];
     let site = sites[id.z];
-    let centre = samples[id.z * n + pixel];
-    var radiance = centre.radiance * params.centre_weight;
-    var inv_depth = select(0.0, params.centre_weight / centre.depth, centre.depth > 0.0);
-    for (var q = 0u; q < params.subsamples; q++) {
-        let sub = subs[pixel * params.subsamples + q];
-        let dir = plane_point_direction(site, sub.center);
-        let s = trace_plane_ray(site, dir, n + pixel * params.subsamples + q).sample;
-        radiance += s.radiance * sub.weight;
-        if s.depth > 0.0 {
-            inv_depth += sub.weight / s.depth;
+    let base = id.z * n;
+    // One selected pixel per invocation; a dark plane's pixels j, j + L, ... for each of
+    // the dispatch's L lanes of the record (K rounded up to whole workgroups): every lane
+    // works, and one loop holds the tracing, so that it is compiled once (lavapipe inlines
+    // every call of it).
+    let dark = selected[id.z * params.refined] == DARK_PLANE;
+    var k = id.x;
+    var step = ((params.refined + 63u) / 64u) * 64u;
+    var end = n;
+    if !dark {
+        if id.x >= params.refined {
+            return;
         }
+        k = selected[id.z * params.refined + id.x];
+        step = n;
+        end = k + 1u;
     }
-    samples[id.z * n + pixel] = PlaneSample(radiance, select(-1.0, 1.0 / inv_depth, inv_depth > 0.0));
+    for (; k < end; k += step) {
+        let centre = samples[base + k];
+        var radiance = centre.radiance * params.centre_weight;
+        var inv_depth = select(0.0, params.centre_weight / centre.depth, centre.depth > 0.0);
+        for (var q = 0u; q < params.subsamples; q++) {
+            let sub = subs[k * params.subsamples + q];
+            let dir = plane_point_direction(site, sub.center);
+            let s = trace_plane_ray(site, dir, n + k * params.subsamples + q).sample;
+            radiance += s.radiance * sub.weight;
+            if s.depth > 0.0 {
+                inv_depth += sub.weight / s.depth;
+            }
+        }
+        samples[base + k] = PlaneSample(radiance, select(-1.0, 1.0 / inv_depth, inv_depth > 0.0));
+    }
 }

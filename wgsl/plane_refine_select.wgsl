@@ -5,14 +5,17 @@
 // sum r + g + b to a 4-neighbour, times the pixel's cosine weight (what a wrong pixel costs
 // E). Ties go to the lower pixel index. The selection is exact and deterministic: a radix
 // select on the contrast's bits (non-negative floats order as their bits) with integer
-// workgroup histograms, then prefix sums in pixel order. The CPU mirror is
-// records::refine::select_pixels.
+// workgroup histograms, then prefix sums in pixel order. A plane without light anywhere
+// has no contrast to rank: its K slots all say DARK_PLANE, and plane_refine.wgsl then
+// refines every pixel of it. The CPU mirror is records::refine::select_pixels.
 //!include shared/records.wgsl
 
 // 64 threads: a 24x24 plane gives each 9 pixels. On lavapipe a workgroup's threads run as
 // SIMD loops split at every barrier, so the select's dozen barriers cost per thread: 256
 // threads (2-3 pixels each) spent more on them than on the pixels.
 const THREADS: u32 = 64u;
+// Every slot of a dark plane's selection (records::refine::DARK_PLANE).
+const DARK_PLANE: u32 = 0xffffffffu;
 
 struct SelectParams {
     resolution: u32,
@@ -26,9 +29,12 @@ struct SelectParams {
 @group(1) @binding(2) var<storage, read> samples: array<PlaneSample>;
 @group(1) @binding(3) var<storage, read_write> keys: array<u32>;
 @group(1) @binding(4) var<storage, read_write> selected: array<u32>;
+// Planes refined everywhere, for the frame's ray count (RefinePass::take_dark_planes).
+@group(1) @binding(5) var<storage, read_write> dark_planes: array<atomic<u32>>;
 
 var<workgroup> histogram: array<atomic<u32>, 256>;
 var<workgroup> lit: atomic<u32>;   // any sample of the plane has light
+var<workgroup> plane_dark: u32;    // `lit` read once, for a uniform branch
 var<workgroup> counts: array<u32, THREADS>;
 var<workgroup> prefix_key: u32;
 var<workgroup> remaining: u32;
@@ -61,10 +67,11 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     let chunk = (n + THREADS - 1u) / THREADS;
     let first = min(lane * chunk, n);
     let last = min(first + chunk, n);
-    // A plane without light anywhere (the record's irradiance would be exactly zero)
-    // refines its border instead: the stretched border pixels stand for the grazing band,
-    // where light the centre rays missed can lie (a floor under an arcade lit only by a
-    // sunlit floor at a few degrees of elevation). CPU mirror: `contrast_keys`.
+    // A plane without light anywhere (the record's irradiance would be exactly zero) is
+    // refined everywhere instead: P^2 centre rays can miss light of a small solid angle
+    // (an arcade's floor that sees the sunlit court only between columns, a few degrees
+    // above its horizon), and a record that misses it spreads exact zeros. CPU mirror:
+    // `select_pixels`.
     if lane == 0u {
         atomicStore(&lit, 0u);
     }
@@ -76,14 +83,20 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         }
     }
     workgroupBarrier();
-    let dark = atomicLoad(&lit) == 0u;
+    if lane == 0u {
+        plane_dark = u32(atomicLoad(&lit) == 0u);
+    }
+    if workgroupUniformLoad(&plane_dark) != 0u {
+        if lane == 0u {
+            atomicAdd(&dark_planes[0], 1u);
+        }
+        for (var slot = lane; slot < params.refined; slot += THREADS) {
+            selected[record * params.refined + slot] = DARK_PLANE;
+        }
+        return;
+    }
     for (var k = first; k < last; k++) {
         let i = k % res;
-        if dark {
-            let border = i == 0u || i + 1u == res || k < res || k + res >= n;
-            keys[base + k] = select(0u, bitcast<u32>(plane[k].weights.x), border);
-            continue;
-        }
         let y = channel_sum(samples[base + k]);
         var c = 0.0;
         if i > 0u {

@@ -1,6 +1,7 @@
 //! The record map: record sites drawn over the (dimmed, tone-mapped) image, like the
 //! thesis's figures, each dot coloured by its radius on a log scale from R_min (red)
-//! through green to R_max = 64 R_min (blue); and the lifespan map of temporal caching
+//! through green to R_max = 64 R_min (blue), records whose plane saw no light (E = 0)
+//! magenta; and the lifespan map of temporal caching
 //! (thesis figure 5.11): the same dots coloured by lifespan, red short to green long.
 
 use super::tonemap_to_srgb8;
@@ -8,6 +9,9 @@ use crate::frame::Frame;
 use crate::records::Record;
 use crate::visibility::GpuCamera;
 use glam::Vec3;
+
+/// The dot of a record whose plane saw no light.
+const DARK: [u8; 3] = [255, 0, 255];
 
 /// False colour of `t` in [0, 1]: red → green → blue.
 fn ramp(t: f32) -> [u8; 3] {
@@ -25,7 +29,13 @@ fn ramp(t: f32) -> [u8; 3] {
 pub fn record_map(frame: &Frame, camera: &GpuCamera, records: &[Record], exposure: f32) -> Vec<u8> {
     let colours: Vec<[u8; 3]> = records
         .iter()
-        .map(|r| ramp((r.radius / r.r_min).max(1.0).ln() / 64f32.ln()))
+        .map(|r| {
+            if r.irradiance() == Vec3::ZERO {
+                DARK
+            } else {
+                ramp((r.radius / r.r_min).max(1.0).ln() / 64f32.ln())
+            }
+        })
         .collect();
     dots_over_image(frame, camera, records, &colours, exposure)
 }

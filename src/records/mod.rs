@@ -101,6 +101,9 @@ pub struct RadiusStats {
     pub at_r_max: f64,
     /// Quartiles of R / R_min.
     pub ratio_quartiles: [f32; 3],
+    /// Share of records whose plane saw no light (E = 0 in every channel): where only such
+    /// records reach, a pixel's indirect light is exactly zero.
+    pub dark: f64,
 }
 
 impl RadiusStats {
@@ -121,6 +124,11 @@ impl RadiusStats {
             at_r_min: share(&|x| x <= 1.001),
             at_r_max: share(&|x| x >= r_max_factor * 0.999),
             ratio_quartiles: [ratios[n / 4], ratios[n / 2], ratios[(3 * n) / 4]],
+            dark: records
+                .iter()
+                .filter(|r| r.irradiance() == Vec3::ZERO)
+                .count() as f64
+                / n as f64,
         }
     }
 }
@@ -1062,6 +1070,20 @@ impl RecordPass {
             },
             tail: std::sync::OnceLock::new(),
         })
+    }
+
+    /// Rays traced since the last call by planes that saw no light and were refined
+    /// everywhere ([`refine::select_pixels`]), beyond [`CacheSettings::plane_rays_per_record`]:
+    /// this pass's and its tail pass's (waits for the device).
+    pub fn take_dark_plane_rays(&self, ctx: &GpuContext) -> Result<u64> {
+        let mut rays = 0;
+        let tail = self.tail.get().map(|t| &**t);
+        for pass in std::iter::once(self).chain(tail) {
+            if let Some(r) = &pass.refine {
+                rays += u64::from(r.take_dark_planes(ctx)?) * r.extra_rays_per_dark_plane();
+            }
+        }
+        Ok(rays)
     }
 
     /// The pass that computes tail fill's records ([`CacheSettings::tail_plane_resolution`]):

@@ -7,7 +7,8 @@
 //! the pixel ([`HemispherePlane::refine_samples`]), and the pixel's sample becomes their
 //! weighted mean with the centre ray ([`merge`]). The reduction is unchanged and reads the
 //! refined pixels. Rays per record: `P^2 + K split^2` (a fixed cost: K pixels are refined
-//! even where fewer have any contrast). Ward notes the naive form is biased [S2 L276–287]:
+//! even where fewer have any contrast); a plane that saw no light at all is refined
+//! everywhere instead ([`select_pixels`]), `P^2 (1 + split^2)` rays. Ward notes the naive form is biased [S2 L276–287]:
 //! a pixel is refined because its centre ray differs from its neighbours.
 //!
 //! The depth of a refined pixel is the weighted harmonic mean of its rays' hit depths
@@ -32,32 +33,24 @@ fn channel_sum(s: &PlaneSample) -> f32 {
     (s.radiance[0] + s.radiance[1]) + s.radiance[2]
 }
 
+/// Every slot of a dark plane's selection ([`select_pixels`]): the plane is refined
+/// everywhere (`DARK_PLANE` in `plane_refine_select.wgsl` and `plane_refine.wgsl`).
+pub const DARK_PLANE: u32 = u32::MAX;
+
+/// Whether no sample of the plane has light (its record's irradiance would be exactly
+/// zero).
+pub fn is_dark(plane: &HemispherePlane, samples: &[PlaneSample]) -> bool {
+    let n = (plane.resolution * plane.resolution) as usize;
+    samples[..n].iter().all(|s| channel_sum(s) == 0.0)
+}
+
 /// Each pixel's contrast as the bits of a non-negative f32 (they order as the floats): the
 /// largest `|y - y_neighbour|` over its 4-neighbours on the plane, y the channel sum, times
 /// the pixel's cosine weight (the share of E a wrong pixel costs). As
 /// `plane_refine_select.wgsl`, bit for bit.
-///
-/// A plane with no light in any sample (its record's irradiance would be exactly zero)
-/// ranks its border pixels by their cosine weight instead, every other pixel zero: the
-/// stretched border pixels stand for the grazing band, and their sub-samples reach toward
-/// the horizon, where light the centre rays missed can lie (Sponza's floor under the
-/// arcades sees the sunlit floor only a few degrees above its horizon).
 pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample]) -> Vec<u32> {
     let res = plane.resolution as usize;
     let n = res * res;
-    if samples[..n].iter().all(|s| channel_sum(s) == 0.0) {
-        return (0..n)
-            .map(|k| {
-                let i = k % res;
-                let border = i == 0 || i + 1 == res || k < res || k + res >= n;
-                if border {
-                    plane.pixels[k].cos_weight.to_bits()
-                } else {
-                    0
-                }
-            })
-            .collect();
-    }
     (0..n)
         .map(|k| {
             let y = channel_sum(&samples[k]);
@@ -83,13 +76,33 @@ pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample]) -> Vec<u3
 
 /// The `refined` pixels of highest contrast, in pixel order; ties go to the lower pixel
 /// index (the GPU's selection exactly).
+///
+/// A plane without light anywhere has no contrast to rank; its `refined` slots all say
+/// [`DARK_PLANE`] and every pixel of it is refined ([`refined_pixels`]): P^2 centre rays
+/// can miss light of a small solid angle (Sponza's arcade floors see the sunlit court only
+/// between columns, a few degrees above their horizon), and a record that misses it
+/// spreads exact zeros over its footprint. Radiance's `-as` super-samples where the
+/// samples disagree; a dark plane is where they cannot tell.
 pub fn select_pixels(plane: &HemispherePlane, samples: &[PlaneSample], refined: u32) -> Vec<u32> {
+    if is_dark(plane, samples) {
+        return vec![DARK_PLANE; refined as usize];
+    }
     let keys = contrast_keys(plane, samples);
     let mut order: Vec<u32> = (0..keys.len() as u32).collect();
     order.sort_by_key(|&k| (std::cmp::Reverse(keys[k as usize]), k));
     order.truncate(refined as usize);
     order.sort_unstable();
     order
+}
+
+/// The pixels a selection refines, in pixel order: every pixel of a dark plane
+/// ([`DARK_PLANE`]), else the selection itself.
+pub fn refined_pixels(resolution: u32, selected: &[u32]) -> Vec<u32> {
+    if selected.first() == Some(&DARK_PLANE) {
+        (0..resolution * resolution).collect()
+    } else {
+        selected.to_vec()
+    }
 }
 
 /// A refined pixel: the centre sample weighted `centre_weight`, each sub-sample by its
@@ -161,6 +174,9 @@ pub struct RefinePass {
     refine: ComputePass,
     /// The sub-sample table, `P^2 split^2` entries.
     subs: wgpu::Buffer,
+    /// Planes refined everywhere (dark) since [`Self::take_dark_planes`], counted by the
+    /// selection (one u32 atomic: exact, whatever the order).
+    dark_planes: wgpu::Buffer,
     resolution: u32,
     refined: u32,
     split: u32,
@@ -188,6 +204,7 @@ impl RefinePass {
                     StorageRead,
                     StorageReadWrite,
                     StorageReadWrite,
+                    StorageReadWrite,
                 ],
             )?,
             refine: ComputePass::new(
@@ -207,6 +224,7 @@ impl RefinePass {
                 ],
             )?,
             subs: ctx.storage_buffer("refine samples", &plane.refine_samples(split))?,
+            dark_planes: ctx.storage_buffer("dark planes", &[0u32])?,
             resolution: settings.plane_resolution,
             refined,
             split,
@@ -216,8 +234,9 @@ impl RefinePass {
     }
 
     /// Records the refinement of the `count` planes in `samples` (traced for `sites`, P^2
-    /// each) in place; `selected` receives the K selected pixels per record (a buffer of
-    /// at least `count * K` u32, see [`Self::selected_bytes`]).
+    /// each) in place; `selected` receives the K selected pixels per record, or K times
+    /// [`DARK_PLANE`] for a plane refined everywhere (a buffer of at least `count * K`
+    /// u32, see [`Self::selected_bytes`]).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -245,7 +264,14 @@ impl RefinePass {
         );
         let bind = self.select.bind(
             ctx,
-            &[&select_params, &table.pixels, samples, &keys, selected],
+            &[
+                &select_params,
+                &table.pixels,
+                samples,
+                &keys,
+                selected,
+                &self.dark_planes,
+            ],
         );
         self.select.record(
             enc,
@@ -301,6 +327,19 @@ impl RefinePass {
     pub fn refined(&self) -> u32 {
         self.refined
     }
+
+    /// Rays a plane refined everywhere traces beyond the `K split^2` of refinement.
+    pub fn extra_rays_per_dark_plane(&self) -> u64 {
+        u64::from(self.resolution.pow(2) - self.refined) * u64::from(self.split.pow(2))
+    }
+
+    /// Planes refined everywhere since the last call (waits for the device).
+    pub fn take_dark_planes(&self, ctx: &GpuContext) -> Result<u32> {
+        let count = ctx.read_buffer::<u32>(&self.dark_planes)?[0];
+        ctx.queue
+            .write_buffer(&self.dark_planes, 0, bytemuck::bytes_of(&0u32));
+        Ok(count)
+    }
 }
 
 /// The refined plane of `site` from its traced `coarse` plane, with `trace(dir_xy, seed)`
@@ -322,7 +361,7 @@ pub fn refine_plane(
     let subs = plane.refine_samples(split);
     let m = split * split;
     let selected = select_pixels(plane, coarse, refined);
-    for &k in &selected {
+    for k in refined_pixels(plane.resolution, &selected) {
         let mine = &subs[(k * m) as usize..((k + 1) * m) as usize];
         let traced: Vec<(PlaneSample, f32)> = mine
             .iter()
