@@ -158,6 +158,9 @@ pub struct CacheFrameStats {
     /// of refined pixels, every pixel's for planes that saw no light; shadow rays of the
     /// plane hits not counted).
     pub plane_rays: u64,
+    /// Of `plane_rays`, those of planes that saw no light beyond their refinement's
+    /// share (they were refined everywhere).
+    pub dark_plane_rays: u64,
     /// Visible pixels no record covers after placement.
     pub uncovered_pixels: u64,
     /// Radiance records in their cache after the frame, and those added this frame.
@@ -1123,6 +1126,7 @@ impl Renderer {
                         u64::from(radiance_stats.1) * p.settings.plane_rays_per_record()
                     })
                     + dark_plane_rays,
+                dark_plane_rays,
                 placement,
                 uncovered_pixels,
                 radiance_records: radiance_stats.0,

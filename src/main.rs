@@ -200,6 +200,12 @@ enum Command {
         /// over frames. Default: every uncovered pixel gets one. Needs temporal caching.
         #[arg(long, value_name = "N")]
         max_new_records: Option<u32>,
+        /// Refine irradiance records' planes under temporal caching as `--plane-refine`
+        /// says (radiance records' planes are not refined). Off by default: on glossy
+        /// Spheres 96x72 it lowered the error from 1.28 to 1.11 % and the flicker from 0.62
+        /// to 0.59 % for about 20 % more time.
+        #[arg(long)]
+        temporal_refine: bool,
         #[command(flatten)]
         cache: CacheArgs,
         /// Also write a lifespan map per frame (PNG pattern with `#`): record sites from
@@ -518,8 +524,9 @@ struct CacheArgs {
     /// Adaptive plane refinement (Radiance's -as): the fraction F in [0, 1] of each
     /// record's plane pixels, those of highest contrast to their neighbours, traced again
     /// with --plane-refine-split^2 rays each. Costs F x split^2 x P^2 more plane rays per
-    /// record (F = 0.1, split 2: +40 %), and two passes. 0: off. Temporal caching
-    /// (`animate`) does not refine.
+    /// record (F = 0.1, split 2: +40 %), and two passes; a plane that saw no light is
+    /// refined everywhere. 0: off. Temporal caching (`animate`) refines only with
+    /// --temporal-refine, and only irradiance records' planes.
     #[arg(long, default_value_t = CacheSettings::default().plane_refine, value_parser = parse_fraction)]
     plane_refine: f32,
     /// Sub-samples per axis of a refined plane pixel (split x split strata), 1..=8.
@@ -783,6 +790,7 @@ fn main() -> ExitCode {
             replace,
             estimate_stride,
             max_new_records,
+            temporal_refine,
             cache,
             lifespan_map,
             stats,
@@ -820,6 +828,7 @@ fn main() -> ExitCode {
                     _ => Replacement::Visible,
                 },
                 estimate_stride,
+                refine_planes: temporal_refine,
                 ..TemporalSettings::default()
             }),
             lifespan_map,

@@ -1086,6 +1086,11 @@ impl RecordPass {
         Ok(rays)
     }
 
+    /// Whether this pass refines its planes ([`refine`]).
+    pub fn refines(&self) -> bool {
+        self.refine.is_some()
+    }
+
     /// The pass that computes tail fill's records ([`CacheSettings::tail_plane_resolution`]):
     /// this one when their planes are not coarser (radiance and VPL records, no tail).
     pub fn tail_pass(&self, ctx: &GpuContext) -> Result<&RecordPass> {
@@ -1176,14 +1181,6 @@ impl RecordPass {
         mut on_batch: impl FnMut(u32),
     ) -> Result<Vec<(&'static str, f64)>> {
         let light_maps = light_maps.unwrap_or(&self.no_light_maps);
-        if self.refine.is_some() && stage.is_some() {
-            return Err(Error::Usage(
-                "plane refinement (--plane-refine) does not work with temporal caching yet \
-                 (its refreshed and reprojected planes are unrefined): use --plane-refine 0 \
-                 or --temporal off"
-                    .into(),
-            ));
-        }
         if self.vpl.is_some() && stage.is_some() {
             return Err(Error::Usage(
                 "records from VPLs (--records vpl) do not work with temporal caching yet: \
@@ -1221,6 +1218,12 @@ impl RecordPass {
             }
             None => ctx.storage_buffer_sized("refined pixels", 16)?,
         };
+        // A stage reads the planes as traced beside their hits: refinement keeps a copy.
+        let traced = if self.refine.is_some() && stage.is_some() {
+            Some(ctx.storage_buffer_sized("traced plane samples", batch_samples * 16)?)
+        } else {
+            None
+        };
         let mut times = Vec::new();
         let site_bytes = std::mem::size_of::<RecordSite>() as u64;
         let mut done = 0;
@@ -1239,6 +1242,7 @@ impl RecordPass {
             let batch = PlaneBatch {
                 sites: &batch_sites,
                 samples: &samples,
+                traced: &samples,
                 hits: &hits,
                 first_record: cache.count,
                 first_site: done,
@@ -1288,21 +1292,38 @@ impl RecordPass {
                     light_maps,
                     timer.next("hemisphere planes"),
                 );
-                if let Some(r) = &self.refine {
-                    r.record(
-                        ctx,
-                        &mut enc,
-                        scene,
-                        &self.table,
-                        &batch_sites,
-                        &samples,
-                        &selected,
-                        n,
-                        light_maps,
-                        &mut timer,
-                    )?;
-                }
             }
+            // Refinement follows the planes however they were made: a refreshed plane is
+            // its traced plane exactly (temporal caching's plane refresh), so refining it
+            // gives the record a fresh trace would.
+            if let Some(r) = &self.refine {
+                if let Some(traced) = &traced {
+                    enc.copy_buffer_to_buffer(
+                        &samples,
+                        0,
+                        traced,
+                        0,
+                        u64::from(n) * u64::from(plane_pixels) * 16,
+                    );
+                }
+                r.record(
+                    ctx,
+                    &mut enc,
+                    scene,
+                    &self.table,
+                    &batch_sites,
+                    &samples,
+                    &selected,
+                    n,
+                    light_maps,
+                    &mut timer,
+                )?;
+            }
+            // Refined planes: the stage reads their traced copy beside the hits.
+            let batch = match &traced {
+                Some(traced) => PlaneBatch { traced, ..batch },
+                None => batch,
+            };
             if let Some(st) = stage.as_deref_mut() {
                 st.planes_ready(ctx, &mut enc, &batch, res)?;
             }
@@ -1584,6 +1605,7 @@ impl RecordPass {
         let batch = PlaneBatch {
             sites: &sites_buf,
             samples: &samples,
+            traced: &samples,
             hits: &hits,
             first_record: 0,
             first_site: 0,

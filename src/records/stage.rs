@@ -18,6 +18,11 @@ pub struct PlaneBatch<'a> {
     pub sites: &'a wgpu::Buffer,
     /// Their planes: `P^2` [`super::PlaneSample`]s per site.
     pub samples: &'a wgpu::Buffer,
+    /// The same planes as traced, before adaptive refinement (`samples` itself when the
+    /// pass refines nothing or a stage replaced the tracing): what goes with `hits`, the
+    /// centre rays' hits, for a stage that moves them (temporal caching's estimate at
+    /// t+1 and the subset it is compared with).
+    pub traced: &'a wgpu::Buffer,
     /// What each sample hit (`P^2` WGSL `PlaneHit`s per site); written because a stage is
     /// present.
     pub hits: &'a wgpu::Buffer,

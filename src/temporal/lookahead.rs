@@ -96,7 +96,7 @@ impl RecordStage for Lookahead<'_> {
                 ctx,
                 enc,
                 batch.sites,
-                batch.samples,
+                batch.traced,
                 batch.hits,
                 batch.first_record,
                 batch.count,
@@ -118,9 +118,9 @@ impl RecordStage for Lookahead<'_> {
         let Some((estimate, subset)) = self.estimates.as_ref() else {
             return Err(Error::Usage("lookahead: reduced before begin".into()));
         };
-        // E(t+1) estimate: reproject this batch's plane, then reduce it into the lookahead
-        // records at the same indices; with a stride, also the samples at t it was moved
-        // from (tau is the ratio of the two).
+        // E(t+1) estimate: reproject this batch's plane as traced (its centre rays, whose
+        // hits move), then reduce it into the lookahead records at the same indices; with
+        // a stride, also the samples at t it was moved from (tau is the ratio of the two).
         self.reprojection.record(
             ctx,
             enc,
@@ -128,7 +128,7 @@ impl RecordStage for Lookahead<'_> {
             &pass.settings,
             batch.sites,
             batch.hits,
-            batch.samples,
+            batch.traced,
             (estimate, subset),
             batch.count,
             timer,
@@ -170,14 +170,24 @@ impl RecordStage for Lookahead<'_> {
                 timer,
             );
         }
-        if self.reprojection.stride > 1 {
+        // The subset at t: the samples the estimate was moved from (a stride), or the whole
+        // plane as traced when the record's own plane was refined, so that tau compares the
+        // estimate with the centre rays it moved, not with the refined record (whose
+        // sub-rays the estimate cannot move).
+        if self.reprojection.stride > 1 || pass.refines() {
+            // (At stride 1 the reprojection's table is the plane's own.)
+            let samples = if self.reprojection.stride > 1 {
+                subset
+            } else {
+                batch.traced
+            };
             pass.record_reduction(
                 ctx,
                 enc,
                 scene,
                 table,
                 &reduction,
-                subset,
+                samples,
                 &self.subset.buffer,
                 timer,
             )?;
