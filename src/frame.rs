@@ -1105,10 +1105,12 @@ impl Renderer {
         };
         // Planes that saw no light were refined everywhere: their rays beyond the count
         // above.
-        let mut dark_plane_rays = pass.take_dark_plane_rays(ctx)?;
-        if let Some(p) = radiance_pass {
-            dark_plane_rays += p.take_dark_plane_rays(ctx)?;
-        }
+        let dark_plane_rays = RecordPass::take_dark_plane_rays(
+            ctx,
+            &std::iter::once(pass)
+                .chain(radiance_pass)
+                .collect::<Vec<_>>(),
+        )?;
         let (width, height) = (camera.width, camera.height);
         let stats = |times: &[(&'static str, f64)], uncovered_pixels| FrameStats {
             width,

@@ -1074,14 +1074,24 @@ impl RecordPass {
 
     /// Rays traced since the last call by planes that saw no light and were refined
     /// everywhere ([`refine::select_pixels`]), beyond [`CacheSettings::plane_rays_per_record`]:
-    /// this pass's and its tail pass's (waits for the device).
-    pub fn take_dark_plane_rays(&self, ctx: &GpuContext) -> Result<u64> {
+    /// those of `passes` and their tail passes, read in one wait for the device (none when
+    /// no pass refines), the counters then cleared.
+    pub fn take_dark_plane_rays(ctx: &GpuContext, passes: &[&RecordPass]) -> Result<u64> {
+        let refines: Vec<&refine::RefinePass> = passes
+            .iter()
+            .flat_map(|&pass| std::iter::once(pass).chain(pass.tail.get().map(|t| &**t)))
+            .filter_map(|pass| pass.refine.as_ref())
+            .collect();
+        if refines.is_empty() {
+            return Ok(0);
+        }
+        let counters: Vec<&wgpu::Buffer> = refines.iter().map(|r| r.dark_planes()).collect();
+        let counts: Vec<Vec<u32>> = ctx.read_buffers(&counters)?;
         let mut rays = 0;
-        let tail = self.tail.get().map(|t| &**t);
-        for pass in std::iter::once(self).chain(tail) {
-            if let Some(r) = &pass.refine {
-                rays += u64::from(r.take_dark_planes(ctx)?) * r.extra_rays_per_dark_plane();
-            }
+        for (r, count) in refines.iter().zip(&counts) {
+            rays += u64::from(count.first().copied().unwrap_or(0)) * r.extra_rays_per_dark_plane();
+            ctx.queue
+                .write_buffer(r.dark_planes(), 0, bytemuck::bytes_of(&0u32));
         }
         Ok(rays)
     }

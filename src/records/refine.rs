@@ -174,7 +174,7 @@ pub struct RefinePass {
     refine: ComputePass,
     /// The sub-sample table, `P^2 split^2` entries.
     subs: wgpu::Buffer,
-    /// Planes refined everywhere (dark) since [`Self::take_dark_planes`], counted by the
+    /// Planes refined everywhere (dark) since the counter was last cleared, counted by the
     /// selection (one u32 atomic: exact, whatever the order).
     dark_planes: wgpu::Buffer,
     resolution: u32,
@@ -333,12 +333,10 @@ impl RefinePass {
         u64::from(self.resolution.pow(2) - self.refined) * u64::from(self.split.pow(2))
     }
 
-    /// Planes refined everywhere since the last call (waits for the device).
-    pub fn take_dark_planes(&self, ctx: &GpuContext) -> Result<u32> {
-        let count = ctx.read_buffer::<u32>(&self.dark_planes)?[0];
-        ctx.queue
-            .write_buffer(&self.dark_planes, 0, bytemuck::bytes_of(&0u32));
-        Ok(count)
+    /// The counter of planes refined everywhere (one u32; read and cleared by
+    /// `RecordPass::take_dark_plane_rays`).
+    pub fn dark_planes(&self) -> &wgpu::Buffer {
+        &self.dark_planes
     }
 }
 
