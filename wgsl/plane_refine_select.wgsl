@@ -29,7 +29,7 @@ struct SelectParams {
 @group(1) @binding(2) var<storage, read> samples: array<PlaneSample>;
 @group(1) @binding(3) var<storage, read_write> keys: array<u32>;
 @group(1) @binding(4) var<storage, read_write> selected: array<u32>;
-// Planes refined everywhere, for the frame's ray count (RefinePass::take_dark_planes).
+// Planes refined everywhere, for the frame's ray count (RecordPass::take_dark_plane_rays).
 @group(1) @binding(5) var<storage, read_write> dark_planes: array<atomic<u32>>;
 
 var<workgroup> histogram: array<atomic<u32>, 256>;
