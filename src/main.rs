@@ -6,7 +6,7 @@ use radsplat::hsh::rotation::RotationMethod;
 use radsplat::records::{CacheSettings, RecordSource};
 use radsplat::splat::radiance::RadianceSettings;
 use radsplat::temporal::{
-    RecordAnchor, RefreshMode, Replacement, TemporalGradients, TemporalSettings,
+    EstimateMode, RecordAnchor, RefreshMode, Replacement, TemporalGradients, TemporalSettings,
 };
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -195,6 +195,13 @@ enum Command {
         /// below 8), 1 with extrapolated.
         #[arg(long)]
         estimate_stride: Option<u32>,
+        /// Which new records are estimated at t+1 (the estimate gives their lifespan):
+        /// `auto` (each record kind's, while the frames of life its estimates win outweigh
+        /// their cost; else its records live one frame, and every 4th frame estimates to
+        /// look again) or `always` (the seed). On glossy Spheres radiance records' estimates
+        /// won 0.08 frames a record for half a record's cost (docs/results.md).
+        #[arg(long, default_value = "auto", value_parser = ["auto", "always"])]
+        estimates: String,
         /// At most N new records placed per frame (replacements do not count): pixels
         /// left uncovered get records in later frames, spreading a walkthrough's new views
         /// over frames. Default: every uncovered pixel gets one. Needs temporal caching.
@@ -789,6 +796,7 @@ fn main() -> ExitCode {
             plane_budget_mib,
             replace,
             estimate_stride,
+            estimates,
             max_new_records,
             temporal_refine,
             cache,
@@ -829,6 +837,11 @@ fn main() -> ExitCode {
                 },
                 estimate_stride,
                 refine_planes: temporal_refine,
+                estimates: if estimates == "always" {
+                    EstimateMode::Always
+                } else {
+                    EstimateMode::Auto
+                },
                 ..TemporalSettings::default()
             }),
             lifespan_map,

@@ -286,7 +286,8 @@ pub fn estimate_error_table(
                     r_min: r.r_min,
                     normal: r.normal,
                     seed: i as u32,
-                    // Records keep only the shading normal (as replacements do).
+                    // Records keep only the shading normal (a site's geometric normal
+                    // is kept for replacements only, `TemporalRecord::site`).
                     geometric_normal: r.normal,
                     instance: r.instance,
                 })

@@ -32,6 +32,9 @@ pub struct Lookahead<'a> {
     /// ([`super::TemporalSettings::estimates_values_only`]; the translational gradients
     /// are two thirds of the projection).
     pub values_only: bool,
+    /// Whether the records are estimated at all: false keeps their sites and planes only
+    /// ([`super::estimate_rule`]: the records then live one frame).
+    pub estimate: bool,
     /// The estimated planes at t+1 and the samples at t they were moved from, sized to the
     /// largest batch of the current `compute` call.
     estimates: Option<(wgpu::Buffer, wgpu::Buffer)>,
@@ -45,6 +48,7 @@ impl<'a> Lookahead<'a> {
         subset: &'a mut RecordCache,
         capture: Option<&'a mut PlaneCapture>,
         values_only: bool,
+        estimate: bool,
     ) -> Self {
         Self {
             next_frame,
@@ -53,6 +57,7 @@ impl<'a> Lookahead<'a> {
             subset,
             capture,
             values_only,
+            estimate,
             estimates: None,
         }
     }
@@ -76,6 +81,9 @@ impl RecordStage for Lookahead<'_> {
         }
         self.next.reserve(ctx, count)?;
         self.subset.reserve(ctx, count)?;
+        if !self.estimate {
+            return Ok(());
+        }
         let cells = u64::from(batch_records) * u64::from(self.reprojection.table.resolution.pow(2));
         self.estimates = Some((
             ctx.storage_buffer_sized("estimated planes", cells * 16)?,
@@ -115,6 +123,9 @@ impl RecordStage for Lookahead<'_> {
         batch: &PlaneBatch<'_>,
         timer: &mut PassTimer,
     ) -> Result<()> {
+        if !self.estimate {
+            return Ok(());
+        }
         let Some((estimate, subset)) = self.estimates.as_ref() else {
             return Err(Error::Usage("lookahead: reduced before begin".into()));
         };

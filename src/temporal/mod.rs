@@ -12,6 +12,7 @@
 
 pub mod animation;
 pub mod estimate_error;
+pub mod estimate_rule;
 pub mod instant;
 pub mod lookahead;
 pub mod motion;
@@ -20,6 +21,7 @@ pub mod radiance;
 pub mod reference;
 pub mod reprojection;
 
+pub use estimate_rule::EstimateMode;
 pub use lookahead::{Lookahead, PlanesAhead, RefreshStage, trace_planes_ahead};
 pub use motion::{InstanceMotion, RecordAnchor};
 pub use reprojection::{NextFrame, ReprojectionPass};
@@ -72,6 +74,9 @@ pub struct TemporalSettings {
     /// 0.62 to 0.59 % for about 20 % more time, which per-frame recomputation nearly
     /// matches (docs/results.md, "Refined planes under temporal caching").
     pub refine_planes: bool,
+    /// Whether new records are estimated at t+1 every frame or only while the estimates
+    /// win more frames of life than they cost ([`estimate_rule`]; the default, Auto).
+    pub estimates: EstimateMode,
 }
 
 /// When replacements refresh their predecessor's plane ([`plane_refresh`]).
@@ -129,6 +134,7 @@ impl Default for TemporalSettings {
             estimate_stride: None,
             max_new_records: None,
             refine_planes: false,
+            estimates: EstimateMode::Auto,
         }
     }
 }
@@ -229,7 +235,9 @@ pub struct TemporalRecord {
     pub birth: u32,
     /// Last frame it is used in (inclusive).
     pub last_frame: u32,
-    /// Temporal irradiance ratio tau = Y(E(t_k + 1)) / Y(E(t_k)) (luminance).
+    /// Temporal irradiance ratio tau = Y(E(t_k + 1)) / Y(E(t_k)) (luminance); for
+    /// radiance records `1 + delta` ([`radiance::coefficient_ratio`]); NaN for a record
+    /// not estimated ([`estimate_rule`]).
     pub tau: f32,
     /// The record that replaced this one at the same place, once it expired.
     pub successor: Option<u32>,
@@ -388,6 +396,10 @@ pub struct TemporalFrameStats {
     pub plane_rays: u64,
     /// Replacements whose planes were refreshed rather than traced.
     pub refreshed_planes: u32,
+    /// Whether the records computed this frame were estimated at t+1 (false: no next
+    /// frame, or [`EstimateMode::Auto`] found the estimates did not pay; they then live
+    /// this frame only).
+    pub estimated: bool,
     /// Samples of those planes traced again.
     pub retraced_samples: u64,
     /// Records computed this frame by lifespan: entry i counts those used in i + 1 frames
@@ -463,6 +475,8 @@ struct FramePlan {
     capture: plane_refresh::PlaneCapture,
     retraced_lists: Vec<wgpu::Buffer>,
     lights: FrameLights,
+    /// Whether the records computed this frame are estimated at t+1 ([`estimate_rule`]).
+    estimate: bool,
 }
 
 /// Radiance records over an animation: a temporal cache of their own beside the
@@ -567,6 +581,8 @@ pub struct TemporalCache {
     /// no lobe they shade, radiance records are off, or this cache holds them).
     radiance: Option<Box<RadianceTemporal>>,
     radiance_checked: bool,
+    /// What this cache's recent estimates at t+1 won ([`EstimateMode::Auto`]).
+    estimate_ledger: estimate_rule::EstimateLedger,
 }
 
 impl TemporalCache {
@@ -628,10 +644,9 @@ impl TemporalCache {
             settings: settings.clone(),
             // With `refine_planes`, irradiance records' planes are refined as the user's
             // settings say (the estimate at t+1 moves the traced plane and tau compares it
-            // with that plane, `Lookahead::reduced`). Radiance records' never are: their
-            // estimate's values would move a record refined at t by its difference from
-            // the traced plane, and extrapolated coefficients then overshot to single-pixel
-            // highlights several times the reference (glossy Spheres, docs/results.md).
+            // with that plane, `Lookahead::reduced`). Radiance records' never are: on
+            // glossy Spheres refining them too lowered the error 1.11 -> 1.07 % at the time
+            // per-frame recomputation takes for 0.87 % (docs/results.md, stop 43).
             pass: RecordPass::with_kind(
                 ctx,
                 &CacheSettings {
@@ -672,7 +687,24 @@ impl TemporalCache {
             radiance: None,
             // Only an irradiance cache holds radiance records beside it.
             radiance_checked: kind != RecordKind::Irradiance,
+            estimate_ledger: Default::default(),
         })
+    }
+
+    /// Whether this frame's new records are estimated at t+1 ([`estimate_rule`]): always
+    /// when nothing in the scene moves or changes (`dynamic` false: records then live as
+    /// long as their estimate finds them unchanged), else as the ledger judges.
+    fn estimating(&self, dynamic: bool) -> bool {
+        let settings = &self.pass.settings;
+        let share = estimate_rule::cost_share(
+            settings.plane_rays_per_record(),
+            u64::from(self.reprojection.table.resolution).pow(2),
+            settings.plane_light_samples,
+        );
+        !dynamic
+            || self
+                .estimate_ledger
+                .estimates(self.settings.estimates, share)
     }
 
     /// Whether replacements refresh retained planes from now on ([`RefreshMode`]).
@@ -869,8 +901,16 @@ impl TemporalCache {
             )?),
             None => None,
         };
-        let mut plan =
-            self.begin_frame(renderer, &scenes, camera, t, next_frame.as_ref(), &mut vis)?;
+        let estimate = self.estimating(dynamic);
+        let mut plan = self.begin_frame(
+            renderer,
+            &scenes,
+            camera,
+            t,
+            next_frame.as_ref(),
+            estimate,
+            &mut vis,
+        )?;
         let mut radiance_plan = match self.radiance.as_deref_mut() {
             Some(r) => Some(r.records.begin_frame(
                 renderer,
@@ -878,6 +918,7 @@ impl TemporalCache {
                 camera,
                 t,
                 next_frame.as_ref(),
+                r.records.estimating(dynamic),
                 &mut vis,
             )?),
             None => None,
@@ -890,6 +931,7 @@ impl TemporalCache {
                 &mut self.subset_records,
                 Some(&mut plan.capture),
                 self.settings.estimates_values_only(),
+                plan.estimate,
             )
         });
         let mut radiance_lookahead = None;
@@ -906,6 +948,7 @@ impl TemporalCache {
                         &mut rc.subset_records,
                         Some(&mut rp.capture),
                         rc.settings.estimates_values_only(),
+                        rp.estimate,
                     )
                 });
                 Some(RadianceFrame {
@@ -971,6 +1014,7 @@ impl TemporalCache {
     /// frame t's visibility buffer `vis`, traced here if not yet), the kept records
     /// uploaded at t and the replacements computed (each estimated at t+1 when there is a
     /// next frame, `next_frame`). Placement, in the frame, appends the new records.
+    #[allow(clippy::too_many_arguments)]
     fn begin_frame(
         &mut self,
         renderer: &Renderer,
@@ -978,6 +1022,7 @@ impl TemporalCache {
         camera: &Camera,
         t: u32,
         next_frame: Option<&NextFrame<'_>>,
+        estimate: bool,
         vis: &mut Option<VisibilityBuffer>,
     ) -> Result<FramePlan> {
         let ctx = &renderer.ctx;
@@ -1063,6 +1108,7 @@ impl TemporalCache {
                 &mut self.subset_records,
                 Some(&mut capture),
                 self.settings.estimates_values_only(),
+                estimate,
             )
         });
         let mut retraced_lists = Vec::new();
@@ -1128,6 +1174,7 @@ impl TemporalCache {
             capture,
             retraced_lists,
             lights,
+            estimate,
         })
     }
 
@@ -1153,15 +1200,20 @@ impl TemporalCache {
             capture,
             retraced_lists,
             lights,
+            estimate,
             ..
         } = plan;
         stats.new = new;
         // The records computed this frame (replacements, then new ones) come back from
         // the GPU in one wait; kept records are on the CPU.
         let first = kept.len();
-        let computed = self.read_computed(ctx, first, has_next, &capture, &retraced_lists)?;
+        let estimated = has_next && estimate;
+        let computed = self.read_computed(ctx, first, estimated, &capture, &retraced_lists)?;
         stats.retraced_samples = computed.retraced_samples;
         let count = computed.records.len();
+        // Without an estimate (a next frame the cache chose not to estimate), a record
+        // lives its first frame only; at the last frame, as long as it would anyway.
+        let one_frame = has_next && !estimate;
         let (new_ids, lifespans) = self.register_computed(
             computed,
             first,
@@ -1169,8 +1221,22 @@ impl TemporalCache {
             &replace,
             t,
             dynamic,
+            one_frame,
             &transforms,
         )?;
+        // What the estimates won: frames of life beyond the first (entry i of the
+        // histogram: i + 1 frames).
+        if has_next && dynamic {
+            self.estimate_ledger.add_frame(estimated.then(|| {
+                let records = lifespans.iter().map(|&n| u64::from(n)).sum();
+                let won = (0u64..)
+                    .zip(&lifespans)
+                    .map(|(i, &n)| i * u64::from(n))
+                    .sum();
+                (records, won)
+            }));
+        }
+        stats.estimated = estimated;
         stats.lifespans = lifespans;
         let mut alive = kept;
         alive.extend(new_ids);
@@ -1350,6 +1416,7 @@ impl TemporalCache {
         replace: &[u32],
         t: u32,
         dynamic: bool,
+        one_frame: bool,
         transforms: &[Mat4],
     ) -> Result<(Vec<u32>, Vec<u32>)> {
         let first_id = self.next_id();
@@ -1411,7 +1478,11 @@ impl TemporalCache {
                 }
             };
             let id = self.next_id() as u32;
-            let last = last_frame(t, tau, &self.settings, dynamic);
+            let (tau, last) = if one_frame {
+                (f32::NAN, t)
+            } else {
+                (tau, last_frame(t, tau, &self.settings, dynamic))
+            };
             lifespans[((last - t) as usize).min(bins - 1)] += 1;
             self.history.push_back(TemporalRecord {
                 record,
@@ -1449,20 +1520,18 @@ impl TemporalCache {
             let unmoved = rec
                 .anchor
                 .is_none_or(|a| transforms.get(a.instance as usize) == Some(&a.transform));
-            let site = match rec.site {
-                Some(site) if unmoved => site,
-                inherited => {
-                    let r = self.world_record(rec.record, id, transforms);
-                    RecordSite {
-                        position: r.position,
-                        r_min: r.r_min,
-                        normal: r.normal,
-                        seed: inherited.map_or(crate::sampling::hash_combine(id, t), |s| s.seed),
-                        geometric_normal: r.normal,
-                        instance: r.instance,
-                    }
-                }
-            };
+            // The record's motion since its birth, if it moved with its instance.
+            let motion = rec.anchor.filter(|_| !unmoved).and_then(|a| {
+                transforms
+                    .get(a.instance as usize)
+                    .map(|&now| a.motion_to(now))
+            });
+            let site = motion::replacement_site(
+                rec.site,
+                &rec.record,
+                motion.as_ref(),
+                crate::sampling::hash_combine(id, t),
+            );
             let refreshable = refreshing
                 && unmoved
                 && rec.site.is_some()

@@ -185,6 +185,41 @@ pub fn move_site(site: &RecordSite, m: &Mat4) -> RecordSite {
     }
 }
 
+/// The site the replacement of `record` is computed at: the site its plane was traced
+/// from (`stored`, when kept), carried by `motion` (the record's motion since its birth
+/// with its instance; None: it stays). Position and both normals move with it: the
+/// geometric normal is not the shading normal on smooth meshes, and plane rays are cut
+/// and offset by it (shared/plane.wgsl), so a site given the shading normal for both
+/// traces rays between the two planes into its own surface (glossy Spheres: radiance
+/// records with translational gradients 60x their usual, docs/results.md, stop 43).
+/// Without a stored site the record's own position and normal stand for both normals,
+/// with `new_seed`.
+pub fn replacement_site(
+    stored: Option<RecordSite>,
+    record: &Record,
+    motion: Option<&Mat4>,
+    new_seed: u32,
+) -> RecordSite {
+    match (stored, motion) {
+        (Some(site), None) => site,
+        (Some(site), Some(m)) => RecordSite {
+            r_min: move_record(record, m).r_min,
+            ..move_site(&site, m)
+        },
+        (None, m) => {
+            let r = m.map_or(*record, |m| move_record(record, m));
+            RecordSite {
+                position: r.position,
+                r_min: r.r_min,
+                normal: r.normal,
+                seed: new_seed,
+                geometric_normal: r.normal,
+                instance: r.instance,
+            }
+        }
+    }
+}
+
 /// `record` carried by the affine map `m` (a rigid motion, possibly with uniform scale):
 /// position and normal move with it; the rotational gradient turns with its rotation
 /// (`(n_k x n).grad_r` is invariant under a rotation of all three); the translational
@@ -216,6 +251,53 @@ pub fn move_record(record: &Record, m: &Mat4) -> Record {
 mod tests {
     use super::*;
     use glam::Quat;
+
+    /// A record on a smooth mesh (its shading normal tilted from the facet's) that moved
+    /// with its instance is replaced at its site carried along: the geometric normal turns
+    /// with the instance and stays the facet's, not the shading normal (which let plane
+    /// rays into the record's own surface); R_min scales with the instance.
+    #[test]
+    fn a_moved_replacement_keeps_its_sites_geometric_normal() {
+        let shading = Vec3::new(0.3, 0.0, 1.0).normalize();
+        let site = RecordSite {
+            position: [1.0, 2.0, 3.0],
+            r_min: 0.01,
+            normal: shading.into(),
+            seed: 77,
+            geometric_normal: [0.0, 0.0, 1.0],
+            instance: 4,
+        };
+        let record = Record {
+            position: site.position,
+            radius: 0.2,
+            normal: site.normal,
+            r_min: site.r_min,
+            instance: 4,
+            ..Record::default()
+        };
+        let motion = Mat4::from_scale_rotation_translation(
+            Vec3::splat(2.0),
+            Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
+            Vec3::new(0.5, 0.0, -1.0),
+        );
+        let moved = replacement_site(Some(site), &record, Some(&motion), 5);
+        let turned = |n: Vec3| Quat::from_rotation_x(std::f32::consts::FRAC_PI_2) * n;
+        let close = |a: [f32; 3], b: Vec3| (Vec3::from(a) - b).length() < 1e-6;
+        assert!(close(moved.geometric_normal, turned(Vec3::Z)));
+        assert!(close(moved.normal, turned(shading)));
+        assert!(!close(moved.geometric_normal, Vec3::from(moved.normal)));
+        assert!(close(
+            moved.position,
+            motion.transform_point3(Vec3::from(site.position))
+        ));
+        assert!((moved.r_min - 0.02).abs() < 1e-6);
+        assert_eq!((moved.seed, moved.instance), (77, 4));
+        // Unmoved: the stored site itself; no stored site: the record's, with the new seed.
+        assert_eq!(replacement_site(Some(site), &record, None, 5), site);
+        let from_record = replacement_site(None, &record, None, 5);
+        assert_eq!(from_record.geometric_normal, record.normal);
+        assert_eq!(from_record.seed, 5);
+    }
 
     /// The shadow tests reject a pyramid against the box around every mover first, which
     /// is exact only if that box contains each mover's world box.
