@@ -30,7 +30,7 @@ pub fn record_map(frame: &Frame, camera: &GpuCamera, records: &[Record], exposur
     let colours: Vec<[u8; 3]> = records
         .iter()
         .map(|r| {
-            if r.irradiance() == Vec3::ZERO {
+            if r.is_dark() {
                 DARK
             } else {
                 ramp((r.radius / r.r_min).max(1.0).ln() / 64f32.ln())

@@ -65,6 +65,12 @@ impl Record {
         Vec3::new(self.irradiance[0], self.irradiance[1], self.irradiance[2])
     }
 
+    /// Whether its plane saw no light (E = 0 in every channel): where only such records
+    /// reach, a pixel's indirect light is exactly zero.
+    pub fn is_dark(&self) -> bool {
+        self.irradiance() == Vec3::ZERO
+    }
+
     /// Ward's error term `|p - p_k| / R_k + sqrt(1 - n.n_k)` (thesis eq. 4.2 is its inverse).
     pub fn error_at(&self, p: Vec3, n: Vec3) -> f32 {
         (p - self.position()).length() / self.radius + (1.0 - n.dot(self.normal())).max(0.0).sqrt()
@@ -124,11 +130,7 @@ impl RadiusStats {
             at_r_min: share(&|x| x <= 1.001),
             at_r_max: share(&|x| x >= r_max_factor * 0.999),
             ratio_quartiles: [ratios[n / 4], ratios[n / 2], ratios[(3 * n) / 4]],
-            dark: records
-                .iter()
-                .filter(|r| r.irradiance() == Vec3::ZERO)
-                .count() as f64
-                / n as f64,
+            dark: records.iter().filter(|r| r.is_dark()).count() as f64 / n as f64,
         }
     }
 }

@@ -49,6 +49,17 @@ pub fn cost_share(rays: u64, cells: u64, shadow_rays: u32) -> f64 {
     cells as f64 * s / (rays.max(1) as f64 * (1.0 + s))
 }
 
+/// (records, frames of life they won beyond their first) of a frame's lifespan histogram
+/// (entry i: records used in i + 1 frames), what [`EstimateLedger::add_frame`] takes.
+pub fn frames_won(lifespans: &[u32]) -> (u64, u64) {
+    let records = lifespans.iter().map(|&n| u64::from(n)).sum();
+    let won = (0u64..)
+        .zip(lifespans)
+        .map(|(i, &n)| i * u64::from(n))
+        .sum();
+    (records, won)
+}
+
 /// A cache's recent estimates and what they won ([`EstimateMode::Auto`]).
 #[derive(Clone, Debug, Default)]
 pub struct EstimateLedger {
@@ -118,6 +129,13 @@ mod tests {
         // The probe finds long lives: estimating pays again (200 records, 260 frames).
         ledger.add_frame(Some((100, 240)));
         assert!(ledger.estimates(EstimateMode::Auto, share));
+    }
+
+    #[test]
+    fn frames_won_count_the_lives_beyond_the_first() {
+        // 3 records of one frame, 2 of two, 1 of four: 6 records, 2 + 3 frames won.
+        assert_eq!(frames_won(&[3, 2, 0, 1]), (6, 5));
+        assert_eq!(frames_won(&[]), (0, 0));
     }
 
     #[test]

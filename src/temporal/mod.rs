@@ -1224,17 +1224,9 @@ impl TemporalCache {
             one_frame,
             &transforms,
         )?;
-        // What the estimates won: frames of life beyond the first (entry i of the
-        // histogram: i + 1 frames).
         if has_next && dynamic {
-            self.estimate_ledger.add_frame(estimated.then(|| {
-                let records = lifespans.iter().map(|&n| u64::from(n)).sum();
-                let won = (0u64..)
-                    .zip(&lifespans)
-                    .map(|(i, &n)| i * u64::from(n))
-                    .sum();
-                (records, won)
-            }));
+            self.estimate_ledger
+                .add_frame(estimated.then(|| estimate_rule::frames_won(&lifespans)));
         }
         stats.estimated = estimated;
         stats.lifespans = lifespans;
@@ -1460,11 +1452,17 @@ impl TemporalCache {
                 now: block(&computed.blocks, k),
                 next: block(&computed.next_blocks, k),
             };
-            // Radiance records: tau of their coefficient vectors (radiance.rs).
-            let tau = if floats > 0 {
-                radiance::coefficient_ratio(&blocks.now, &blocks.next)
+            // Radiance records: tau of their coefficient vectors (radiance.rs). A record
+            // not estimated has none and lives this frame only.
+            let (tau, last) = if one_frame {
+                (f32::NAN, t)
             } else {
-                temporal_ratio(record.irradiance, next.irradiance)
+                let tau = if floats > 0 {
+                    radiance::coefficient_ratio(&blocks.now, &blocks.next)
+                } else {
+                    temporal_ratio(record.irradiance, next.irradiance)
+                };
+                (tau, last_frame(t, tau, &self.settings, dynamic))
             };
             let anchor = match self.settings.anchor {
                 RecordAnchor::World => None,
@@ -1478,11 +1476,6 @@ impl TemporalCache {
                 }
             };
             let id = self.next_id() as u32;
-            let (tau, last) = if one_frame {
-                (f32::NAN, t)
-            } else {
-                (tau, last_frame(t, tau, &self.settings, dynamic))
-            };
             lifespans[((last - t) as usize).min(bins - 1)] += 1;
             self.history.push_back(TemporalRecord {
                 record,
