@@ -33,11 +33,19 @@
 @group(1) @binding(8) var<storage, read_write> work: WorkList;   // samples to re-shade
 @group(1) @binding(9) var<storage, read_write> work_groups: array<atomic<u32>, 3>;
 
-// Estimate-plane cell of plane coordinate x in [-s, s] (clamped into the border cells when
-// they are stretched); -1 outside an unstretched plane.
-fn plane_index(x: f32) -> i32 {
+// Estimate-plane cell of a direction whose tangent-frame components are `a` (along one
+// axis) and `z` (along the normal, > 0), clamped into the border cells when they are
+// stretched; -1 outside an unstretched plane. The cell edges are even in the plane's
+// spacing coordinate: x = a / z for evenly spaced planes, sin(atan x) = a / |(a, z)| for
+// cosine-spaced ones (records::PlaneSpacing::fraction; computed from the direction, so a
+// grazing z stays finite).
+fn plane_index(a: f32, z: f32) -> i32 {
     let res = i32(params.estimate_resolution);
-    let i = i32(floor((x + params.half_extent) / (2.0 * params.half_extent) * f32(res)));
+    var u = a / z;
+    if params.cosine_spacing != 0u {
+        u = a / sqrt(a * a + z * z);
+    }
+    let i = i32(floor((u + params.half_extent) / (2.0 * params.half_extent) * f32(res)));
     if params.stretched != 0u {
         return clamp(i, 0, res - 1);
     }
@@ -74,8 +82,8 @@ fn main(
     if local.z <= 0.0 {
         return;   // moved below the record's tangent plane: out of its hemisphere
     }
-    let ix = plane_index(local.x / local.z);
-    let iy = plane_index(local.y / local.z);
+    let ix = plane_index(local.x, local.z);
+    let iy = plane_index(local.y, local.z);
     if ix < 0 || iy < 0 {
         return;   // off the plane: no cell will read this sample
     }

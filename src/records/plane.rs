@@ -55,6 +55,27 @@ impl PlaneSpacing {
             }
         }
     }
+
+    /// The half-extent of an axis of half-extent `s` (plane coordinate) in the coordinate
+    /// its pixel edges are even in: `s` itself for [`PlaneSpacing::Uniform`],
+    /// `sin(atan s)` for [`PlaneSpacing::Cosine`].
+    pub fn even_half_extent(self, s: f64) -> f64 {
+        match self {
+            PlaneSpacing::Uniform => s,
+            PlaneSpacing::Cosine => s / (1.0 + s * s).sqrt(),
+        }
+    }
+
+    /// The inverse of [`Self::at`]: the fraction of an axis of half-extent `s` at plane
+    /// coordinate `x` (outside [0, 1] off the unstretched plane). Temporal reprojection bins
+    /// moved plane hits into the estimated plane's cells by it (`plane_reproject.wgsl`).
+    pub fn fraction(self, s: f64, x: f64) -> f64 {
+        let u = match self {
+            PlaneSpacing::Uniform => x,
+            PlaneSpacing::Cosine => x / (1.0 + x * x).sqrt(),
+        };
+        (u / self.even_half_extent(s) + 1.0) * 0.5
+    }
 }
 
 /// Per-pixel weights of the plane (Rust mirror of WGSL `PlanePixel`, 32 bytes).
@@ -443,6 +464,23 @@ mod tests {
             (a + w, b + w * w)
         });
         s * s / s2
+    }
+
+    #[test]
+    fn fraction_inverts_the_spacing() {
+        for spacing in [PlaneSpacing::Uniform, PlaneSpacing::Cosine] {
+            for fov in [90.0f64, 130.0, 170.0] {
+                let s = (fov.to_radians() * 0.5).tan();
+                for k in 0..=20 {
+                    let t = f64::from(k) / 20.0;
+                    let back = spacing.fraction(s, spacing.at(s, t));
+                    assert!((back - t).abs() < 1e-9, "{spacing:?} {fov}: {t} -> {back}");
+                }
+                // Past the plane's edge the fraction leaves [0, 1] (the stretched border).
+                assert!(spacing.fraction(s, 2.0 * s) > 1.0);
+                assert!(spacing.fraction(s, -2.0 * s) < 0.0);
+            }
+        }
     }
 
     #[test]

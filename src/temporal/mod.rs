@@ -70,13 +70,32 @@ pub struct TemporalSettings {
     pub max_new_records: Option<u32>,
     /// Irradiance records' planes are refined as the cache settings say
     /// (`CacheSettings::plane_refine`; radiance records' never are). Off by default: on
-    /// glossy Spheres 96x72 it lowered the error from 1.28 to 1.11 % and the flicker from
-    /// 0.62 to 0.59 % for about 20 % more time, which per-frame recomputation nearly
-    /// matches (docs/results.md, "Refined planes under temporal caching").
+    /// glossy Spheres 96x72 it lowers the error from 0.95 to 0.93 % and the flicker from
+    /// 0.52 to 0.51 % for 16 % more time (with the even planes of stop 43: 1.28 to 1.11 %
+    /// for 20 %; docs/results.md, "Refined planes under temporal caching" and stop 44).
     pub refine_planes: bool,
     /// Whether new records are estimated at t+1 every frame or only while the estimates
     /// win more frames of life than they cost ([`estimate_rule`]; the default, Auto).
     pub estimates: EstimateMode,
+    /// How long records on an instance that moves from t to t+1 live.
+    pub mover_records: MoverRecords,
+}
+
+/// How long a record on a moving instance lives ([`TemporalSettings::mover_records`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum MoverRecords {
+    /// The frame it is computed in only (the default): the instance's next position gets
+    /// a fresh record. The seed leaves records where they were computed, so a record on a
+    /// moving object serves the frame it was made for and then the empty space the object
+    /// left; carried with its instance ([`RecordAnchor::Instance`]) it can stay, but its
+    /// reuse is what made moving objects flicker: on glossy Spheres 96x72 (frames 0..5,
+    /// 1,024-spp references) the frame-to-frame change error on moving balls was 0.60 %
+    /// with reuse and 0.30 % without (per-frame recomputation 0.18 %), unchanged pixels
+    /// 0.56 % either way (docs/results.md, "Cosine-spaced planes and one-frame records on
+    /// moving instances").
+    OneFrame,
+    /// As long as tau and dt_max allow, like every other record.
+    ByChange,
 }
 
 /// When replacements refresh their predecessor's plane ([`plane_refresh`]).
@@ -135,6 +154,7 @@ impl Default for TemporalSettings {
             max_new_records: None,
             refine_planes: false,
             estimates: EstimateMode::Auto,
+            mover_records: MoverRecords::OneFrame,
         }
     }
 }
@@ -464,6 +484,8 @@ pub struct RecordBlocks {
 /// What the first half of a frame of a cache leaves for the second
 /// ([`TemporalCache::begin_frame`], [`TemporalCache::finish_frame`]).
 struct FramePlan {
+    /// Per instance: whether it moves from t to t+1 (empty without a next frame).
+    moves_next: Vec<bool>,
     transforms: Vec<Mat4>,
     stats: TemporalFrameStats,
     times: Vec<(&'static str, f64)>,
@@ -590,20 +612,23 @@ impl TemporalCache {
     /// hits trace their shadow rays (light maps would need tracing again every frame, and
     /// the re-shading at t+1 traces rays), planes are not refined (unless
     /// [`TemporalSettings::refine_planes`] says so, which the cache's own pass then
-    /// applies) and are evenly spaced (reprojection bins moved hits into an even grid of
-    /// cells), records are not neighbour-clamped nor tail-filled, and so the refined
-    /// planes' default field of
-    /// view ([`CacheSettings::PLANE_FOV_REFINED`]) becomes the plain planes' best
+    /// applies), records are not neighbour-clamped nor tail-filled; planes keep the user's
+    /// spacing (reprojection bins moved hits by its inverse) and field of view, except that
+    /// an evenly spaced plane at the refined default
+    /// ([`CacheSettings::PLANE_FOV_REFINED`]) takes the plain even plane's best
     /// ([`CacheSettings::PLANE_FOV_PLAIN`], thesis Table 4.1); the static defaults' record
     /// sizing becomes the animation's ([`CacheSettings::for_animation`]).
     pub fn record_settings(cache: &CacheSettings) -> CacheSettings {
-        let refined_default_fov =
-            cache.plane_refine > 0.0 && cache.plane_fov_degrees == CacheSettings::PLANE_FOV_REFINED;
+        // An evenly spaced plane crowds its pixels into the grazing band when wide: without
+        // refinement its best field of view is thesis Table 4.1's 130 degrees, not the
+        // refined default's 170. A cosine-spaced one is best at 170 refined or not
+        // (docs/results.md, "Cosine spacing of the plane": 4.6 % against 9.1 % at 130).
+        let refined_default_fov = cache.plane_refine > 0.0
+            && cache.plane_fov_degrees == CacheSettings::PLANE_FOV_REFINED
+            && cache.plane_spacing == crate::records::PlaneSpacing::Uniform;
         CacheSettings {
             plane_shadows: crate::records::PlaneShadows::Rays,
             plane_refine: 0.0,
-            // Reprojection bins moved hits into cells of an evenly spaced plane.
-            plane_spacing: crate::records::PlaneSpacing::Uniform,
             // A replacement sits at its predecessor's place: clamping would tie its R to
             // the record it replaces (unmeasured over time; the static default only).
             neighbour_clamp: false,
@@ -1165,7 +1190,17 @@ impl TemporalCache {
         for id in &replace {
             self.planes.planes.remove(id);
         }
+        let moves_next: Vec<bool> = match scenes.next {
+            Some((_, next)) => next
+                .instances
+                .iter()
+                .zip(&transforms)
+                .map(|(i, &m)| i.transform != m)
+                .collect(),
+            None => Vec::new(),
+        };
         Ok(FramePlan {
+            moves_next,
             transforms,
             stats,
             times,
@@ -1193,6 +1228,7 @@ impl TemporalCache {
         new: u32,
     ) -> Result<TemporalFrameStats> {
         let FramePlan {
+            moves_next,
             transforms,
             mut stats,
             kept,
@@ -1223,6 +1259,7 @@ impl TemporalCache {
             dynamic,
             one_frame,
             &transforms,
+            &moves_next,
         )?;
         if has_next && dynamic {
             self.estimate_ledger
@@ -1397,7 +1434,8 @@ impl TemporalCache {
     /// Adds the records `computed` at frame `t` (cache indices from `first` on) to the
     /// history: each with its tau and last frame (decision 9), its anchor, its site and
     /// its plane if kept (`kept_planes`, by cache index); the first `replace.len()` of them
-    /// succeed the records of `replace`. Returns their ids and their lifespan histogram
+    /// succeed the records of `replace`; `moves_next` says per instance whether it moves
+    /// to t+1 ([`MoverRecords`]). Returns their ids and their lifespan histogram
     /// (entry i: records used in i + 1 frames).
     #[allow(clippy::too_many_arguments)]
     fn register_computed(
@@ -1410,7 +1448,9 @@ impl TemporalCache {
         dynamic: bool,
         one_frame: bool,
         transforms: &[Mat4],
+        moves_next: &[bool],
     ) -> Result<(Vec<u32>, Vec<u32>)> {
+        let movers_one_frame = self.settings.mover_records == MoverRecords::OneFrame;
         let first_id = self.next_id();
         // Ids are u32 (the light-sample seeds of replacements hash them).
         if first_id + computed.records.len() as u64 > u64::from(u32::MAX) {
@@ -1454,6 +1494,13 @@ impl TemporalCache {
             };
             // Radiance records: tau of their coefficient vectors (radiance.rs). A record
             // not estimated has none and lives this frame only.
+            // A record on an instance that moves to t+1 lives this frame only
+            // (MoverRecords::OneFrame); it still has its tau.
+            let on_mover = movers_one_frame
+                && moves_next
+                    .get(record.instance as usize)
+                    .copied()
+                    .unwrap_or(false);
             let (tau, last) = if one_frame {
                 (f32::NAN, t)
             } else {
@@ -1462,7 +1509,12 @@ impl TemporalCache {
                 } else {
                     temporal_ratio(record.irradiance, next.irradiance)
                 };
-                (tau, last_frame(t, tau, &self.settings, dynamic))
+                let last = if on_mover {
+                    t
+                } else {
+                    last_frame(t, tau, &self.settings, dynamic)
+                };
+                (tau, last)
             };
             let anchor = match self.settings.anchor {
                 RecordAnchor::World => None,

@@ -9,7 +9,7 @@ use super::motion::InstanceMotion;
 use super::reprojection::subset_pixel;
 use crate::direct::reference::{DirectReference, offset_ray_origin};
 use crate::records::reference::RecordReference;
-use crate::records::{PlaneMode, PlaneSample, RecordSite};
+use crate::records::{PlaneMode, PlaneSample, PlaneSpacing, RecordSite};
 use crate::sampling::{plane_light_first, record_frame};
 use glam::{Mat4, Vec3};
 use std::f32::consts::PI;
@@ -41,14 +41,22 @@ pub fn reproject_plane(
         let pick = |i: usize| subset_pixel(i as u32, stride, res as u32) as usize;
         pick(c / res) * fine + pick(c % res)
     };
-    let half = (at_t.settings.plane_fov_degrees.to_radians() * 0.5).tan();
+    let half = super::reprojection::estimate_half_extent(&at_t.settings);
+    let cosine = at_t.settings.plane_spacing == PlaneSpacing::Cosine;
     let stretched = at_t.settings.plane_mode == PlaneMode::Stretched;
     let n = Vec3::from(site.normal);
     let ng = Vec3::from(site.geometric_normal);
     let frame = record_frame(n, site.seed);
     let origin = offset_ray_origin(site.position.into(), ng);
-    let index = |x: f32| -> Option<usize> {
-        let i = ((x + half) / (2.0 * half) * res as f32).floor() as i64;
+    // The cell of a direction with tangent-frame components a (one axis) and z > 0: even
+    // in x = a / z, or in sin(atan x) for cosine spacing (`plane_index`, same f32 steps).
+    let index = |a: f32, z: f32| -> Option<usize> {
+        let u = if cosine {
+            a / (a * a + z * z).sqrt()
+        } else {
+            a / z
+        };
+        let i = ((u + half) / (2.0 * half) * res as f32).floor() as i64;
         if stretched {
             Some(i.clamp(0, res as i64 - 1) as usize)
         } else if (0..res as i64).contains(&i) {
@@ -115,7 +123,7 @@ pub fn reproject_plane(
         if local.z <= 0.0 {
             continue;
         }
-        if let (Some(ix), Some(iy)) = (index(local.x / local.z), index(local.y / local.z)) {
+        if let (Some(ix), Some(iy)) = (index(local.x, local.z), index(local.y, local.z)) {
             let c = iy * res + ix;
             cells[c] = cells[c].min(key(local.z, k as u32));
         }

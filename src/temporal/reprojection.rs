@@ -17,13 +17,13 @@
 
 use super::motion::{instance_motions, lights_unchanged};
 use super::plane_refresh::SpanMotion;
+use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
 use crate::records::{CacheSettings, PlaneMode, PlaneTable};
 use crate::scene::Scene;
-use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 
 /// Largest plane the reprojection keys can index (14 bits of sample index,
@@ -46,7 +46,7 @@ struct ReprojectParams {
     estimate_resolution: u32,
     stride: u32,
     light_choices: u32,
-    _pad: u32,
+    cosine_spacing: u32,
 }
 
 #[repr(C)]
@@ -124,6 +124,14 @@ impl<'a> NextFrame<'a> {
     }
 }
 
+/// The half-extent `plane_reproject.wgsl`'s `plane_index` bins in: the plane's in the
+/// coordinate its pixel edges are even in ([`crate::records::PlaneSpacing::even_half_extent`]
+/// of the f32 `tan(fov / 2)`, which it leaves unchanged for evenly spaced planes).
+pub fn estimate_half_extent(settings: &CacheSettings) -> f32 {
+    let s = (settings.plane_fov_degrees.to_radians() * 0.5).tan();
+    settings.plane_spacing.even_half_extent(f64::from(s)) as f32
+}
+
 /// The `plane_reproject`, `plane_reshade` and `plane_fill` passes.
 pub struct ReprojectionPass {
     reproject: ComputePass,
@@ -142,15 +150,6 @@ impl ReprojectionPass {
     pub fn new(ctx: &GpuContext, settings: &CacheSettings, stride: u32) -> Result<Self> {
         use Binding::*;
         validate_estimate_stride(stride, settings.plane_resolution)?;
-        // plane_reproject.wgsl's `plane_index` bins moved hits into evenly spaced cells
-        // (`TemporalCache::record_settings` gives records such planes).
-        if settings.plane_spacing != crate::records::PlaneSpacing::Uniform {
-            return Err(Error::Usage(
-                "reprojection needs evenly spaced planes (plane_spacing: uniform; \
-                 TemporalCache::record_settings sets it)"
-                    .into(),
-            ));
-        }
         Ok(Self {
             stride,
             table: PlaneTable::new(ctx, settings.plane_resolution / stride, settings)?,
@@ -245,7 +244,8 @@ impl ReprojectionPass {
                 count,
                 light_samples: settings.plane_light_samples,
                 stretched: u32::from(settings.plane_mode == PlaneMode::Stretched),
-                half_extent: (settings.plane_fov_degrees.to_radians() * 0.5).tan(),
+                // Cells are even in the plane's spacing coordinate (`plane_index`).
+                half_extent: estimate_half_extent(settings),
                 anchored: u32::from(next.anchored),
                 reuse_shading: u32::from(next.reuse_shading),
                 moving_count: next.movers.moving_count,
@@ -254,7 +254,9 @@ impl ReprojectionPass {
                 estimate_resolution: cells_res,
                 stride: self.stride,
                 light_choices: settings.plane_light_choices,
-                _pad: 0,
+                cosine_spacing: u32::from(
+                    settings.plane_spacing == crate::records::PlaneSpacing::Cosine,
+                ),
             },
         );
         let bind = self.reproject.bind(

@@ -10,7 +10,10 @@ struct ReprojectParams {
     count: u32,
     light_samples: u32,
     stretched: u32,      // 1: border pixels reach infinity (decision 6)
-    half_extent: f32,    // tan(fov / 2): the plane spans [-s, s]^2 at z = 1
+    // The plane's half-extent in the coordinate its pixel edges are even in: tan(fov / 2)
+    // for evenly spaced planes (x in [-s, s] at z = 1), sin(fov / 2) for cosine-spaced ones
+    // (edges even in sin(atan x); records::PlaneSpacing).
+    half_extent: f32,
     anchored: u32,       // 1: records move with their instance (`motion`)
     reuse_shading: u32,  // 1: lights unchanged from t to t+1 and `moving` lists every mover
     moving_count: u32,
@@ -19,7 +22,7 @@ struct ReprojectParams {
     estimate_resolution: u32,  // P / stride: cells of the estimated plane
     stride: u32,               // the estimate reprojects every stride-th sample each way
     light_choices: u32,        // lights sampled per plane hit (`shadow_loop_start_chosen`)
-    _pad1: u32,
+    cosine_spacing: u32,       // 1: PlaneSpacing::Cosine, 0: PlaneSpacing::Uniform
 }
 
 // How an instance moves from t to t+1 (Rust: temporal::motion::InstanceMotion).
