@@ -510,6 +510,83 @@ fn gpu_reprojection_matches_the_cpu_reference() {
     }
 }
 
+/// With `NextFrame::skip_movers` (set where records on movers live one frame), a record on
+/// the moving cube is not reprojected: its estimate is its plane at t, byte for byte, and
+/// every other record's estimate is the bytes it has without the skip.
+#[test]
+fn records_on_movers_are_not_estimated_when_skipped() {
+    use radsplat::records::RecordPass;
+    use radsplat::records::reference::RecordReference;
+    use radsplat::temporal::{NextFrame, ReprojectionPass};
+    use radsplat::visibility::GpuCamera;
+
+    let scene = common::load("cube-in-box.toml", Some((32, 32)));
+    let base = scene.instances[1].transform;
+    let next = cube_moved(&scene, base, 0.15);
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let prepared_next = renderer.prepare(&next).expect("prepare");
+    let settings = settings();
+    let (vis, _) = renderer
+        .splat_cache(
+            &prepared,
+            &scene.camera,
+            &renderer.new_cache(&settings).expect("cache"),
+            false,
+        )
+        .expect("visibility");
+    let camera = GpuCamera::new(&scene.camera);
+    let hits: Vec<_> = vis.iter().filter(|v| v.is_hit()).collect();
+    let sites: Vec<_> = hits
+        .iter()
+        .step_by(37)
+        .chain(hits.iter().filter(|v| v.instance == 1).step_by(5))
+        .enumerate()
+        .map(|(i, v)| RecordReference::site_from_pixel(&settings, &camera, v, i as u32))
+        .collect();
+    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    let reprojection = ReprojectionPass::new(&renderer.ctx, &settings, 1).expect("reprojection");
+    let ahead = |skip: bool| {
+        let mut f = NextFrame::new(&renderer.ctx, &prepared_next.gpu, &scene, &next, true)
+            .expect("next frame");
+        f.skip_movers = skip;
+        radsplat::temporal::trace_planes_ahead(
+            &pass,
+            &renderer.ctx,
+            &prepared.gpu,
+            Some((&f, &reprojection)),
+            &sites,
+        )
+        .expect("planes")
+    };
+    let (full, skipped) = (ahead(false), ahead(true));
+    renderer.ctx.check().expect("no wgpu errors");
+    let cells = (settings.plane_resolution as usize).pow(2);
+    let bytes = |p: &[radsplat::records::PlaneSample]| bytemuck::cast_slice::<_, u8>(p).to_vec();
+    let (mut on_cube, mut moved_on_cube) = (0, 0);
+    for (i, site) in sites.iter().enumerate() {
+        let span = i * cells..(i + 1) * cells;
+        if site.instance == 1 {
+            on_cube += 1;
+            assert_eq!(
+                bytes(&skipped.estimate[span.clone()]),
+                bytes(&skipped.subset[span.clone()]),
+                "site {i} on the cube was estimated"
+            );
+            moved_on_cube +=
+                usize::from(bytes(&full.estimate[span.clone()]) != bytes(&full.subset[span]));
+        } else {
+            assert_eq!(
+                bytes(&skipped.estimate[span.clone()]),
+                bytes(&full.estimate[span]),
+                "site {i} off the cube changed"
+            );
+        }
+    }
+    assert!(on_cube >= 5, "{on_cube} sites on the cube");
+    assert!(moved_on_cube > 0, "the cube's motion changed no estimate");
+}
+
 /// Plane hits under several lights are re-shaded at t+1 from one light chosen as the plane
 /// pass chooses it (`plane_direct_irradiance`): GPU and CPU reference agree while the cube
 /// slides and a point light moves.
@@ -780,9 +857,12 @@ fn ten_frame_sequence_is_deterministic_and_matches_its_golden_hash() {
 #[test]
 fn estimates_that_win_nothing_are_skipped_and_change_no_byte() {
     let renderer = Renderer::new(common::gpu()).expect("renderer");
+    // Records on the moving cube are not estimated by default (they live one frame
+    // anyway) and the ledger leaves them out; here every record is estimated and counted.
     let one_frame = |estimates| TemporalSettings {
         max_lifespan: 1,
         estimates,
+        mover_records: MoverRecords::ByChange,
         ..TemporalSettings::default()
     };
     let (auto, auto_stats) = render_sequence(&renderer, Some(one_frame(EstimateMode::Auto)));

@@ -68,6 +68,11 @@ fn main(
     let sample = id.z * res * res + pixel;
     let base = id.z * cells_res * cells_res;
     let site = sites[id.z];
+    // A record on an instance that moves to t+1 lives one frame (MoverRecords::OneFrame):
+    // no estimate. Its cells stay empty, so plane_fill.wgsl gives it its plane at t.
+    if params.skip_movers != 0u && motion[site.instance].moves != 0u {
+        return;
+    }
     let h = hits[sample];
     if h.instance == NO_HIT {
         atomicMax(&cells[base + id.y * cells_res + id.x], ~reprojection_key(MISS_DEPTH, pixel));

@@ -917,13 +917,11 @@ impl TemporalCache {
         // Frame t+1 as the reprojection sees it, once for every estimate of the frame.
         let anchored = self.settings.anchor == RecordAnchor::Instance;
         let next_frame = match scenes.next {
-            Some((next, next_cpu)) => Some(NextFrame::new(
-                ctx,
-                &next.gpu,
-                scenes.scene,
-                next_cpu,
-                anchored,
-            )?),
+            Some((next, next_cpu)) => {
+                let mut f = NextFrame::new(ctx, &next.gpu, scenes.scene, next_cpu, anchored)?;
+                f.skip_movers = self.settings.mover_records == MoverRecords::OneFrame;
+                Some(f)
+            }
             None => None,
         };
         let estimate = self.estimating(dynamic);
@@ -1250,7 +1248,7 @@ impl TemporalCache {
         // Without an estimate (a next frame the cache chose not to estimate), a record
         // lives its first frame only; at the last frame, as long as it would anyway.
         let one_frame = has_next && !estimate;
-        let (new_ids, lifespans) = self.register_computed(
+        let (new_ids, lifespans, movers) = self.register_computed(
             computed,
             first,
             capture.kept,
@@ -1262,8 +1260,12 @@ impl TemporalCache {
             &moves_next,
         )?;
         if has_next && dynamic {
-            self.estimate_ledger
-                .add_frame(estimated.then(|| estimate_rule::frames_won(&lifespans)));
+            // Records on movers were not estimated (`NextFrame::skip_movers`): the ledger
+            // weighs what the estimates of the others cost and won.
+            self.estimate_ledger.add_frame(estimated.then(|| {
+                let (records, won) = estimate_rule::frames_won(&lifespans);
+                (records - movers, won)
+            }));
         }
         stats.estimated = estimated;
         stats.lifespans = lifespans;
@@ -1435,8 +1437,9 @@ impl TemporalCache {
     /// history: each with its tau and last frame (decision 9), its anchor, its site and
     /// its plane if kept (`kept_planes`, by cache index); the first `replace.len()` of them
     /// succeed the records of `replace`; `moves_next` says per instance whether it moves
-    /// to t+1 ([`MoverRecords`]). Returns their ids and their lifespan histogram
-    /// (entry i: records used in i + 1 frames).
+    /// to t+1 ([`MoverRecords`]). Returns their ids, their lifespan histogram (entry i:
+    /// records used in i + 1 frames) and how many of them lie on movers and live one frame
+    /// for that.
     #[allow(clippy::too_many_arguments)]
     fn register_computed(
         &mut self,
@@ -1449,7 +1452,7 @@ impl TemporalCache {
         one_frame: bool,
         transforms: &[Mat4],
         moves_next: &[bool],
-    ) -> Result<(Vec<u32>, Vec<u32>)> {
+    ) -> Result<(Vec<u32>, Vec<u32>, u64)> {
         let movers_one_frame = self.settings.mover_records == MoverRecords::OneFrame;
         let first_id = self.next_id();
         // Ids are u32 (the light-sample seeds of replacements hash them).
@@ -1481,6 +1484,7 @@ impl TemporalCache {
                 .map_or_else(Vec::new, <[f32]>::to_vec)
         };
         let mut ids = Vec::with_capacity(computed.records.len());
+        let mut movers = 0u64;
         for (k, ((&record, &next), site)) in computed
             .records
             .iter()
@@ -1495,13 +1499,14 @@ impl TemporalCache {
             // Radiance records: tau of their coefficient vectors (radiance.rs). A record
             // not estimated has none and lives this frame only.
             // A record on an instance that moves to t+1 lives this frame only
-            // (MoverRecords::OneFrame); it still has its tau.
+            // (MoverRecords::OneFrame) and was not estimated (`NextFrame::skip_movers`).
             let on_mover = movers_one_frame
                 && moves_next
                     .get(record.instance as usize)
                     .copied()
                     .unwrap_or(false);
-            let (tau, last) = if one_frame {
+            movers += u64::from(on_mover);
+            let (tau, last) = if one_frame || on_mover {
                 (f32::NAN, t)
             } else {
                 let tau = if floats > 0 {
@@ -1509,12 +1514,7 @@ impl TemporalCache {
                 } else {
                     temporal_ratio(record.irradiance, next.irradiance)
                 };
-                let last = if on_mover {
-                    t
-                } else {
-                    last_frame(t, tau, &self.settings, dynamic)
-                };
-                (tau, last)
+                (tau, last_frame(t, tau, &self.settings, dynamic))
             };
             let anchor = match self.settings.anchor {
                 RecordAnchor::World => None,
@@ -1542,7 +1542,7 @@ impl TemporalCache {
             self.blocks.push_back(blocks);
             ids.push(id);
         }
-        Ok((ids, lifespans))
+        Ok((ids, lifespans, movers))
     }
 
     /// The sites of the replacements `replace` (ids in order of birth) at frame `t`, in

@@ -47,6 +47,8 @@ struct ReprojectParams {
     stride: u32,
     light_choices: u32,
     cosine_spacing: u32,
+    skip_movers: u32,
+    _pad: [u32; 3],
 }
 
 #[repr(C)]
@@ -98,6 +100,10 @@ pub struct NextFrame<'a> {
     pub anchored: bool,
     /// Hits whose lighting cannot have changed keep the radiance traced at t.
     pub reuse_shading: bool,
+    /// Records on instances that move to t+1 are not estimated: their estimate is their
+    /// plane at t (tau 1). Set where such records live one frame anyway
+    /// ([`super::MoverRecords::OneFrame`]), so their reprojection and re-shading are saved.
+    pub skip_movers: bool,
 }
 
 impl<'a> NextFrame<'a> {
@@ -119,6 +125,7 @@ impl<'a> NextFrame<'a> {
             anchored,
             reuse_shading: lights_unchanged(now, next)
                 && movers.moving_count as usize <= MAX_MOVING_FOR_REUSE,
+            skip_movers: false,
             movers,
         })
     }
@@ -257,6 +264,8 @@ impl ReprojectionPass {
                 cosine_spacing: u32::from(
                     settings.plane_spacing == crate::records::PlaneSpacing::Cosine,
                 ),
+                skip_movers: u32::from(next.skip_movers),
+                _pad: [0; 3],
             },
         );
         let bind = self.reproject.bind(

@@ -23,6 +23,10 @@ struct ReprojectParams {
     stride: u32,               // the estimate reprojects every stride-th sample each way
     light_choices: u32,        // lights sampled per plane hit (`shadow_loop_start_chosen`)
     cosine_spacing: u32,       // 1: PlaneSpacing::Cosine, 0: PlaneSpacing::Uniform
+    skip_movers: u32,          // 1: records on moving instances are not estimated
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // How an instance moves from t to t+1 (Rust: temporal::motion::InstanceMotion).
