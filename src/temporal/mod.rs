@@ -11,6 +11,7 @@
 //! tau, gradients and motion of their coefficient blocks).
 
 pub mod animation;
+pub mod buried;
 pub mod estimate_error;
 pub mod estimate_rule;
 pub mod instant;
@@ -408,6 +409,9 @@ pub struct TemporalFrameStats {
     pub deleted: u32,
     /// Of `deleted`, those that cover pixels (all covered by kept records).
     pub redundant: u32,
+    /// Of `deleted`, those that would have been replaced but whose site an object that
+    /// moved since their birth now covers ([`buried`]).
+    pub buried: u32,
     /// Records created by placement in this frame.
     pub new: u32,
     /// Hemisphere rays traced (replacements and new records; of refreshed planes, the
@@ -1088,8 +1092,16 @@ impl TemporalCache {
             &mut times,
         )?;
         let mut replace: Vec<u32> = Vec::new();
+        let burial = buried::SiteBurial::new(scenes.scene);
         for (k, &(_, id)) in expired.iter().enumerate() {
-            if deciding.get(k).copied().unwrap_or(0) > 0 {
+            let needed = deciding.get(k).copied().unwrap_or(0) > 0;
+            if needed && self.replacement_buried(id, t, &transforms, &burial) {
+                // Its site is now inside a moved object: placement covers its pixels
+                // from visible points instead (buried.rs).
+                stats.deleted += 1;
+                stats.buried += 1;
+                self.planes.planes.remove(&id);
+            } else if needed {
                 replace.push(id);
             } else {
                 stats.deleted += 1;
@@ -1562,21 +1574,7 @@ impl TemporalCache {
         let mut runs: Vec<ReplacementRun> = Vec::new();
         for &id in replace {
             let rec = self.rec(id);
-            let unmoved = rec
-                .anchor
-                .is_none_or(|a| transforms.get(a.instance as usize) == Some(&a.transform));
-            // The record's motion since its birth, if it moved with its instance.
-            let motion = rec.anchor.filter(|_| !unmoved).and_then(|a| {
-                transforms
-                    .get(a.instance as usize)
-                    .map(|&now| a.motion_to(now))
-            });
-            let site = motion::replacement_site(
-                rec.site,
-                &rec.record,
-                motion.as_ref(),
-                crate::sampling::hash_combine(id, t),
-            );
+            let (site, unmoved) = self.replacement_site(id, t, transforms);
             let refreshable = refreshing
                 && unmoved
                 && rec.site.is_some()
@@ -1600,6 +1598,58 @@ impl TemporalCache {
             }
         }
         runs
+    }
+
+    /// Where the replacement of record `id` at frame `t` is computed (its site, carried by
+    /// its instance if it moved with it), and whether the record is where it was born.
+    fn replacement_site(&self, id: u32, t: u32, transforms: &[Mat4]) -> (RecordSite, bool) {
+        let rec = self.rec(id);
+        let unmoved = rec
+            .anchor
+            .is_none_or(|a| transforms.get(a.instance as usize) == Some(&a.transform));
+        // The record's motion since its birth, if it moved with its instance.
+        let motion = rec.anchor.filter(|_| !unmoved).and_then(|a| {
+            transforms
+                .get(a.instance as usize)
+                .map(|&now| a.motion_to(now))
+        });
+        let site = motion::replacement_site(
+            rec.site,
+            &rec.record,
+            motion.as_ref(),
+            crate::sampling::hash_combine(id, t),
+        );
+        (site, unmoved)
+    }
+
+    /// Whether the replacement site of record `id` at frame `t` lies inside an object that
+    /// moved since the record's birth (every other object if its own moved with it, or if
+    /// the birth frame's transforms are gone; its own too when the record stayed at its
+    /// world position, which the moved object may have swallowed):
+    /// [`buried::SiteBurial::buried`].
+    fn replacement_buried(
+        &self,
+        id: u32,
+        t: u32,
+        transforms: &[Mat4],
+        burial: &buried::SiteBurial<'_>,
+    ) -> bool {
+        let (site, _) = self.replacement_site(id, t, transforms);
+        let rec = self.rec(id);
+        let then = self.transforms_of_frame(rec.birth);
+        let own = site.instance as usize;
+        let own_moved = then.get(own) != transforms.get(own);
+        let carried = rec.anchor.is_some();
+        let movers: Vec<usize> = (0..transforms.len())
+            .filter(|&j| {
+                if j == own {
+                    own_moved && !carried
+                } else {
+                    own_moved || then.get(j) != transforms.get(j)
+                }
+            })
+            .collect();
+        !movers.is_empty() && burial.buried(&site, &movers)
     }
 
     /// Per record of `expired` (the last frame's records that end before frame `t`, in
