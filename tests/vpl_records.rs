@@ -364,3 +364,61 @@ fn instant_caching_updates_records_to_what_a_new_gather_gives() {
     // The cube's shadow and its light moved: some kept records did change.
     assert!(changed > 0, "no kept record changed");
 }
+
+/// The cube slides over floor records' sites (cube in a box 48 x 48, frames 0..8, the
+/// CLI's VPL settings): updated in place, such a record gathered its VPLs from inside the
+/// cube and splatted black beside it (from frame 8 on, 5-14 pixels a frame below half
+/// the indirect light per-frame computation gives; here 6 at frame 8). Such records are
+/// deleted like those on the
+/// moved cube, and placement covers their pixels: at frame 8 no pixel falls below half
+/// the light of a cache started at frame 8.
+#[test]
+fn instant_caching_deletes_records_the_cube_slides_over() {
+    use radsplat::temporal::instant::InstantCache;
+    let mut scene = common::load("cube-in-box-anim.toml", Some((48, 48)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = vpl_settings(
+        VplSettings::default().paths,
+        VplSettings::default().clamp,
+        1,
+    );
+    let luminance = |f: &radsplat::frame::Frame| -> Vec<f32> {
+        let indirect = f.indirect.as_ref().expect("indirect AOV");
+        indirect
+            .iter()
+            .map(|c| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
+            .collect()
+    };
+    let mut cache = InstantCache::new(&renderer, &settings).expect("cache");
+    let mut bvh = None;
+    let mut previous = None;
+    let mut buried = 0;
+    let mut last = Vec::new();
+    for t in 0..=8u32 {
+        scene.try_set_frame(t as f32).expect("frame");
+        let prepared = renderer
+            .prepare_frame(&scene, &mut bvh, previous.as_ref())
+            .expect("prepare");
+        let (frame, stats, _) = cache
+            .render_frame(&renderer, &prepared, &scene, t, |_| {})
+            .expect("frame");
+        buried += stats.buried;
+        last = luminance(&frame);
+        previous = Some(prepared);
+    }
+    assert!(buried > 0, "no record site was buried by the cube");
+    let prepared = previous.expect("frame 8");
+    let mut fresh = InstantCache::new(&renderer, &settings).expect("cache");
+    let (frame, _, _) = fresh
+        .render_frame(&renderer, &prepared, &scene, 8, |_| {})
+        .expect("fresh frame 8");
+    renderer.ctx.check().expect("no wgpu errors");
+    let p = luminance(&frame);
+    let mean = p.iter().sum::<f32>() / p.len() as f32;
+    let dark = last
+        .iter()
+        .zip(&p)
+        .filter(|&(&a, &b)| b > 0.2 * mean && a < 0.5 * b)
+        .count();
+    assert_eq!(dark, 0, "{dark} pixels below half a fresh cache's light");
+}

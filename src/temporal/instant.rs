@@ -7,7 +7,8 @@
 //! 1. slots whose VPL differs from the last frame's are invalid (Cases 1-2: a light path
 //!    newly occluded or freed by a moved object, a moved or changed light);
 //! 2. records on an instance that moved are deleted (Case 5) and placed again where the
-//!    new frame needs them;
+//!    new frame needs them, and so are records whose site a moved instance now covers
+//!    (`super::buried`: updated in place they would gather from inside it);
 //! 3. every other record is updated in place (`vpl_gather.wgsl`, update mode): a ray is
 //!    traced again where its VPL is invalid or its segment meets the box of a moved
 //!    instance at either frame (Cases 3-4, conservatively by boxes; shared/movers.wgsl),
@@ -112,7 +113,7 @@ impl InstantCache {
             vpl_slots: slots,
             ..Default::default()
         };
-        let mut deleted = 0;
+        let (mut deleted, mut buried) = (0, 0);
         if let Some((old_vpls, old_transforms)) = self.previous.take() {
             // Cases 1-2: VPL slots that changed.
             let mut changed = vec![0u32; slots.div_ceil(32).max(1) as usize];
@@ -130,9 +131,20 @@ impl InstantCache {
             let bits = records.read_visibility(ctx)?;
             let words = records.visibility_words as usize;
             let (mut kept, mut kept_bits) = (Vec::new(), Vec::new());
+            // A kept record whose site a moved instance now covers would gather its VPLs
+            // from inside it (buried.rs): it goes too, and placement covers its pixels.
+            let moved_instances: Vec<usize> = (0..moved.len()).filter(|&j| moved[j] != 0).collect();
+            let burial = super::buried::SiteBurial::new(scene);
             for (k, r) in all.iter().enumerate() {
                 if moved.get(r.instance as usize).copied().unwrap_or(0) != 0 {
                     deleted += 1;
+                    continue;
+                }
+                // The site the update gathers from (its shading normal lifts the rays).
+                let site = crate::records::vpl_gather::site_of(r);
+                if !moved_instances.is_empty() && burial.buried(&site, &moved_instances) {
+                    deleted += 1;
+                    buried += 1;
                     continue;
                 }
                 kept.push(*r);
@@ -187,6 +199,7 @@ impl InstantCache {
             alive: records.count,
             kept,
             deleted,
+            buried,
             new,
             plane_rays: stats.traced_rays + c.plane_rays,
             ..Default::default()
