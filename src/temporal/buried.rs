@@ -13,16 +13,27 @@
 //! only make the test delete a record placement then replaces, never keep a buried one
 //! it would have kept before.
 
+use crate::bvh::{Blas, BvhPreset};
 use crate::direct::reference::offset_ray_origin;
 use crate::records::RecordSite;
 use crate::scene::{Mesh, Scene};
 use glam::{Mat4, Vec3};
+use obvhs::ray::{Ray, RayHit};
+use std::cell::{OnceCell, RefCell};
+use std::collections::HashMap;
+
+/// Meshes with more triangles than this are searched through a BVH built for the frame
+/// (object space, the first time a site lies in their box) rather than triangle by
+/// triangle.
+const BVH_ABOVE_TRIANGLES: usize = 256;
 
 /// The burial test over one frame's scene: the world box of every instance, computed the
-/// first time a site asks.
+/// first time a site asks, and the object-space BVHs of large meshes sites were tested
+/// against.
 pub struct SiteBurial<'a> {
     scene: &'a Scene,
-    boxes: std::cell::OnceCell<Vec<(Vec3, Vec3)>>,
+    boxes: OnceCell<Vec<(Vec3, Vec3)>>,
+    bvhs: RefCell<HashMap<usize, Blas>>,
 }
 
 impl<'a> SiteBurial<'a> {
@@ -30,7 +41,8 @@ impl<'a> SiteBurial<'a> {
     pub fn new(scene: &'a Scene) -> Self {
         Self {
             scene,
-            boxes: std::cell::OnceCell::new(),
+            boxes: OnceCell::new(),
+            bvhs: RefCell::new(HashMap::new()),
         }
     }
 
@@ -56,12 +68,18 @@ impl<'a> SiteBurial<'a> {
                 return false;
             };
             let in_box = !(ray.0.cmplt(lo).any() || ray.0.cmpgt(hi).any());
-            in_box
-                && self
-                    .scene
-                    .meshes
-                    .get(inst.mesh as usize)
-                    .is_some_and(|mesh| ray_starts_inside(mesh, &inst.transform, ray))
+            let mesh_index = inst.mesh as usize;
+            match self.scene.meshes.get(mesh_index) {
+                Some(mesh) if in_box && mesh.indices.len() > BVH_ABOVE_TRIANGLES => {
+                    let mut bvhs = self.bvhs.borrow_mut();
+                    let blas = bvhs
+                        .entry(mesh_index)
+                        .or_insert_with(|| Blas::build(mesh, BvhPreset::Fast));
+                    ray_starts_inside_bvh(blas, &inst.transform, ray)
+                }
+                Some(mesh) if in_box => ray_starts_inside(mesh, &inst.transform, ray),
+                _ => false,
+            }
         })
     }
 }
@@ -122,6 +140,31 @@ fn ray_starts_inside(mesh: &Mesh, transform: &Mat4, (origin, dir): (Vec3, Vec3))
         }
     }
     nearest.is_finite() && back
+}
+
+/// [`ray_starts_inside`] through the mesh's object-space BVH.
+fn ray_starts_inside_bvh(blas: &Blas, transform: &Mat4, (origin, dir): (Vec3, Vec3)) -> bool {
+    let det = transform.determinant();
+    if det == 0.0 || !det.is_finite() {
+        return false;
+    }
+    let inverse = transform.inverse();
+    let o = inverse.transform_point3(origin);
+    let d = inverse.transform_vector3(dir);
+    let ray = Ray::new(o.into(), d.into(), 0.0, f32::INFINITY);
+    let mut hit = RayHit::none();
+    if !blas
+        .bvh
+        .ray_traverse(ray, &mut hit, |r, id| blas.triangles[id].intersect(r))
+    {
+        return false;
+    }
+    blas.triangles
+        .get(hit.primitive_id as usize)
+        .is_some_and(|t| {
+            let (a, b, c) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
+            d.dot((b - a).cross(c - a)) > 0.0
+        })
 }
 
 /// Möller–Trumbore: the ray parameter of the hit (> 0) and `dot(dir, e1 x e2)` (positive:
@@ -234,6 +277,74 @@ mod tests {
             ..site
         };
         assert!(site_inside(&cube(), &m, &inside));
+    }
+
+    /// The cube with every face cut into n x n quads (12 n^2 triangles), windings kept.
+    fn fine_cube(n: u32) -> Mesh {
+        let coarse = cube();
+        let mut positions = Vec::new();
+        let mut indices = Vec::new();
+        for tri_pair in coarse.indices.chunks(2) {
+            // Each face is two triangles [q0 q1 q2], [q0 q2 q3].
+            let q = [
+                tri_pair[0][0],
+                tri_pair[0][1],
+                tri_pair[0][2],
+                tri_pair[1][2],
+            ]
+            .map(|k| coarse.positions[k as usize]);
+            let at = |i: u32, j: u32| {
+                let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+                q[0] + (q[1] - q[0]) * u + (q[3] - q[0]) * v
+            };
+            for i in 0..n {
+                for j in 0..n {
+                    let base = positions.len() as u32;
+                    positions.extend([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+                    indices.push([base, base + 1, base + 2]);
+                    indices.push([base, base + 2, base + 3]);
+                }
+            }
+        }
+        let n_tris = indices.len();
+        Mesh {
+            name: "fine cube".into(),
+            normals: vec![Vec3::ZERO; positions.len()],
+            uvs: vec![glam::Vec2::ZERO; positions.len()],
+            positions,
+            indices,
+            material_ids: vec![0; n_tris],
+        }
+    }
+
+    #[test]
+    fn the_bvh_search_agrees_with_the_triangle_by_triangle_one() {
+        let mesh = fine_cube(8);
+        assert!(mesh.indices.len() > BVH_ABOVE_TRIANGLES);
+        let blas = Blas::build(&mesh, BvhPreset::Fast);
+        let m = cube_at(Vec3::new(-0.4, 0.0, -0.5), 30.0);
+        let mut inside = 0;
+        for k in 0..400 {
+            // Off the fine mesh's vertices and edges (a ray through a shared vertex may
+            // miss every triangle in either search).
+            let (x, z) = (
+                (k % 20) as f32 * 0.07 - 1.087,
+                (k / 20) as f32 * 0.07 - 1.213,
+            );
+            let site = floor_site(x, z);
+            let ray = lifted_ray(&site).expect("ray");
+            let brute = ray_starts_inside(&mesh, &m, ray);
+            assert_eq!(
+                brute,
+                ray_starts_inside_bvh(&blas, &m, ray),
+                "site {x}, {z}"
+            );
+            assert_eq!(brute, site_inside(&cube(), &m, &site), "site {x}, {z}");
+            inside += usize::from(brute);
+        }
+        // The turned unit cube's square metre lies within the 1.4 m x 1.4 m grid around
+        // it: about half of its 400 sites.
+        assert!((180..=230).contains(&inside), "{inside} sites inside");
     }
 
     #[test]
