@@ -772,25 +772,39 @@ fn render_sequence_with(
     Vec<Vec<u8>>,
     Vec<radsplat::temporal::animation::AnimationFrameStats>,
 ) {
+    animate_cube(renderer, 32, 0..=9, cache, temporal, |frame| {
+        let channels = radsplat::output::exr_out::frame_channels(frame);
+        radsplat::output::exr_out::encode_exr(frame.width, frame.height, &channels).expect("exr")
+    })
+}
+
+/// Frames `frames` of cube-in-box-anim at `size` x `size` through the library's animation
+/// loop: what `keep` takes of each frame, and each frame's statistics.
+fn animate_cube<T>(
+    renderer: &Renderer,
+    size: u32,
+    frames: std::ops::RangeInclusive<u32>,
+    cache: CacheSettings,
+    temporal: Option<TemporalSettings>,
+    mut keep: impl FnMut(&Frame) -> T,
+) -> (
+    Vec<T>,
+    Vec<radsplat::temporal::animation::AnimationFrameStats>,
+) {
     use radsplat::temporal::animation::{AnimationOptions, render_animation};
-    let scene = common::load("cube-in-box-anim.toml", Some((32, 32)));
+    let scene = common::load("cube-in-box-anim.toml", Some((size, size)));
     let options = AnimationOptions {
-        frames: 0..=9,
+        frames,
         cache,
         temporal,
     };
-    let mut exrs = Vec::new();
-    let mut stats = Vec::new();
+    let (mut kept, mut stats) = (Vec::new(), Vec::new());
     render_animation(
         renderer,
         &scene,
         &options,
         |f| {
-            let channels = radsplat::output::exr_out::frame_channels(f.frame);
-            exrs.push(
-                radsplat::output::exr_out::encode_exr(f.frame.width, f.frame.height, &channels)
-                    .expect("exr"),
-            );
+            kept.push(keep(f.frame));
             stats.push(f.stats.clone());
             Ok(())
         },
@@ -798,7 +812,7 @@ fn render_sequence_with(
     )
     .expect("animation");
     renderer.ctx.check().expect("no wgpu errors");
-    (exrs, stats)
+    (kept, stats)
 }
 
 #[test]
@@ -861,8 +875,8 @@ fn ten_frame_sequence_is_deterministic_and_matches_its_golden_hash() {
     );
 }
 
-/// Indirect luminance per pixel of frames `frames` of cube-in-box-anim at 48 x 48 through
-/// the animation loop, and each frame's statistics.
+/// Indirect luminance per pixel of frames `frames` of cube-in-box-anim at 48 x 48, and
+/// each frame's statistics.
 fn cube_indirect(
     renderer: &Renderer,
     frames: std::ops::RangeInclusive<u32>,
@@ -871,34 +885,13 @@ fn cube_indirect(
     Vec<Vec<f32>>,
     Vec<radsplat::temporal::animation::AnimationFrameStats>,
 ) {
-    use radsplat::temporal::animation::{AnimationOptions, render_animation};
-    let scene = common::load("cube-in-box-anim.toml", Some((48, 48)));
-    let options = AnimationOptions {
-        frames,
-        cache: settings(),
-        temporal,
-    };
-    let (mut images, mut stats) = (Vec::new(), Vec::new());
-    render_animation(
-        renderer,
-        &scene,
-        &options,
-        |f| {
-            let indirect = f.frame.indirect.as_ref().expect("indirect AOV");
-            images.push(
-                indirect
-                    .iter()
-                    .map(|c| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
-                    .collect(),
-            );
-            stats.push(f.stats.clone());
-            Ok(())
-        },
-        |_, _| {},
-    )
-    .expect("animation");
-    renderer.ctx.check().expect("no wgpu errors");
-    (images, stats)
+    animate_cube(renderer, 48, frames, settings(), temporal, |frame| {
+        let indirect = frame.indirect.as_ref().expect("indirect AOV");
+        indirect
+            .iter()
+            .map(|c| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
+            .collect()
+    })
 }
 
 /// The cube slides over floor records' sites: from frame 8 (every record recomputed at its

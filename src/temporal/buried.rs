@@ -115,19 +115,28 @@ fn world_box(positions: &[Vec3], transform: &Mat4) -> (Vec3, Vec3) {
     )
 }
 
-/// Whether the world-space ray `(origin, dir)` first meets the back of `mesh` placed by
-/// `transform`.
-fn ray_starts_inside(mesh: &Mesh, transform: &Mat4, (origin, dir): (Vec3, Vec3)) -> bool {
+/// The world-space ray `(origin, dir)` in the object space of `transform`; None for a
+/// transform that cannot be inverted. The ray parameter is not a distance there, but the
+/// nearest hit is the same hit, and the mesh's own winding says which side is its outside
+/// (a mirrored placement of a solid is still a solid).
+fn object_ray(transform: &Mat4, (origin, dir): (Vec3, Vec3)) -> Option<(Vec3, Vec3)> {
     let det = transform.determinant();
     if det == 0.0 || !det.is_finite() {
-        return false;
+        return None;
     }
-    // In object space: the ray parameter is not a distance there, but the nearest hit is
-    // the same hit, and the mesh's own winding says which side is its outside (a mirrored
-    // placement of a solid is still a solid).
     let inverse = transform.inverse();
-    let o = inverse.transform_point3(origin);
-    let d = inverse.transform_vector3(dir);
+    Some((
+        inverse.transform_point3(origin),
+        inverse.transform_vector3(dir),
+    ))
+}
+
+/// Whether the world-space ray `ray` first meets the back of `mesh` placed by
+/// `transform`, triangle by triangle.
+fn ray_starts_inside(mesh: &Mesh, transform: &Mat4, ray: (Vec3, Vec3)) -> bool {
+    let Some((o, d)) = object_ray(transform, ray) else {
+        return false;
+    };
     let mut nearest = f32::INFINITY;
     let mut back = false;
     for tri in &mesh.indices {
@@ -143,14 +152,10 @@ fn ray_starts_inside(mesh: &Mesh, transform: &Mat4, (origin, dir): (Vec3, Vec3))
 }
 
 /// [`ray_starts_inside`] through the mesh's object-space BVH.
-fn ray_starts_inside_bvh(blas: &Blas, transform: &Mat4, (origin, dir): (Vec3, Vec3)) -> bool {
-    let det = transform.determinant();
-    if det == 0.0 || !det.is_finite() {
+fn ray_starts_inside_bvh(blas: &Blas, transform: &Mat4, ray: (Vec3, Vec3)) -> bool {
+    let Some((o, d)) = object_ray(transform, ray) else {
         return false;
-    }
-    let inverse = transform.inverse();
-    let o = inverse.transform_point3(origin);
-    let d = inverse.transform_vector3(dir);
+    };
     let ray = Ray::new(o.into(), d.into(), 0.0, f32::INFINITY);
     let mut hit = RayHit::none();
     if !blas
