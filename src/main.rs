@@ -187,7 +187,9 @@ enum Command {
         /// Which expired records are recomputed at the same place: `visible` (those that
         /// cover a pixel of the frame, where they would be now), `covering` (the seed: those
         /// that covered a pixel in their last frame) or `needed` (those that cover a pixel
-        /// of the frame no kept record covers).
+        /// of the frame no kept record covers). In every mode a record whose place an object
+        /// that moved now covers is deleted instead (traced from inside the object it saw
+        /// black: docs/results.md, "Replacements inside a moving object").
         #[arg(long, default_value = "visible", value_parser = ["visible", "covering", "needed"])]
         replace: String,
         /// The E(t+1) estimate reprojects every N-th plane sample each way (1: all). With

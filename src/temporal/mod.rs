@@ -121,7 +121,8 @@ pub const AUTO_REFRESH_MIN_PLANES: u64 = 64;
 pub const AUTO_REFRESH_MIN_SAVED: f64 = 0.2;
 
 /// Which expired records are recomputed at the same place (the others are deleted; any
-/// pixel left uncovered gets a new record from placement).
+/// pixel left uncovered gets a new record from placement). Whatever the rule, a record
+/// whose site an object that moved since its birth now covers is deleted ([`buried`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum Replacement {
     /// Those that contributed to any pixel in their last frame (seed 000 section V-c, with
