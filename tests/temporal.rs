@@ -983,7 +983,7 @@ fn estimates_that_win_nothing_are_skipped_and_change_no_byte() {
 /// temporal records' planes cosine-spaced at 170 degrees (were even at 130) and records on
 /// the moving cube living one frame (cube in a box 48x48, frames 0..23, 16x16 planes,
 /// 256-spp references: indirect error mean 4.09 %, at most 4.71 %, against 5.74 % and
-/// 6.87 %). Changed on purpose in stop 45: records whose site the cube has slid over are
+/// 6.87 %). Changed on purpose again in stop 44: records whose site the cube has slid over are
 /// deleted, not replaced inside it (`temporal::buried`; 3.23 % mean, 3.49 % at most).
 const GOLDEN_SEQUENCE: &str = "a6dc29172a46a4a5846b89ff1b560be33a8a97ebb30346be485c90012841427d";
 /// The sequence with `refine_planes` (recorded in stop 42 with the option; cube in a box
@@ -992,7 +992,7 @@ const GOLDEN_SEQUENCE: &str = "a6dc29172a46a4a5846b89ff1b560be33a8a97ebb30346be4
 /// replacement sites' geometric normals (as the stride-1 sequence below): the same
 /// errors to the digit (5.09 % mean, 6.04 % max). Changed in stop 44 with the default's
 /// cosine planes and one-frame records on the moving cube: 3.73 % mean, 4.51 % max; in
-/// stop 45 with buried replacements deleted: 2.92 % mean, 3.32 % max.
+/// stop 44 with buried replacements deleted: 2.92 % mean, 3.32 % max.
 const GOLDEN_SEQUENCE_REFINED: &str =
     "8bfd0bb17f709a11f86405e6bf58b73c737794613c11306103904594b626d666";
 /// The sequence with estimate stride 1. Re-recorded in stop 43 when replacements of
@@ -1001,7 +1001,7 @@ const GOLDEN_SEQUENCE_REFINED: &str =
 /// one ulp (3e-8); cube in a box 48x48, frames 0..23, 16x16 planes: the same indirect
 /// error (5.93 % mean, 7.03 % max against 256-spp references). Changed in stop 44 with
 /// the default's cosine planes and one-frame records on the moving cube: 3.97 % mean,
-/// 4.86 % max; in stop 45 with buried replacements deleted: 3.21 % mean, 3.49 % max.
+/// 4.86 % max; in stop 44 with buried replacements deleted: 3.21 % mean, 3.49 % max.
 const GOLDEN_SEQUENCE_FULL_ESTIMATE: &str =
     "0cbe7492a69b3c82b62f48d39fbe5468b1b5eecb24fdadb90fae1043511f5d14";
 
