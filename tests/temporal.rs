@@ -393,6 +393,34 @@ fn plane_refresh_is_exact(refine_planes: bool) {
     assert!(auto == refreshed);
 }
 
+/// Record sites at every 37th visible pixel of `scene` (cube-in-box.toml) and every 5th
+/// pixel of its cube (instance 1).
+fn sites_over_the_room_and_cube(
+    renderer: &Renderer,
+    prepared: &PreparedScene,
+    scene: &Scene,
+    settings: &CacheSettings,
+) -> Vec<radsplat::records::RecordSite> {
+    use radsplat::records::reference::RecordReference;
+    use radsplat::visibility::GpuCamera;
+    let (vis, _) = renderer
+        .splat_cache(
+            prepared,
+            &scene.camera,
+            &renderer.new_cache(settings).expect("cache"),
+            false,
+        )
+        .expect("visibility");
+    let camera = GpuCamera::new(&scene.camera);
+    let hits: Vec<_> = vis.iter().filter(|v| v.is_hit()).collect();
+    hits.iter()
+        .step_by(37)
+        .chain(hits.iter().filter(|v| v.instance == 1).step_by(5))
+        .enumerate()
+        .map(|(i, v)| RecordReference::site_from_pixel(settings, &camera, v, i as u32))
+        .collect()
+}
+
 /// GPU reprojection of planes at sites of `scene` into `next` (every `stride`-th sample
 /// each way) against the CPU reference; returns (sites, cells, cells that differ, cells
 /// changed by the motion).
@@ -409,7 +437,6 @@ fn reproject_against_cpu(
     use radsplat::temporal::motion::instance_motions;
     use radsplat::temporal::reference::reproject_plane;
     use radsplat::temporal::{NextFrame, ReprojectionPass};
-    use radsplat::visibility::GpuCamera;
 
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let prepared = renderer.prepare(scene).expect("prepare");
@@ -418,24 +445,7 @@ fn reproject_against_cpu(
         plane_spacing: spacing,
         ..user_settings()
     });
-    // Sites at every 37th visible pixel and every 5th pixel of the cube (instance 1).
-    let (vis, _) = renderer
-        .splat_cache(
-            &prepared,
-            &scene.camera,
-            &renderer.new_cache(&settings).expect("cache"),
-            false,
-        )
-        .expect("visibility");
-    let camera = GpuCamera::new(&scene.camera);
-    let hits: Vec<_> = vis.iter().filter(|v| v.is_hit()).collect();
-    let sites: Vec<_> = hits
-        .iter()
-        .step_by(37)
-        .chain(hits.iter().filter(|v| v.instance == 1).step_by(5))
-        .enumerate()
-        .map(|(i, v)| RecordReference::site_from_pixel(&settings, &camera, v, i as u32))
-        .collect();
+    let sites = sites_over_the_room_and_cube(&renderer, &prepared, scene, &settings);
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let reprojection =
         ReprojectionPass::new(&renderer.ctx, &settings, stride).expect("reprojection pass");
@@ -527,9 +537,7 @@ fn gpu_reprojection_matches_the_cpu_reference() {
 #[test]
 fn records_on_movers_are_not_estimated_when_skipped() {
     use radsplat::records::RecordPass;
-    use radsplat::records::reference::RecordReference;
     use radsplat::temporal::{NextFrame, ReprojectionPass};
-    use radsplat::visibility::GpuCamera;
 
     let scene = common::load("cube-in-box.toml", Some((32, 32)));
     let base = scene.instances[1].transform;
@@ -538,23 +546,7 @@ fn records_on_movers_are_not_estimated_when_skipped() {
     let prepared = renderer.prepare(&scene).expect("prepare");
     let prepared_next = renderer.prepare(&next).expect("prepare");
     let settings = settings();
-    let (vis, _) = renderer
-        .splat_cache(
-            &prepared,
-            &scene.camera,
-            &renderer.new_cache(&settings).expect("cache"),
-            false,
-        )
-        .expect("visibility");
-    let camera = GpuCamera::new(&scene.camera);
-    let hits: Vec<_> = vis.iter().filter(|v| v.is_hit()).collect();
-    let sites: Vec<_> = hits
-        .iter()
-        .step_by(37)
-        .chain(hits.iter().filter(|v| v.instance == 1).step_by(5))
-        .enumerate()
-        .map(|(i, v)| RecordReference::site_from_pixel(&settings, &camera, v, i as u32))
-        .collect();
+    let sites = sites_over_the_room_and_cube(&renderer, &prepared, &scene, &settings);
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let reprojection = ReprojectionPass::new(&renderer.ctx, &settings, 1).expect("reprojection");
     let ahead = |skip: bool| {

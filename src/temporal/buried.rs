@@ -19,66 +19,92 @@ use crate::records::RecordSite;
 use crate::scene::{Mesh, Scene};
 use glam::{Mat4, Vec3};
 use obvhs::ray::{Ray, RayHit};
-use std::cell::{OnceCell, RefCell};
+use std::cell::OnceCell;
 use std::collections::HashMap;
 
-/// Meshes with more triangles than this are searched through a BVH built for the frame
-/// (object space, the first time a site lies in their box) rather than triangle by
-/// triangle.
+/// Meshes with more triangles than this are searched through an object-space BVH (built
+/// the first time a site lies in their box, kept for the sequence: only transforms change
+/// from frame to frame) rather than triangle by triangle.
 const BVH_ABOVE_TRIANGLES: usize = 256;
 
-/// The burial test over one frame's scene: the world box of every instance, computed the
-/// first time a site asks, and the object-space BVHs of large meshes sites were tested
-/// against.
+/// The object-space BVHs of the large meshes burial tests have searched, by mesh index,
+/// kept across frames by the cache that tests (a mesh's triangles do not change during an
+/// animation; a BVH that no longer matches its mesh is built again).
+#[derive(Default)]
+pub struct MeshBvhs {
+    built: HashMap<usize, Blas>,
+}
+
+impl MeshBvhs {
+    /// The BVH of mesh `index` of the scene, built if it is missing or was built for
+    /// other triangles.
+    fn of(&mut self, index: usize, mesh: &Mesh) -> &Blas {
+        let matches = |blas: &Blas| {
+            blas.mesh_triangle.len() == mesh.indices.len()
+                && blas
+                    .mesh_triangle
+                    .first()
+                    .zip(blas.triangles.first())
+                    .is_none_or(|(&k, t)| {
+                        mesh.indices
+                            .get(k as usize)
+                            .and_then(|tri| mesh.positions.get(tri[0] as usize))
+                            .is_some_and(|&p| Vec3::from(t.v0) == p)
+                    })
+        };
+        if !self.built.get(&index).is_some_and(matches) {
+            self.built.insert(index, Blas::build(mesh, BvhPreset::Fast));
+        }
+        &self.built[&index]
+    }
+}
+
+/// The burial test over one frame's scene: the world box of each instance asked about,
+/// computed the first time, and the cache's mesh BVHs.
 pub struct SiteBurial<'a> {
     scene: &'a Scene,
-    boxes: OnceCell<Vec<(Vec3, Vec3)>>,
-    bvhs: RefCell<HashMap<usize, Blas>>,
+    boxes: Vec<OnceCell<(Vec3, Vec3)>>,
+    bvhs: &'a mut MeshBvhs,
 }
 
 impl<'a> SiteBurial<'a> {
     /// The test at `scene`'s current transforms.
-    pub fn new(scene: &'a Scene) -> Self {
+    pub fn new(scene: &'a Scene, bvhs: &'a mut MeshBvhs) -> Self {
         Self {
             scene,
-            boxes: OnceCell::new(),
-            bvhs: RefCell::new(HashMap::new()),
+            boxes: vec![OnceCell::new(); scene.instances.len()],
+            bvhs,
         }
     }
 
     /// Whether `site` lies inside one of the `instances` (indices into the scene's): see
     /// the module documentation.
-    pub fn buried(&self, site: &RecordSite, instances: &[usize]) -> bool {
+    pub fn buried(&mut self, site: &RecordSite, instances: &[usize]) -> bool {
         let Some(ray) = lifted_ray(site) else {
             return false;
         };
-        let boxes = self.boxes.get_or_init(|| {
-            let scene = self.scene;
-            scene
-                .instances
-                .iter()
-                .map(|inst| {
-                    let mesh = scene.meshes.get(inst.mesh as usize);
-                    world_box(mesh.map_or(&[][..], |m| &m.positions), &inst.transform)
-                })
-                .collect()
-        });
+        let scene = self.scene;
         instances.iter().any(|&i| {
-            let (Some(inst), Some(&(lo, hi))) = (self.scene.instances.get(i), boxes.get(i)) else {
+            let Some(inst) = scene.instances.get(i) else {
                 return false;
             };
-            let in_box = !(ray.0.cmplt(lo).any() || ray.0.cmpgt(hi).any());
-            let mesh_index = inst.mesh as usize;
-            match self.scene.meshes.get(mesh_index) {
-                Some(mesh) if in_box && mesh.indices.len() > BVH_ABOVE_TRIANGLES => {
-                    let mut bvhs = self.bvhs.borrow_mut();
-                    let blas = bvhs
-                        .entry(mesh_index)
-                        .or_insert_with(|| Blas::build(mesh, BvhPreset::Fast));
-                    ray_starts_inside_bvh(blas, &inst.transform, ray)
-                }
-                Some(mesh) if in_box => ray_starts_inside(mesh, &inst.transform, ray),
-                _ => false,
+            let Some(mesh) = scene.meshes.get(inst.mesh as usize) else {
+                return false;
+            };
+            let Some(&(lo, hi)) = self
+                .boxes
+                .get(i)
+                .map(|b| b.get_or_init(|| world_box(&mesh.positions, &inst.transform)))
+            else {
+                return false;
+            };
+            if ray.0.cmplt(lo).any() || ray.0.cmpgt(hi).any() {
+                false
+            } else if mesh.indices.len() > BVH_ABOVE_TRIANGLES {
+                let blas = self.bvhs.of(inst.mesh as usize, mesh);
+                ray_starts_inside_bvh(blas, &inst.transform, ray)
+            } else {
+                ray_starts_inside(mesh, &inst.transform, ray)
             }
         })
     }
@@ -227,14 +253,19 @@ mod tests {
             .iter()
             .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
             .collect();
-        let n = indices.len();
+        mesh("cube", positions, indices)
+    }
+
+    /// A mesh of `positions` and `indices` with no normals, texture coordinates or
+    /// materials of note.
+    fn mesh(name: &str, positions: Vec<Vec3>, indices: Vec<[u32; 3]>) -> Mesh {
         Mesh {
-            name: "cube".into(),
+            name: name.into(),
             normals: vec![Vec3::ZERO; positions.len()],
             uvs: vec![glam::Vec2::ZERO; positions.len()],
+            material_ids: vec![0; indices.len()],
             positions,
             indices,
-            material_ids: vec![0; n],
         }
     }
 
@@ -311,15 +342,19 @@ mod tests {
                 }
             }
         }
-        let n_tris = indices.len();
-        Mesh {
-            name: "fine cube".into(),
-            normals: vec![Vec3::ZERO; positions.len()],
-            uvs: vec![glam::Vec2::ZERO; positions.len()],
-            positions,
-            indices,
-            material_ids: vec![0; n_tris],
-        }
+        mesh("fine cube", positions, indices)
+    }
+
+    #[test]
+    fn a_kept_bvh_is_built_again_for_other_triangles() {
+        let mut bvhs = MeshBvhs::default();
+        let fine = fine_cube(8);
+        assert_eq!(bvhs.of(3, &fine).mesh_triangle.len(), fine.indices.len());
+        let coarser = fine_cube(6);
+        assert_eq!(
+            bvhs.of(3, &coarser).mesh_triangle.len(),
+            coarser.indices.len()
+        );
     }
 
     #[test]

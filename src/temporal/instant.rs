@@ -51,6 +51,8 @@ pub struct InstantCache {
     records: Option<RecordCache>,
     /// The last frame's VPLs and instance transforms.
     previous: Option<(Vec<Vpl>, Vec<Mat4>)>,
+    /// Object-space BVHs of the large moving meshes the burial test searched.
+    mesh_bvhs: super::buried::MeshBvhs,
 }
 
 /// Whether two VPLs differ (beyond rounding: a BVH rebuilt around a moved instance may
@@ -71,6 +73,7 @@ impl InstantCache {
             update: VplUpdatePass::new(&renderer.ctx)?,
             records: None,
             previous: None,
+            mesh_bvhs: Default::default(),
         })
     }
 
@@ -134,7 +137,7 @@ impl InstantCache {
             // A kept record whose site a moved instance now covers would gather its VPLs
             // from inside it (buried.rs): it goes too, and placement covers its pixels.
             let moved_instances: Vec<usize> = (0..moved.len()).filter(|&j| moved[j] != 0).collect();
-            let burial = super::buried::SiteBurial::new(scene);
+            let mut burial = super::buried::SiteBurial::new(scene, &mut self.mesh_bvhs);
             for (k, r) in all.iter().enumerate() {
                 if moved.get(r.instance as usize).copied().unwrap_or(0) != 0 {
                     deleted += 1;

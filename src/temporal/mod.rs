@@ -572,6 +572,8 @@ pub struct TemporalCache {
     refresh: plane_refresh::RefreshPass,
     /// Retained planes of live records (plane refresh).
     planes: plane_refresh::PlaneStore,
+    /// Object-space BVHs of the large moving meshes the burial test searched.
+    mesh_bvhs: buried::MeshBvhs,
     /// The records created so far, by id from `history_base` on (ids count every record
     /// ever created; [`TemporalCache::release_frames_before`] drops the oldest).
     history: VecDeque<TemporalRecord>,
@@ -700,6 +702,7 @@ impl TemporalCache {
                 settings.plane_budget_bytes,
                 cache.plane_resolution,
             ),
+            mesh_bvhs: buried::MeshBvhs::default(),
             history: VecDeque::new(),
             history_base: 0,
             alive: Vec::new(),
@@ -1093,10 +1096,11 @@ impl TemporalCache {
             &mut times,
         )?;
         let mut replace: Vec<u32> = Vec::new();
-        let burial = buried::SiteBurial::new(scenes.scene);
+        let mut mesh_bvhs = std::mem::take(&mut self.mesh_bvhs);
+        let mut burial = buried::SiteBurial::new(scenes.scene, &mut mesh_bvhs);
         for (k, &(_, id)) in expired.iter().enumerate() {
             let needed = deciding.get(k).copied().unwrap_or(0) > 0;
-            if needed && self.replacement_buried(id, t, &transforms, &burial) {
+            if needed && self.replacement_buried(id, t, &transforms, &mut burial) {
                 // Its site is now inside a moved object: placement covers its pixels
                 // from visible points instead (buried.rs).
                 stats.deleted += 1;
@@ -1110,6 +1114,7 @@ impl TemporalCache {
                 self.planes.planes.remove(&id);
             }
         }
+        self.mesh_bvhs = mesh_bvhs;
         stats.kept = kept.len() as u32;
         stats.replaced = replace.len() as u32;
         let kept_blocks: Vec<f32> = kept
@@ -1633,7 +1638,7 @@ impl TemporalCache {
         id: u32,
         t: u32,
         transforms: &[Mat4],
-        burial: &buried::SiteBurial<'_>,
+        burial: &mut buried::SiteBurial<'_>,
     ) -> bool {
         let (site, _) = self.replacement_site(id, t, transforms);
         let rec = self.rec(id);
