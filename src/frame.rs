@@ -1446,6 +1446,7 @@ pub fn radiance_pass_name(name: &str) -> &'static str {
         "plane refinement" => "radiance: plane refinement",
         "record reduction" => "radiance: record reduction",
         "radiance projection" => "radiance: projection",
+        "radiance limit" => "radiance: gradient limit",
         "splat: radiance gather" => "radiance: gather",
         "placement: cover" => "radiance: cover",
         n if n.starts_with("splat: bin") || n.starts_with("placement: cover bin") => {

@@ -10,10 +10,10 @@ use radsplat::Renderer;
 use radsplat::hsh::{HemisphereQuadrature, coefficient_count};
 use radsplat::records::kind::FRAME_FLOATS;
 use radsplat::records::radiance_projection::{
-    PlaneBasis, RadianceProjectionPass, project, project_with_gradients,
+    PlaneBasis, RadianceProjectionPass, limit_gradients, project, project_with_gradients,
 };
 use radsplat::records::reference::RecordReference;
-use radsplat::records::{CacheSettings, PlaneSample, RecordKind, RecordPass};
+use radsplat::records::{CacheSettings, PlaneSample, Record, RecordKind, RecordPass};
 use radsplat::visibility::GpuCamera;
 
 const ORDER: u32 = 6;
@@ -157,6 +157,73 @@ fn gpu_projection_matches_the_cpu_and_keeps_the_irradiance() {
             );
         }
     }
+
+    // Ward's gradient limit on the coefficients (`radiance_limit.wgsl`) against its CPU
+    // mirror: records of radius 1 whose R_min makes the limit shrink R alone, scale the
+    // gradients at R_min, or leave the record as it is.
+    const REACH: f32 = 0.25;
+    let records: Vec<Record> = (0..sites.len())
+        .map(|r| Record {
+            radius: 1.0,
+            r_min: [1e-4, 0.05, 1.0][r % 3],
+            ..Record::default()
+        })
+        .collect();
+    let records_buf = ctx.storage_buffer("records", &records).expect("upload");
+    let limited_buf = ctx.storage_buffer("coefficients", &gpu).expect("upload");
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    projection.record_limit(
+        ctx,
+        &mut enc,
+        &prepared.gpu,
+        &records_buf,
+        &limited_buf,
+        0,
+        sites.len() as u32,
+        REACH,
+        None,
+    );
+    ctx.queue.submit([enc.finish()]);
+    let limited_records: Vec<Record> = ctx.read_buffer(&records_buf).expect("read");
+    let limited: Vec<f32> = ctx.read_buffer(&limited_buf).expect("read");
+    ctx.check().expect("no wgpu errors");
+    let (mut shrunk, mut scaled) = (0, 0);
+    for (r, record) in records.iter().enumerate() {
+        let mut cpu = gpu[r * stride + FRAME_FLOATS..(r + 1) * stride].to_vec();
+        let radius = limit_gradients(&mut cpu, ORDER, record.radius, record.r_min, REACH);
+        let got = &limited_records[r];
+        assert!(
+            (got.radius - radius).abs() <= 1e-5 * radius,
+            "record {r}: R {} on the GPU, {radius} on the CPU",
+            got.radius
+        );
+        let block = &limited[r * stride + FRAME_FLOATS..(r + 1) * stride];
+        let largest = cpu.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        for (a, b) in block.iter().zip(&cpu) {
+            assert!((a - b).abs() <= 1e-5 * largest, "record {r}: {a} vs {b}");
+        }
+        // The limit holds: a R |grad lambda| <= |lambda| per channel, to rounding.
+        for c in 0..3 {
+            let norm =
+                |range: std::ops::Range<usize>| block[range].iter().map(|v| v * v).sum::<f32>();
+            let v = norm(c * n..(c + 1) * n).sqrt();
+            let g = (norm(3 * n + c * n..3 * n + (c + 1) * n)
+                + norm(6 * n + c * n..6 * n + (c + 1) * n))
+            .sqrt();
+            assert!(
+                REACH * got.radius * g <= v * 1.0001,
+                "record {r} channel {c}"
+            );
+        }
+        shrunk += usize::from(got.radius < 1.0);
+        scaled +=
+            usize::from(block[3 * n..] != gpu[r * stride + FRAME_FLOATS + 3 * n..(r + 1) * stride]);
+    }
+    assert!(
+        shrunk > 0 && scaled > 0 && scaled < sites.len(),
+        "{shrunk} records shrunk, {scaled} of {} scaled",
+        sites.len()
+    );
 
     // Values only (the estimates at t+1 that give tau): the same values bit for bit, the
     // gradients' floats left as they were.

@@ -61,6 +61,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/radiance_project.wgsl"),
     ),
     (
+        "radiance_limit.wgsl",
+        include_str!("../../wgsl/radiance_limit.wgsl"),
+    ),
+    (
         "radiance_need.wgsl",
         include_str!("../../wgsl/radiance_need.wgsl"),
     ),

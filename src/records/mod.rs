@@ -1366,6 +1366,16 @@ impl RecordPass {
                 &cache.buffer,
                 &mut timer,
             )?;
+            self.record_radiance_limit(
+                ctx,
+                &mut enc,
+                scene,
+                &cache.buffer,
+                &cache.coefficients,
+                cache.count,
+                n,
+                &mut timer,
+            );
             if let Some(st) = stage.as_deref_mut() {
                 st.reduced(ctx, &mut enc, scene, self, &batch, &mut timer)?;
             }
@@ -1413,6 +1423,41 @@ impl RecordPass {
                 count,
                 values_only,
                 timer.next("radiance projection"),
+            );
+        }
+    }
+
+    /// Records Ward's gradient limit on radiance records `first_record..first_record +
+    /// count` of `records` and `coefficients` (`radiance_limit.wgsl`,
+    /// [`radiance_projection::limit_gradients`]) after their projection and reduction;
+    /// nothing for irradiance records or without gradients. Stages that project gradients
+    /// of their own limit them with it.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_radiance_limit(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        records: &wgpu::Buffer,
+        coefficients: &wgpu::Buffer,
+        first_record: u32,
+        count: u32,
+        timer: &mut crate::gpu::timer::PassTimer,
+    ) {
+        if let Some(projection) = &self.projection
+            && self.settings.gradients
+        {
+            projection.record_limit(
+                ctx,
+                enc,
+                scene,
+                records,
+                coefficients,
+                first_record,
+                count,
+                // The records' own accuracy (the radiance accuracy, `record_settings`).
+                self.settings.accuracy,
+                timer.next("radiance limit"),
             );
         }
     }

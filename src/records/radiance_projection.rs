@@ -219,9 +219,70 @@ struct ProjectParams {
     table_section: u32,
 }
 
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct LimitParams {
+    coefficients: u32,
+    count: u32,
+    first_record: u32,
+    stride: u32,
+    reach: f32,
+    _pad: [u32; 3],
+}
+
+/// Ward's gradient limit on one radiance record (CPU mirror of `radiance_limit.wgsl`):
+/// `block` holds the record's coefficients and their gradients (`9 order^2` f32s, laid out
+/// as [`super::RecordKind::coefficient_floats`] after the frame). Per channel, with `V` the
+/// coefficients' norm and `G` their gradients' (`sqrt(sum_k |grad lambda_k|^2)`), the radius
+/// shrinks to `V / (reach G)`, never below `r_min`; where `r_min` binds the gradients are
+/// scaled so that `reach G R = V`. `reach` is the radiance accuracy a: the splat uses a
+/// record within `a R` of it. Returns the new radius.
+///
+/// The first-order extrapolation then moves the coefficients by at most their own norm
+/// wherever the record is used. A record a few cm from an object sees it at depths far
+/// below its reach, where the edge slopes `(L_b - L_a) / z` hold only over displacements
+/// under `z` (docs/results.md, "Radiance records beside an object").
+pub fn limit_gradients(block: &mut [f32], order: u32, radius: f32, r_min: f32, reach: f32) -> f32 {
+    let n = coefficient_count(order);
+    let (mut norm, mut slope) = ([0.0f32; 3], [0.0f32; 3]);
+    for c in 0..3 {
+        for k in 0..n {
+            let (v, gx, gy) = (
+                block[c * n + k],
+                block[3 * n + c * n + k],
+                block[6 * n + c * n + k],
+            );
+            norm[c] += v * v;
+            slope[c] += gx * gx + gy * gy;
+        }
+        norm[c] = norm[c].sqrt();
+        slope[c] = slope[c].sqrt() * reach;
+    }
+    let mut limited = radius;
+    for c in 0..3 {
+        if slope[c] * limited > norm[c] {
+            limited = norm[c] / slope[c];
+        }
+    }
+    let r = limited.max(r_min);
+    for c in 0..3 {
+        if slope[c] * r > norm[c] {
+            let s = norm[c] / (slope[c] * r);
+            for k in 0..n {
+                block[3 * n + c * n + k] *= s;
+                block[6 * n + c * n + k] *= s;
+            }
+        }
+    }
+    r
+}
+
 /// The GPU projection pass with its plane basis.
 pub struct RadianceProjectionPass {
     pass: ComputePass,
+    /// Ward's gradient limit on the coefficients (`radiance_limit.wgsl`), after the
+    /// reduction has sized the records.
+    limit: ComputePass,
     pub basis: PlaneBasis,
     table: wgpu::Buffer,
 }
@@ -243,6 +304,11 @@ impl RadianceProjectionPass {
                     StorageRead,
                     StorageReadWrite,
                 ],
+            )?,
+            limit: ComputePass::new(
+                ctx,
+                "radiance_limit.wgsl",
+                &[Uniform, StorageReadWrite, StorageReadWrite],
             )?,
             table: ctx.storage_buffer("plane basis integrals", &basis.gpu_table())?,
             basis,
@@ -300,5 +366,41 @@ impl RadianceProjectionPass {
             ],
             timestamps,
         );
+    }
+
+    /// Records Ward's gradient limit ([`limit_gradients`], `radiance_limit.wgsl`) on the
+    /// radiance records `first_record..first_record + count` of `records` and
+    /// `coefficients`, once the reduction has written their radii and the projection their
+    /// gradients. `reach` is the radiance accuracy a.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_limit(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        scene: &GpuScene,
+        records: &wgpu::Buffer,
+        coefficients: &wgpu::Buffer,
+        first_record: u32,
+        count: u32,
+        reach: f32,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let kind = RecordKind::Radiance {
+            order: self.basis.order,
+        };
+        let params = ctx.uniform_buffer(
+            "radiance limit params",
+            &LimitParams {
+                coefficients: coefficient_count(self.basis.order) as u32,
+                count,
+                first_record,
+                stride: kind.coefficient_floats() as u32,
+                reach,
+                _pad: [0; 3],
+            },
+        );
+        let bind = self.limit.bind(ctx, &[&params, records, coefficients]);
+        self.limit
+            .record(enc, &scene.bind_group, &bind, [count, 1, 1], timestamps);
     }
 }

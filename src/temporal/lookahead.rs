@@ -180,6 +180,19 @@ impl RecordStage for Lookahead<'_> {
                 self.values_only,
                 timer,
             );
+            // Gradients at t+1 (extrapolated temporal gradients) are limited as at t.
+            if !self.values_only {
+                pass.record_radiance_limit(
+                    ctx,
+                    enc,
+                    self.next_frame.scene,
+                    &self.next.buffer,
+                    &self.next.coefficients,
+                    batch.first_record,
+                    batch.count,
+                    timer,
+                );
+            }
         }
         // The subset at t: the samples the estimate was moved from (a stride), or the whole
         // plane as traced when the record's own plane was refined, so that tau compares the
