@@ -398,9 +398,9 @@ struct CacheArgs {
     /// as the thesis rasterises it (worth about 155). `animate` uses `uniform`.
     #[arg(long, value_enum, default_value_t = CacheSettings::default().plane_spacing)]
     plane_spacing: radsplat::records::PlaneSpacing,
-    /// Light samples per area light and for the environment at each plane hit. Outdoor
-    /// scenes lit by an environment, whose planes mostly see the sky, gain from more: on
-    /// env-sphere 2 / 4 samples take the indirect error from 6.3 % to 4.7 / 3.4 % for 10 /
+    /// Light samples per area light and for the environment at each plane hit. Where the
+    /// records' own sampling noise is what is left, more pay: on env-sphere (lit by its
+    /// map alone) 2 / 4 samples take the indirect error from 6.3 % to 4.7 / 3.4 % for 10 /
     /// 35 % more time, more than finer planes or more records give; on Sponza (sun and
     /// sky) they gain nothing (docs/results.md, "Environment light at plane hits").
     #[arg(long, default_value_t = CacheSettings::default().plane_light_samples, value_parser = parse_at_least_one)]
