@@ -12,6 +12,8 @@
 //! the result is deterministic; [`project_with_gradients`] is its CPU mirror. The translational gradient
 //! of every coefficient comes from the same plane (algorithms.md 3.3: each pixel edge
 //! sweeps the radiance difference across it, weighted by `H_k` at the edge).
+//! [`limit_gradients`] (`wgsl/radiance_limit.wgsl` on the GPU) then bounds those gradients
+//! by Ward's rule over the record's reach, once the reduction has sized the record.
 
 use super::{HemispherePlane, PlaneSample, RecordKind, nearer_depth, plane::rect_solid_angle};
 use crate::Result;
