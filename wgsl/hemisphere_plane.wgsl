@@ -12,7 +12,7 @@ struct PlaneParams {
     light_samples: u32,
     record_hits: u32,   // 1: also write each sample's hit (temporal reprojection)
     light_choices: u32, // lights sampled per hit (`shadow_loop_start_chosen`; 0: all)
-    _pad0: u32,
+    record_noise: u32,  // 1: also write each sample's environment-sampled share (`noise`)
     _pad1: u32,
     _pad2: u32,
 }
@@ -26,6 +26,9 @@ struct PlaneParams {
 @group(1) @binding(6) var<storage, read> light_map_depths: array<f32>;
 @group(1) @binding(7) var<storage, read> light_map_first: array<u32>;
 @group(1) @binding(8) var<storage, read> bounce_cache: array<u32>;
+// Per sample: the channel sum of what its environment samples gave it (TracedSample.noise),
+// for refinement's selection.
+@group(1) @binding(9) var<storage, read_write> noise: array<f32>;
 
 // Secondary hits reflect the surface bounce cache's indirect irradiance (zero with one
 // bounce: the cache is then empty).
@@ -51,5 +54,8 @@ fn main(
     samples[id.z * res * res + pixel] = traced.sample;
     if params.record_hits != 0u {
         hits[id.z * res * res + pixel] = traced.hit;
+    }
+    if params.record_noise != 0u {
+        noise[id.z * res * res + pixel] = traced.noise;
     }
 }

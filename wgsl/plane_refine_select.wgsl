@@ -31,6 +31,9 @@ struct SelectParams {
 @group(1) @binding(4) var<storage, read_write> selected: array<u32>;
 // Planes refined everywhere, for the frame's ray count (RecordPass::take_dark_plane_rays).
 @group(1) @binding(5) var<storage, read_write> dark_planes: array<atomic<u32>>;
+// Per sample: what its environment samples gave it (hemisphere_plane.wgsl `noise`; zeros
+// where the plane pass did not write them).
+@group(1) @binding(6) var<storage, read> noise: array<f32>;
 
 var<workgroup> histogram: array<atomic<u32>, 256>;
 var<workgroup> lit: atomic<u32>;   // any sample of the plane has light
@@ -41,6 +44,17 @@ var<workgroup> remaining: u32;
 
 fn channel_sum(s: PlaneSample) -> f32 {
     return (s.radiance.x + s.radiance.y) + s.radiance.z;
+}
+
+// The contrast of sample `a` (channel sum `y`) to its neighbour `b`: their difference less
+// what the two got from environment samples (`noise`), which one shadow ray a hit samples
+// too coarsely for a difference in it to mean anything. Ranking pixels by that noise
+// picked those whose sample happened to be extreme and replaced them by their sub-rays'
+// mean, a bias (env-sphere: 0.956 of the reference's mean indirect light, docs/results.md).
+// Lights and light maps are exact at a hit (suns, points) or nearly so: their differences
+// still count. With no environment it is |y - y_b| bit for bit.
+fn edge_contrast(y: f32, a: u32, b: u32) -> f32 {
+    return max(abs(y - channel_sum(samples[b])) - (noise[a] + noise[b]), 0.0);
 }
 
 // Exclusive prefix sum of `counts` in thread order (serial by thread 0: THREADS entries).
@@ -97,19 +111,20 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     }
     for (var k = first; k < last; k++) {
         let i = k % res;
-        let y = channel_sum(samples[base + k]);
+        let a = base + k;
+        let y = channel_sum(samples[a]);
         var c = 0.0;
         if i > 0u {
-            c = max(c, abs(y - channel_sum(samples[base + k - 1u])));
+            c = max(c, edge_contrast(y, a, a - 1u));
         }
         if i + 1u < res {
-            c = max(c, abs(y - channel_sum(samples[base + k + 1u])));
+            c = max(c, edge_contrast(y, a, a + 1u));
         }
         if k >= res {
-            c = max(c, abs(y - channel_sum(samples[base + k - res])));
+            c = max(c, edge_contrast(y, a, a - res));
         }
         if k + res < n {
-            c = max(c, abs(y - channel_sum(samples[base + k + res])));
+            c = max(c, edge_contrast(y, a, a + res));
         }
         keys[base + k] = bitcast<u32>(c * plane[k].weights.x);
     }

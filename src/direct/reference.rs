@@ -153,8 +153,21 @@ impl<'a> DirectReference<'a> {
         first: u32,
         choices: u32,
     ) -> Vec3 {
+        self.plane_direct_irradiance_split(s, seed, first, choices)
+            .0
+    }
+
+    /// [`DirectReference::plane_direct_irradiance_at`] and the environment's share of it
+    /// (WGSL `ShadowLoop::e_env`).
+    pub fn plane_direct_irradiance_split(
+        &self,
+        s: &Surface,
+        seed: u32,
+        first: u32,
+        choices: u32,
+    ) -> (Vec3, Vec3) {
         let factors = choose_lights(&self.scene.lights, s, seed, first, choices);
-        self.direct_light_from(s, seed, first, factors.as_deref(), |_, _| {})
+        self.direct_light_split(s, seed, first, factors.as_deref(), |_, _| {})
     }
 
     /// [`DirectReference::direct_light_at`] from every light (`factors` None) or from the
@@ -166,8 +179,21 @@ impl<'a> DirectReference<'a> {
         seed: u32,
         first: u32,
         factors: Option<&[f32]>,
-        mut visible_sample: impl FnMut(Vec3, Vec3),
+        visible_sample: impl FnMut(Vec3, Vec3),
     ) -> Vec3 {
+        self.direct_light_split(s, seed, first, factors, visible_sample)
+            .0
+    }
+
+    /// [`DirectReference::direct_light_from`] and the environment's share of it.
+    fn direct_light_split(
+        &self,
+        s: &Surface,
+        seed: u32,
+        first: u32,
+        factors: Option<&[f32]>,
+        mut visible_sample: impl FnMut(Vec3, Vec3),
+    ) -> (Vec3, Vec3) {
         let (n, ng) = (s.shading_normal, s.geometric_normal);
         let count = self.light_samples;
         let mut e = Vec3::ZERO;
@@ -262,6 +288,7 @@ impl<'a> DirectReference<'a> {
             }
         }
         let env = self.scene.environment;
+        let mut e_env = Vec3::ZERO;
         if let Some(map) = &self.scene.environment_map {
             // As WGSL: directions drawn from the map, E = mean of V L cos / pdf.
             let env_seed = hash_combine(seed, 0xe17);
@@ -280,7 +307,9 @@ impl<'a> DirectReference<'a> {
                     sum += c;
                 }
             }
-            e += sum / count as f32;
+            let add = sum / count as f32;
+            e += add;
+            e_env += add;
         } else if env != Vec3::ZERO {
             let frame = orthonormal_basis(n);
             let env_seed = hash_combine(seed, 0xe17);
@@ -294,9 +323,11 @@ impl<'a> DirectReference<'a> {
                     seen
                 })
                 .count();
-            e += env * (PI * unoccluded as f32 / count as f32);
+            let add = env * (PI * unoccluded as f32 / count as f32);
+            e += add;
+            e_env += add;
         }
-        e
+        (e, e_env)
     }
 
     /// Renders one pixel.

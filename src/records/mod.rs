@@ -886,7 +886,9 @@ pub(crate) struct PlaneParams {
     pub record_hits: u32,
     /// [`CacheSettings::plane_light_choices`].
     pub light_choices: u32,
-    pub _pad: [u32; 3],
+    /// 1: also write each sample's environment-sampled share (refinement's selection).
+    pub record_noise: u32,
+    pub _pad: [u32; 2],
 }
 
 #[repr(C)]
@@ -909,6 +911,8 @@ pub struct RefinedPlanes {
     pub coarse: Vec<PlaneSample>,
     /// The same after refinement.
     pub refined: Vec<PlaneSample>,
+    /// Each traced sample's environment-sampled share (zeros without refinement).
+    pub noise: Vec<f32>,
     /// The K refined pixels of each site, in pixel order.
     pub selected: Vec<u32>,
 }
@@ -964,6 +968,8 @@ pub struct RecordPass {
     pub batch: u32,
     /// What plane passes bind when a frame has no light maps.
     no_light_maps: LightMaps,
+    /// What plane passes bind when no sample's environment share is kept (zeros).
+    no_noise: wgpu::Buffer,
     /// The kind of records computed; radiance records also project their planes.
     pub kind: RecordKind,
     projection: Option<radiance_projection::RadianceProjectionPass>,
@@ -1028,6 +1034,7 @@ impl RecordPass {
                     StorageRead,
                     StorageRead,
                     StorageRead,
+                    StorageReadWrite,
                 ],
             )?,
             // The Hessian's mesh sum only in the pipeline that uses it (lavapipe ran the
@@ -1063,6 +1070,7 @@ impl RecordPass {
             settings: settings.clone(),
             batch,
             no_light_maps: LightMaps::none(ctx)?,
+            no_noise: ctx.storage_buffer_sized("no plane noise", 16)?,
             kind,
             projection,
             vpl: if planes {
@@ -1230,6 +1238,11 @@ impl RecordPass {
             }
             None => ctx.storage_buffer_sized("refined pixels", 16)?,
         };
+        // Each sample's environment-sampled share, for refinement's selection.
+        let noise = match &self.refine {
+            Some(_) => Some(ctx.storage_buffer_sized("plane noise", batch_samples * 4)?),
+            None => None,
+        };
         // A stage reads the planes as traced beside their hits: refinement keeps a copy.
         let traced = if self.refine.is_some() && stage.is_some() {
             Some(ctx.storage_buffer_sized("traced plane samples", batch_samples * 16)?)
@@ -1301,6 +1314,7 @@ impl RecordPass {
                     scene,
                     &batch,
                     record_hits,
+                    noise.as_ref(),
                     light_maps,
                     timer.next("hemisphere planes"),
                 );
@@ -1318,6 +1332,12 @@ impl RecordPass {
                         u64::from(n) * u64::from(plane_pixels) * 16,
                     );
                 }
+                let noise = noise.as_ref().unwrap_or(&self.no_noise);
+                if replaced {
+                    // Refreshed planes keep no environment shares: rank them by plain
+                    // contrast rather than by a previous batch's.
+                    enc.clear_buffer(noise, 0, None);
+                }
                 r.record(
                     ctx,
                     &mut enc,
@@ -1326,6 +1346,7 @@ impl RecordPass {
                     &batch_sites,
                     &samples,
                     &selected,
+                    noise,
                     n,
                     light_maps,
                     &mut timer,
@@ -1472,6 +1493,7 @@ impl RecordPass {
         scene: &GpuScene,
         batch: &PlaneBatch<'_>,
         record_hits: bool,
+        noise: Option<&wgpu::Buffer>,
         light_maps: &LightMaps,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
@@ -1484,7 +1506,8 @@ impl RecordPass {
                 light_samples: self.settings.plane_light_samples,
                 record_hits: u32::from(record_hits),
                 light_choices: self.settings.plane_light_choices,
-                _pad: [0; 3],
+                record_noise: u32::from(noise.is_some()),
+                _pad: [0; 2],
             },
         );
         let plane_bind = self.plane.bind(
@@ -1499,6 +1522,7 @@ impl RecordPass {
                 &light_maps.depths,
                 &light_maps.first_buffer,
                 &scene.bounce_cache(),
+                noise.unwrap_or(&self.no_noise),
             ],
         );
         self.plane.record(
@@ -1583,15 +1607,23 @@ impl RecordPass {
         scene: &GpuScene,
         sites: &[RecordSite],
     ) -> Result<RefinedPlanes> {
-        let coarse = self.trace_planes(ctx, scene, sites)?;
         let Some(r) = &self.refine else {
+            let coarse = self.trace_planes(ctx, scene, sites)?;
             return Ok(RefinedPlanes {
                 refined: coarse.clone(),
+                noise: vec![0.0; coarse.len()],
                 coarse,
                 selected: Vec::new(),
             });
         };
+        let res = self.settings.plane_resolution;
         let n = sites.len() as u32;
+        let samples_len = (n * res * res) as usize;
+        let noise = ctx.storage_buffer_sized("plane noise", (samples_len as u64 * 4).max(16))?;
+        let (coarse, ()) =
+            self.trace_planes_with(ctx, scene, sites, false, Some(&noise), |_, _| Ok(()))?;
+        let mut noise_values: Vec<f32> = ctx.read_buffer(&noise)?;
+        noise_values.truncate(samples_len);
         let sites_buf = ctx.storage_buffer("record sites", sites)?;
         let samples = ctx.storage_buffer("plane samples", &coarse)?;
         let selected = ctx.storage_buffer_sized("refined pixels", r.selected_bytes(n).max(4))?;
@@ -1605,6 +1637,7 @@ impl RecordPass {
             &sites_buf,
             &samples,
             &selected,
+            &noise,
             n,
             &self.no_light_maps,
             &mut timer,
@@ -1617,6 +1650,7 @@ impl RecordPass {
         Ok(RefinedPlanes {
             coarse,
             refined,
+            noise: noise_values,
             selected,
         })
     }
@@ -1644,6 +1678,20 @@ impl RecordPass {
         scene: &GpuScene,
         sites: &[RecordSite],
         record_hits: bool,
+        then: impl FnOnce(&mut wgpu::CommandEncoder, &PlaneBatch<'_>) -> Result<T>,
+    ) -> Result<(Vec<PlaneSample>, T)> {
+        self.trace_planes_with(ctx, scene, sites, record_hits, None, then)
+    }
+
+    /// [`Self::trace_planes_then`], with `noise` also receiving each sample's
+    /// environment-sampled share (`hemisphere_plane.wgsl`).
+    fn trace_planes_with<T>(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        sites: &[RecordSite],
+        record_hits: bool,
+        noise: Option<&wgpu::Buffer>,
         then: impl FnOnce(&mut wgpu::CommandEncoder, &PlaneBatch<'_>) -> Result<T>,
     ) -> Result<(Vec<PlaneSample>, T)> {
         let res = self.settings.plane_resolution;
@@ -1675,6 +1723,7 @@ impl RecordPass {
             scene,
             &batch,
             record_hits,
+            noise,
             &self.no_light_maps,
             None,
         );

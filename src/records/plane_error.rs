@@ -238,7 +238,12 @@ pub fn plane_error_table(
         let err = |e: DVec3| ((e - mc).length() / mc.length()).powi(2);
         let zero = |e: DVec3| usize::from(e.max_element() <= 0.0);
         for (f, planes) in tables.iter().enumerate() {
-            let samples = base.trace_plane_with(&planes[2], site);
+            let (samples, noise): (Vec<PlaneSample>, Vec<f32>) = planes[2]
+                .pixels
+                .iter()
+                .enumerate()
+                .map(|(k, px)| base.trace_ray_noise(site, px.center, k as u32))
+                .unzip();
             for (m, plane) in planes.iter().enumerate() {
                 squared[f][m] += err(plane_irradiance(plane, &samples));
             }
@@ -254,6 +259,7 @@ pub fn plane_error_table(
                     &fov_settings,
                     site,
                     &samples,
+                    &noise,
                     |s, xy, seed| base.trace_ray(s, xy, seed),
                 );
                 let e = plane_irradiance(&planes[2], &refined);

@@ -64,6 +64,17 @@ impl<'a> RecordReference<'a> {
     /// `index` of the record (its hit's light samples: [`plane_light_first`]; WGSL
     /// `trace_plane_ray`).
     pub fn trace_ray(&self, site: &RecordSite, xy: [f32; 2], index: u32) -> PlaneSample {
+        self.trace_ray_noise(site, xy, index).0
+    }
+
+    /// [`Self::trace_ray`] and the channel sum of what its hit's environment samples gave it
+    /// (WGSL `TracedSample::noise`, refinement's selection: [`super::refine::contrast_keys`]).
+    pub fn trace_ray_noise(
+        &self,
+        site: &RecordSite,
+        xy: [f32; 2],
+        index: u32,
+    ) -> (PlaneSample, f32) {
         let scene = self.shading.scene;
         let n = Vec3::from(site.normal);
         let ng = Vec3::from(site.geometric_normal);
@@ -75,7 +86,7 @@ impl<'a> RecordReference<'a> {
             depth: -1.0,
         };
         if dir.dot(ng) <= 0.0 {
-            return miss;
+            return (miss, 0.0);
         }
         let Some(hit) = self
             .shading
@@ -83,10 +94,10 @@ impl<'a> RecordReference<'a> {
             .closest_hit(origin, dir, 0.0, f32::INFINITY)
         else {
             // The environment is sampled as a light: misses add nothing.
-            return miss;
+            return (miss, 0.0);
         };
         let s = self.shading.surface_at(&hit, dir);
-        let e = self.shading.plane_direct_irradiance_at(
+        let (e, e_env) = self.shading.plane_direct_irradiance_split(
             &s,
             site.seed,
             plane_light_first(index, self.shading.light_samples),
@@ -98,30 +109,48 @@ impl<'a> RecordReference<'a> {
         } else {
             Vec3::ZERO
         };
-        let radiance = self.shading.albedo(&s) / PI * e + emission;
-        PlaneSample {
-            radiance: radiance.into(),
-            depth: hit.t * dir.dot(n),
-        }
+        let albedo = self.shading.albedo(&s);
+        let radiance = albedo / PI * e + emission;
+        let sampled = albedo * (1.0 / PI) * e_env;
+        (
+            PlaneSample {
+                radiance: radiance.into(),
+                depth: hit.t * dir.dot(n),
+            },
+            (sampled.x + sampled.y) + sampled.z,
+        )
     }
 
     /// The plane of `site` traced and, with `settings.plane_refine > 0`, adaptively refined
     /// (as `plane_refine_select.wgsl` and `plane_refine.wgsl`): the refined plane and the
     /// pixels refined.
     pub fn refined_plane(&self, site: &RecordSite) -> (Vec<PlaneSample>, Vec<u32>) {
-        let coarse = self.trace_plane(site);
-        self.refine(site, &coarse)
+        let (coarse, noise): (Vec<PlaneSample>, Vec<f32>) = self
+            .plane
+            .pixels
+            .iter()
+            .enumerate()
+            .map(|(k, px)| self.trace_ray_noise(site, px.center, k as u32))
+            .unzip();
+        self.refine(site, &coarse, &noise)
     }
 
-    /// Refines a traced plane of `site` (see [`super::refine`]).
+    /// Refines a traced plane of `site` with its samples' environment shares `noise` (see
+    /// [`super::refine`]).
     pub fn refine(
         &self,
         site: &RecordSite,
         coarse: &[PlaneSample],
+        noise: &[f32],
     ) -> (Vec<PlaneSample>, Vec<u32>) {
-        super::refine::refine_plane(&self.plane, &self.settings, site, coarse, |s, xy, seed| {
-            self.trace_ray(s, xy, seed)
-        })
+        super::refine::refine_plane(
+            &self.plane,
+            &self.settings,
+            site,
+            coarse,
+            noise,
+            |s, xy, seed| self.trace_ray(s, xy, seed),
+        )
     }
 
     /// Reduces a traced plane to a record (as `record_reduce.wgsl`, summed in f64).

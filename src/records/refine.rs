@@ -9,7 +9,9 @@
 //! refined pixels. Rays per record: `P^2 + K split^2` (a fixed cost: K pixels are refined
 //! even where fewer have any contrast); a plane that saw no light at all is refined
 //! everywhere instead ([`select_pixels`]), `P^2 (1 + split^2)` rays. Ward notes the naive form is biased [S2 L276–287]:
-//! a pixel is refined because its centre ray differs from its neighbours.
+//! a pixel is refined because its centre ray differs from its neighbours. Where that
+//! difference is light-sample noise the bias shows: the contrast discounts what each
+//! sample's environment samples gave it ([`contrast_keys`]).
 //!
 //! The depth of a refined pixel is the weighted harmonic mean of its rays' hit depths
 //! (misses add 0 to the sum of 1/Z), so R stays the harmonic mean over every ray traced;
@@ -45,18 +47,26 @@ pub fn is_dark(plane: &HemispherePlane, samples: &[PlaneSample]) -> bool {
 }
 
 /// Each pixel's contrast as the bits of a non-negative f32 (they order as the floats): the
-/// largest `|y - y_neighbour|` over its 4-neighbours on the plane, y the channel sum, times
-/// the pixel's cosine weight (the share of E a wrong pixel costs). As
-/// `plane_refine_select.wgsl`, bit for bit.
-pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample]) -> Vec<u32> {
+/// largest `|y - y_neighbour| - (noise + noise_neighbour)` (at least 0) over its
+/// 4-neighbours on the plane, y the channel sum and `noise` what the sample's environment
+/// samples gave it (`hemisphere_plane.wgsl`; empty: none), times the pixel's cosine weight
+/// (the share of E a wrong pixel costs). One shadow ray samples the environment from a hit
+/// too coarsely for a difference in it to mean anything, and ranking pixels by that noise
+/// biased the records (docs/results.md, "Plane refinement is biased where the light
+/// samples are noisy"). As `plane_refine_select.wgsl`, bit for bit.
+pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample], noise: &[f32]) -> Vec<u32> {
     let res = plane.resolution as usize;
     let n = res * res;
+    let noise_of = |k: usize| noise.get(k).copied().unwrap_or(0.0);
     (0..n)
         .map(|k| {
             let y = channel_sum(&samples[k]);
             let i = k % res;
             let mut c = 0.0f32;
-            let mut against = |j: usize| c = c.max((y - channel_sum(&samples[j])).abs());
+            let mut against = |j: usize| {
+                let d = (y - channel_sum(&samples[j])).abs() - (noise_of(k) + noise_of(j));
+                c = c.max(d.max(0.0));
+            };
             if i > 0 {
                 against(k - 1);
             }
@@ -74,8 +84,8 @@ pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample]) -> Vec<u3
         .collect()
 }
 
-/// The `refined` pixels of highest contrast, in pixel order; ties go to the lower pixel
-/// index (the GPU's selection exactly).
+/// The `refined` pixels of highest contrast ([`contrast_keys`]), in pixel order; ties go
+/// to the lower pixel index (the GPU's selection exactly).
 ///
 /// A plane without light anywhere has no contrast to rank; its `refined` slots all say
 /// [`DARK_PLANE`] and every pixel of it is refined ([`refined_pixels`]): P^2 centre rays
@@ -83,11 +93,16 @@ pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample]) -> Vec<u3
 /// between columns, a few degrees above their horizon), and a record that misses it
 /// spreads exact zeros over its footprint. Radiance's `-as` super-samples where the
 /// samples disagree; a dark plane is where they cannot tell.
-pub fn select_pixels(plane: &HemispherePlane, samples: &[PlaneSample], refined: u32) -> Vec<u32> {
+pub fn select_pixels(
+    plane: &HemispherePlane,
+    samples: &[PlaneSample],
+    noise: &[f32],
+    refined: u32,
+) -> Vec<u32> {
     if is_dark(plane, samples) {
         return vec![DARK_PLANE; refined as usize];
     }
-    let keys = contrast_keys(plane, samples);
+    let keys = contrast_keys(plane, samples, noise);
     let mut order: Vec<u32> = (0..keys.len() as u32).collect();
     order.sort_by_key(|&k| (std::cmp::Reverse(keys[k as usize]), k));
     order.truncate(refined as usize);
@@ -205,6 +220,7 @@ impl RefinePass {
                     StorageReadWrite,
                     StorageReadWrite,
                     StorageReadWrite,
+                    StorageRead,
                 ],
             )?,
             refine: ComputePass::new(
@@ -236,7 +252,8 @@ impl RefinePass {
     /// Records the refinement of the `count` planes in `samples` (traced for `sites`, P^2
     /// each) in place; `selected` receives the K selected pixels per record, or K times
     /// [`DARK_PLANE`] for a plane refined everywhere (a buffer of at least `count * K`
-    /// u32, see [`Self::selected_bytes`]).
+    /// u32, see [`Self::selected_bytes`]). `noise` holds each sample's environment share
+    /// ([`contrast_keys`]; all zeros: plain contrast).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -247,6 +264,7 @@ impl RefinePass {
         sites: &wgpu::Buffer,
         samples: &wgpu::Buffer,
         selected: &wgpu::Buffer,
+        noise: &wgpu::Buffer,
         count: u32,
         light_maps: &crate::light_maps::LightMaps,
         timer: &mut crate::gpu::timer::PassTimer,
@@ -271,6 +289,7 @@ impl RefinePass {
                 &keys,
                 selected,
                 &self.dark_planes,
+                noise,
             ],
         );
         self.select.record(
@@ -340,7 +359,8 @@ impl RefinePass {
     }
 }
 
-/// The refined plane of `site` from its traced `coarse` plane, with `trace(dir_xy, seed)`
+/// The refined plane of `site` from its traced `coarse` plane (and its samples'
+/// environment shares `noise`, [`contrast_keys`]), with `trace(dir_xy, seed)`
 /// tracing one sub-sample through plane coordinates `dir_xy` with the light-sample seed
 /// index (CPU reference); also returns the selected pixels.
 pub fn refine_plane(
@@ -348,6 +368,7 @@ pub fn refine_plane(
     settings: &CacheSettings,
     site: &RecordSite,
     coarse: &[PlaneSample],
+    noise: &[f32],
     mut trace: impl FnMut(&RecordSite, [f32; 2], u32) -> PlaneSample,
 ) -> (Vec<PlaneSample>, Vec<u32>) {
     let refined = settings.refined_pixels();
@@ -358,7 +379,7 @@ pub fn refine_plane(
     let split = settings.plane_refine_split;
     let subs = plane.refine_samples(split);
     let m = split * split;
-    let selected = select_pixels(plane, coarse, refined);
+    let selected = select_pixels(plane, coarse, noise, refined);
     for k in refined_pixels(plane.resolution, &selected) {
         let mine = &subs[(k * m) as usize..((k + 1) * m) as usize];
         let traced: Vec<(PlaneSample, f32)> = mine
@@ -396,20 +417,47 @@ mod tests {
         );
         let mut samples = vec![sample(0.0); 16];
         samples[5] = sample(1.0); // pixel (1, 1): it and its 4 neighbours share one contrast
-        let keys = contrast_keys(&plane, &samples);
+        let keys = contrast_keys(&plane, &samples, &[]);
         assert!(keys.iter().enumerate().all(|(k, &c)| {
             let near = [1, 4, 5, 6, 9].contains(&k);
             near == (c > 0)
         }));
         // The plain plane's centre pixels (5, 6, 9) weigh more than its edge ones (1, 4).
-        let chosen = select_pixels(&plane, &samples, 3);
+        let chosen = select_pixels(&plane, &samples, &[], 3);
         assert_eq!(chosen, vec![5, 6, 9]);
         // All equal: the lowest indices.
         assert_eq!(
-            select_pixels(&plane, &vec![sample(0.5); 16], 3),
+            select_pixels(&plane, &vec![sample(0.5); 16], &[], 3),
             vec![0, 1, 2]
         );
-        assert_eq!(select_pixels(&plane, &samples, 16).len(), 16);
+        assert_eq!(select_pixels(&plane, &samples, &[], 16).len(), 16);
+    }
+
+    #[test]
+    fn contrast_from_environment_samples_does_not_count() {
+        let plane = HemispherePlane::new(
+            4,
+            90.0,
+            PlaneMode::Plain,
+            crate::records::PlaneSpacing::Uniform,
+        );
+        let mut samples = vec![sample(0.2); 16];
+        // Pixel 5's one environment sample saw the sky where its neighbours' did not.
+        samples[5] = sample(1.0);
+        let mut noise = vec![0.0; 16];
+        noise[5] = 2.4;
+        // Pixel 10 is brighter than its neighbours by more than environment samples
+        // explain: a light's (exact) difference.
+        samples[10] = sample(0.6);
+        noise[10] = 0.3;
+        let keys = contrast_keys(&plane, &samples, &noise);
+        assert_eq!(keys[5], 0, "a difference its environment sample explains");
+        let expected = (3.0 * 0.6 - 3.0 * 0.2 - 0.3) * plane.pixels[10].cos_weight;
+        assert!((f32::from_bits(keys[10]) - expected).abs() < 1e-6);
+        // Pixel 10 and its centre neighbours 6 and 9 share that contrast; pixel 5 is not
+        // chosen. Without the shares pixel 5 comes first.
+        assert_eq!(select_pixels(&plane, &samples, &noise, 3), vec![6, 9, 10]);
+        assert_eq!(select_pixels(&plane, &samples, &[], 1), vec![5]);
     }
 
     #[test]

@@ -232,7 +232,8 @@ impl PlaneRefresh<'_> {
                 light_samples: settings.plane_light_samples,
                 record_hits: 1,
                 light_choices: settings.plane_light_choices,
-                _pad: [0; 3],
+                record_noise: 0,
+                _pad: [0; 2],
             },
         );
         let bind = self.pass.retrace.bind(

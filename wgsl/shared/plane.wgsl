@@ -11,6 +11,9 @@
 struct TracedSample {
     sample: PlaneSample,
     hit: PlaneHit,
+    // The channel sum of the radiance the hit's environment samples gave it: noise that
+    // adaptive refinement must not chase (plane_refine_select.wgsl).
+    noise: f32,
 }
 
 // Plane hits look shadows up in the frame's light maps where it has them
@@ -34,7 +37,7 @@ fn trace_plane_sample(site: RecordSite, pixel: u32) -> TracedSample {
 // of the record: its hit's light samples are those of `plane_light_first(index, count)` on
 // (adaptive refinement's sub-samples, plane_refine.wgsl, number theirs past the pixels).
 fn trace_plane_ray(site: RecordSite, dir: vec3f, index: u32) -> TracedSample {
-    var out = TracedSample(PlaneSample(vec3f(0.0), -1.0), PlaneHit(NO_HIT, 0u, 0.0, 0.0));
+    var out = TracedSample(PlaneSample(vec3f(0.0), -1.0), PlaneHit(NO_HIT, 0u, 0.0, 0.0), 0.0);
     // Directions below the geometric surface (shading normals differ from it) see the
     // surface itself: no light, no distance.
     if dot(dir, site.geometric_normal) > 0.0 {
@@ -46,6 +49,8 @@ fn trace_plane_ray(site: RecordSite, dir: vec3f, index: u32) -> TracedSample {
         let hit = shaded.hit;
         if hit.instance != NO_HIT {
             out.sample.radiance = hit_radiance(shaded, site.seed, index);
+            let sampled = surface_albedo(shaded.surface) * (1.0 / PI) * shaded.env_irradiance;
+            out.noise = (sampled.x + sampled.y) + sampled.z;
             out.sample.depth = hit.t * dot(dir, site.normal);
             out.hit = PlaneHit(hit.instance, hit.triangle, hit.u, hit.v);
         }

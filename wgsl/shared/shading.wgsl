@@ -186,6 +186,7 @@ struct ShadowLoop {
     sum: vec3f,        // rect light: sum of cos cos / d^2 over its visible samples
     unoccluded: u32,   // environment: visible samples
     e: vec3f,          // the irradiance of the finished samples
+    e_env: vec3f,      // the environment's share of `e` (its samples are noisy at a hit)
     light: Light,      // the current slot's light, loaded once per slot (any light for
     kind: u32,         // the environment's slot, unused there) and its kind
     sample: ShadowSample,
@@ -231,6 +232,7 @@ fn shadow_loop_start_at(s: Surface, seed: u32, first: u32, count: u32) -> Shadow
     st.sum = vec3f(0.0);
     st.unoccluded = 0u;
     st.e = vec3f(0.0);
+    st.e_env = vec3f(0.0);
     st.choices = 0u;
     st.choice_scale = 0.0;
     st.choice_xi = 0.0;
@@ -474,12 +476,16 @@ fn shadow_loop_next(st: ptr<function, ShadowLoop>, s: Surface) -> bool {
                 (*st).e += light.d.xyz * (*st).sum * (area / f32((*st).count));
             } else if kind == LIGHT_ENVIRONMENT && has_environment_map() {
                 // Importance-sampled map: E = mean of V L cos / pdf.
-                (*st).e += (*st).sum / f32((*st).count);
+                let add = (*st).sum / f32((*st).count);
+                (*st).e += add;
+                (*st).e_env += add;
             } else if kind == LIGHT_ENVIRONMENT {
                 // Constant environment: E = L_env * integral of V cos = pi L_env * mean
                 // visibility over cosine-distributed directions.
-                (*st).e += scene_info.environment
+                let add = scene_info.environment
                     * (PI * f32((*st).unoccluded) / f32((*st).count));
+                (*st).e += add;
+                (*st).e_env += add;
             }
             (*st).k = 0u;
             (*st).sum = vec3f(0.0);

@@ -10,6 +10,7 @@ struct ShadedHit {
     hit: Hit,
     surface: Surface,
     irradiance: vec3f,
+    env_irradiance: vec3f,   // the environment's share of `irradiance`
 }
 
 // The closest hit of `primary` and `direct_irradiance_samples(surface, seed, count)` at it,
@@ -28,6 +29,7 @@ fn trace_and_shade(primary: Ray, seed: u32, count: u32) -> ShadedHit {
 fn trace_and_shade_at(primary: Ray, seed: u32, first: u32, count: u32, choices: u32) -> ShadedHit {
     var out: ShadedHit;
     out.irradiance = vec3f(0.0);
+    out.env_irradiance = vec3f(0.0);
     var st: ShadowLoop;
     var ray = primary;
     var shadow = false;
@@ -55,6 +57,7 @@ fn trace_and_shade_at(primary: Ray, seed: u32, first: u32, count: u32, choices: 
         }
         if !traced {
             out.irradiance = st.e;
+            out.env_irradiance = st.e_env;
             break;
         }
         ray = shadow_ray(out.surface, st.sample.target_point, st.sample.to_infinity);
