@@ -544,7 +544,8 @@ struct CacheArgs {
     #[arg(long, default_value_t = CacheSettings::default().light_maps.rect_grid, value_parser = parse_at_least_one)]
     light_map_grid: u32,
     /// Adaptive plane refinement (Radiance's -as): the fraction F in [0, 1] of each
-    /// record's plane pixels, those of highest contrast to their neighbours, traced again
+    /// record's plane pixels, those of highest contrast to their neighbours (less what
+    /// their environment samples gave them: that part is noise), traced again
     /// with --plane-refine-split^2 rays each. Costs F x split^2 x P^2 more plane rays per
     /// record (F = 0.1, split 2: +40 %), and two passes; a plane that saw no light is
     /// refined everywhere. 0: off. Temporal caching (`animate`) refines only with
