@@ -13,7 +13,7 @@
 //! image place records into slivers between earlier records' footprints, each newly
 //! covering a few pixels (Sponza sun 1000x1000: the last 3.7 % of the pixels took half the
 //! records, 1 to 10 new pixels each). Once at most `tail_share` of the visible pixels is
-//! uncovered, and records cover on average at least [`TAIL_MIN_PIXELS_PER_RECORD`] pixels
+//! uncovered, and records cover on average at least `TAIL_MIN_PIXELS_PER_RECORD` pixels
 //! each, later rounds cover at the tail's wider accuracy: a new record marks the pixels it
 //! reaches there, so the sliver pixels around it need no records of their own. The
 //! gather then gives each pixel that no record reaches at a the records that reach it at

@@ -114,7 +114,7 @@ impl NeighbourGridPass {
     }
 
     /// Records the building of the grid over `records[..count]` into `enc`; None below
-    /// [`MIN_RECORDS`] (then bind [`Self::disabled`]).
+    /// [`MIN_RECORDS`] (then bind `Self::disabled`).
     pub fn record(
         &self,
         ctx: &GpuContext,
