@@ -407,14 +407,19 @@ mod tests {
         }
     }
 
-    #[test]
-    fn selection_takes_the_highest_contrast_and_breaks_ties_by_index() {
-        let plane = HemispherePlane::new(
+    /// A plain 4 x 4 plane at 90 degrees: its centre pixels weigh more than its edges.
+    fn plain_4x4() -> HemispherePlane {
+        HemispherePlane::new(
             4,
             90.0,
             PlaneMode::Plain,
             crate::records::PlaneSpacing::Uniform,
-        );
+        )
+    }
+
+    #[test]
+    fn selection_takes_the_highest_contrast_and_breaks_ties_by_index() {
+        let plane = plain_4x4();
         let mut samples = vec![sample(0.0); 16];
         samples[5] = sample(1.0); // pixel (1, 1): it and its 4 neighbours share one contrast
         let keys = contrast_keys(&plane, &samples, &[]);
@@ -435,12 +440,7 @@ mod tests {
 
     #[test]
     fn contrast_from_environment_samples_does_not_count() {
-        let plane = HemispherePlane::new(
-            4,
-            90.0,
-            PlaneMode::Plain,
-            crate::records::PlaneSpacing::Uniform,
-        );
+        let plane = plain_4x4();
         let mut samples = vec![sample(0.2); 16];
         // Pixel 5's one environment sample saw the sky where its neighbours' did not.
         samples[5] = sample(1.0);
