@@ -589,16 +589,7 @@ fn radiance_records_beside_an_object_do_not_overshoot_the_reference() {
     let scene = common::load("cornell-box-glossy.toml", Some((48, 48)));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let prepared = renderer.prepare(&scene).expect("prepare");
-    let reference = ReferencePass::new(&renderer.ctx)
-        .expect("reference pass")
-        .render(
-            &renderer,
-            &prepared,
-            &scene.camera,
-            &ReferenceOptions::new(256),
-            &mut |_, _| {},
-        )
-        .expect("reference");
+    let reference = common::reference_indirect(&renderer, &scene, 256);
     let mut cache = renderer
         .new_cache(&CacheSettings::default())
         .expect("cache");
@@ -621,7 +612,7 @@ fn radiance_records_beside_an_object_do_not_overshoot_the_reference() {
         }
         let mesh = scene.instances[v.instance as usize].mesh as usize;
         if scene.meshes[mesh].material_ids[v.mesh_triangle as usize] == wall {
-            let r = luminance(reference.indirect[i]);
+            let r = luminance(reference[i]);
             worst = worst.max((luminance(indirect[i]) - r).abs());
             mean += r;
             n += 1;
