@@ -100,7 +100,8 @@ fn gpu_light_maps_match_cpu_trace() {
 /// The indirect light of a GI frame with plane hits shadowed by light maps against the
 /// same frame with shadow rays: the sun above the closed ceiling must stay dark (a map that
 /// let it through would brighten the box), and the rect light's and point light's
-/// shadows must agree within the maps' resolution.
+/// shadows must agree within the maps' resolution, with no light let through contact
+/// shadows.
 #[test]
 fn plane_hits_shaded_from_maps_agree_with_shadow_rays() {
     let scene = cornell_with_sun_and_point((48, 40));
@@ -124,23 +125,32 @@ fn plane_hits_shaded_from_maps_agree_with_shadow_rays() {
         frame.indirect.expect("indirect")
     };
     let rays = indirect(PlaneShadows::Rays);
-    let maps = indirect(PlaneShadows::Maps);
     let luminance = |p: &[f32; 4]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
     let mean = |img: &[[f32; 4]]| img.iter().map(luminance).sum::<f32>() / img.len() as f32;
-    let (mr, mm) = (mean(&rays), mean(&maps));
     let rms = (rays.iter().map(|p| luminance(p).powi(2)).sum::<f32>() / rays.len() as f32).sqrt();
-    let rmse = (rays
-        .iter()
-        .zip(&maps)
-        .map(|(a, b)| (luminance(a) - luminance(b)).powi(2))
-        .sum::<f32>()
-        / rays.len() as f32)
-        .sqrt();
+    let against_rays = |img: &[[f32; 4]]| {
+        let rmse = (rays
+            .iter()
+            .zip(img)
+            .map(|(a, b)| (luminance(a) - luminance(b)).powi(2))
+            .sum::<f32>()
+            / rays.len() as f32)
+            .sqrt();
+        (mean(img) / mean(&rays), rmse / rms)
+    };
+    assert!(mean(&rays) > 0.0);
+    // Maps for the sun and the point light (the default): the lookup with a normal offset
+    // and a depth bias of a texel and a half that the receiver-plane test replaced gave
+    // means 0.78 % apart and 3.9 % RMSE here (the sun leaking through contact shadows).
+    let (delta_mean, delta_rmse) = against_rays(&indirect(PlaneShadows::Auto));
+    // Maps for the rect light too: its penumbra from a 2 x 2 grid of cell maps.
+    let (all_mean, all_rmse) = against_rays(&indirect(PlaneShadows::Maps));
     eprintln!(
-        "mean indirect: rays {mr}, maps {mm}; relative RMSE {}",
-        rmse / rms
+        "maps over rays: delta lights mapped: mean {delta_mean}, relative RMSE {delta_rmse}; \
+         all lights mapped: mean {all_mean}, relative RMSE {all_rmse}"
     );
-    assert!(mr > 0.0);
-    assert!((mm / mr - 1.0).abs() < 0.03, "means {mm} vs {mr}");
-    assert!(rmse / rms < 0.08, "relative RMSE {}", rmse / rms);
+    assert!((delta_mean - 1.0).abs() < 0.003, "mean ratio {delta_mean}");
+    assert!(delta_rmse < 0.02, "relative RMSE {delta_rmse}");
+    assert!((all_mean - 1.0).abs() < 0.03, "mean ratio {all_mean}");
+    assert!(all_rmse < 0.08, "relative RMSE {all_rmse}");
 }

@@ -9,26 +9,50 @@
 
 const NO_MAP: u32 = 0xffffffffu;
 
-// Texel size of map `m` at distance `dist` from its origin, in world units.
-fn light_map_texel(m: LightMap, dist: f32) -> f32 {
-    return select(m.origin.w * dist, m.origin.w, m.kind == MAP_ORTHOGRAPHIC);
-}
-
-// Whether the depth of texel (i, j), clamped to the map, lies beyond `depth - bias`.
-fn light_map_lit(m: LightMap, i: i32, j: i32, depth: f32, bias: f32) -> f32 {
+// Texel (i, j) of map `m` (clamped to the map) against the receiver's plane through `p`
+// with normal `n`: how far from the plane, in texels, lies the first surface along the
+// texel's own ray (positive beyond it, negative in front of it; receiver-plane depth
+// test). It is exact for a planar receiver, so it needs no normal offset and no depth bias
+// beyond rounding: the texel and a half of both that an earlier lookup used let sunlight
+// through contact shadows (docs/results.md, "The sun's light map makes Sponza's plane hits
+// too bright"). NO_VOTE where the ray grazes the plane.
+const NO_VOTE: f32 = -1.0e30;
+// A texel's surface within this many texels of the plane is the receiver's own surface.
+const PLANE_TOLERANCE: f32 = 0.5;
+// Occluders nearer the plane than this many texels, where the texels disagree, leave the
+// answer to a shadow ray (`light_map_visibility`).
+const NEAR_GAP: f32 = 3.0;
+fn light_map_gap(m: LightMap, i: i32, j: i32, p: vec3f, n: vec3f, texel: f32) -> f32 {
     let r = i32(m.resolution) - 1;
-    let t = light_map_depths[m.offset + u32(clamp(j, 0, r)) * m.resolution + u32(clamp(i, 0, r))];
-    return select(0.0, 1.0, depth <= t + bias);
+    let t = vec2u(u32(clamp(i, 0, r)), u32(clamp(j, 0, r)));
+    let ray = light_map_ray(m, t);
+    let cos_plane = dot(n, ray.dir);
+    if abs(cos_plane) < 0.02 {
+        return NO_VOTE;
+    }
+    let expected = dot(n, p - ray.origin) / cos_plane;
+    let found = light_map_depths[m.offset + t.y * m.resolution + t.x];
+    // The distance from the plane of the surface found, with the traces' rounding
+    // (relative to their depths) counted in the receiver's favour.
+    let rounding = 1.0e-4 * abs(expected);
+    return (min(found, 1.0e20) - expected + rounding) * abs(cos_plane) / texel;
 }
 
-// Visibility in [0, 1] of the shadow loop's current sample from surface `s`, by
-// percentage-closer filtering (the four nearest texels' tests, weighted bilinearly). The receiver moves
-// along its geometric normal by a texel and a half (normal-offset shadow mapping) and
-// the test allows a texel and a half of depth, against self-shadowing; contact shadows
-// thinner than that are lost (plane hits feed the indirect light only, which averages
-// them). A rect light's sample keeps its own random point (the geometric term stays
-// exact) and takes its visibility from the map of the grid cell it falls in. Negative
-// where no map covers the sample: trace its ray.
+// Visibility in [0, 1] of the shadow loop's current sample from surface `s`, from the four
+// texels nearest the receiver (`light_map_gap`). A texel whose ray meets the receiver's
+// plane says lit, one with a surface in front of the plane says shadowed, and one whose
+// ray crosses the plane where the receiver's surface does not reach (past an edge of it)
+// says nothing. Where they agree, their answer; at a shadow's edge cast from afar, the
+// bilinear mix of their answers (percentage-closer filtering). The sample traces its
+// shadow ray instead where the texels disagree and one of them says nothing, or sees a
+// surface within NEAR_GAP texels in front of the plane: a crease of the receiver (a lit
+// floor at a wall's foot, which the wall's texels would darken) or a contact shadow (the
+// floor behind the wall, which the floor's texels would light), which the map cannot
+// tell apart. Rays also decide where the light grazes the plane or no texel meets it.
+// What the map still gets wrong: an occluder (or a hole) thinner than a texel that all four
+// texels' rays miss. A rect light's sample keeps its own random point (the geometric
+// term stays exact) and takes its visibility from the map of the grid cell it falls in.
+// Negative: trace the shadow ray (also where no map covers the sample).
 fn light_map_visibility(st: ShadowLoop, s: Surface) -> f32 {
     let slot = st.slot;
     if light_map_first[0] == 0u || slot >= scene_info.light_count {
@@ -56,31 +80,42 @@ fn light_map_visibility(st: ShadowLoop, s: Surface) -> f32 {
     m.resolution = light_maps[index].resolution;
     m.offset = light_maps[index].offset;
     m.origin = light_maps[index].origin;
-    var depth: f32;
     var uv: vec2f;
     var texel: f32;
+    let p = s.position;
     if m.kind == MAP_ORTHOGRAPHIC {
         m.axis_u = light_maps[index].axis_u;
         m.axis_v = light_maps[index].axis_v;
         m.dir = light_maps[index].dir;
         texel = m.origin.w;
-        let q = s.position + (1.5 * texel) * s.geometric_normal - m.origin.xyz;
+        let q = p - m.origin.xyz;
         uv = vec2f(dot(q, m.axis_u.xyz) / m.axis_u.w, dot(q, m.axis_v.xyz) / m.axis_v.w);
-        depth = dot(q, m.dir.xyz);
     } else {
-        let dist0 = length(s.position - m.origin.xyz);
-        texel = light_map_texel(m, dist0);
-        let d = s.position + (1.5 * texel) * s.geometric_normal - m.origin.xyz;
-        depth = length(d);
-        uv = octahedral_encode(d / depth);
+        let d = p - m.origin.xyz;
+        let dist = length(d);
+        texel = m.origin.w * dist;
+        uv = octahedral_encode(d / dist);
     }
     let xy = uv * f32(m.resolution) - 0.5;
-    let base = floor(xy);
-    let f = xy - base;
-    let i = i32(base.x);
-    let j = i32(base.y);
-    let bias = 1.5 * texel;
-    let top = mix(light_map_lit(m, i, j, depth, bias), light_map_lit(m, i + 1, j, depth, bias), f.x);
-    let bottom = mix(light_map_lit(m, i, j + 1, depth, bias), light_map_lit(m, i + 1, j + 1, depth, bias), f.x);
-    return mix(top, bottom, f.y);
+    let base = vec2i(floor(xy));
+    let n = s.geometric_normal;
+    let g = vec4f(light_map_gap(m, base.x, base.y, p, n, texel),
+                  light_map_gap(m, base.x + 1, base.y, p, n, texel),
+                  light_map_gap(m, base.x, base.y + 1, p, n, texel),
+                  light_map_gap(m, base.x + 1, base.y + 1, p, n, texel));
+    if any(g == vec4f(NO_VOTE)) {
+        return -1.0;
+    }
+    // Each texel: 1 where its ray meets the receiver's plane (the receiver's surface, or
+    // its continuation, is what the light sees there), 0 where a surface lies in front.
+    // Past the plane (its ray crossed the plane where the receiver's surface does not
+    // reach, beyond an edge of it) the texel tells nothing about the receiver.
+    let lit = select(vec4f(0.0), vec4f(1.0), g >= vec4f(-PLANE_TOLERANCE));
+    let past = g > vec4f(PLANE_TOLERANCE);
+    let near = (g < vec4f(-PLANE_TOLERANCE)) & (g > vec4f(-NEAR_GAP));
+    if all(past) || ((any(past) || any(near)) && !all(lit == vec4f(lit.x))) {
+        return -1.0;
+    }
+    let f = xy - floor(xy);
+    return mix(mix(lit.x, lit.y, f.x), mix(lit.z, lit.w, f.x), f.y);
 }
