@@ -533,7 +533,8 @@ struct CacheArgs {
     /// lights, an N x N grid of them per rect light) and looks shadows up; `rays` traces a
     /// shadow ray per light sample at every plane hit (exact); `auto` maps the sun, point
     /// and spot lights and traces rays to rect lights (whose maps approximate penumbrae).
-    /// `animate` always uses rays.
+    /// With maps, a plane hit still traces its ray where the map cannot decide (creases and
+    /// contact shadows). `animate` always uses rays.
     #[arg(long, value_enum, default_value_t = CacheSettings::default().plane_shadows)]
     plane_shadows: radsplat::records::PlaneShadows,
     /// Texels per side of a sun's light map (point and rect-light maps get half).

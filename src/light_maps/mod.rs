@@ -6,7 +6,9 @@
 //! bounds; a point or spot light an octahedral map around it; a rect light an n x n grid
 //! of octahedral maps traced from its cells' centres: a plane hit keeps its own random
 //! point on the light (the geometric term stays exact) and takes the visibility of the
-//! cell the point falls in.
+//! cell the point falls in. The lookup tests the nearest texels' rays against the
+//! receiver's plane; where they cannot decide (a crease, a contact shadow, a texel past
+//! an edge of the receiver) the plane hit traces its exact shadow ray instead.
 //! The environment keeps its shadow rays (no map covers a constant sky). The camera
 //! pixels' direct light keeps exact shadow rays too: maps only feed the indirect light,
 //! which averages their error over a record's plane.

@@ -289,9 +289,9 @@ impl RecordRadius {
 pub enum PlaneShadows {
     /// Maps for the delta lights (sun, point, spot), whose visibility a map holds up to its
     /// resolution; shadow rays for rect lights, whose maps approximate a penumbra by a few
-    /// cells (measured: conference room 160x120 at a 0.15, 48x48 planes, indirect error
-    /// 4.13 % with 3x3 maps per panel against 2.95 % with rays, at 2.1x the plane time;
-    /// Cornell box 2.13 % against 2.05 %).
+    /// cells (measured with an earlier lookup: conference room 160x120 at a 0.15, 48x48
+    /// planes, indirect error 4.13 % with 3x3 maps per panel against 2.95 % with rays, at
+    /// 2.1x the plane time; Cornell box 2.13 % against 2.05 %).
     Auto,
     /// Light-space visibility maps ([`crate::light_maps`]) for every light, traced once
     /// per prepared scene.
