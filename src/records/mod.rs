@@ -293,7 +293,7 @@ pub enum PlaneShadows {
     /// planes, indirect error 4.13 % with 3x3 maps per panel against 2.95 % with rays, at
     /// 2.1x the plane time; Cornell box 2.13 % against 2.05 %).
     Auto,
-    /// Light-space visibility maps ([`crate::light_maps`]) for every light, traced once
+    /// Light-space visibility maps (`src/light_maps`) for every light, traced once
     /// per prepared scene.
     Maps,
     /// One shadow ray per light sample at every plane hit.

@@ -19,13 +19,13 @@ pub enum RecordSource {
     Planes,
     /// Virtual point lights (instant caching, seed 003): one visibility ray from the
     /// record to each VPL traced from the lights for the scene (`crate::vpl`), summed with
-    /// the bounded geometry term (`vpl_gather.wgsl`, [`super::vpl_gather`]). VPL paths carry
+    /// the bounded geometry term (`vpl_gather.wgsl`, `src/records/vpl_gather.rs`). VPL paths carry
     /// every bounce. Irradiance records only; radiance records keep their planes.
     Vpl,
     /// The photon map alone (photon-mapped irradiance caching, thesis chapter 6): records
     /// placed along the photon array before any pixel asks (Algorithm 6) and reduced from
     /// their neighbourhood's photons (Algorithm 7, `photon_reduce.wgsl`,
-    /// [`super::photon_records`]); the pixels they leave uncovered get plane records.
+    /// `src/records/photon_records.rs`); the pixels they leave uncovered get plane records.
     /// Photon paths carry every bounce (plane records in the holes use the bounce cache).
     Photons,
 }
