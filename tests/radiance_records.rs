@@ -588,15 +588,8 @@ fn glossy_cornell_box_with_radiance_records_matches_the_reference() {
 fn radiance_records_beside_an_object_do_not_overshoot_the_reference() {
     let scene = common::load("cornell-box-glossy.toml", Some((48, 48)));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
-    let prepared = renderer.prepare(&scene).expect("prepare");
     let reference = common::reference_indirect(&renderer, &scene, 256);
-    let mut cache = renderer
-        .new_cache(&CacheSettings::default())
-        .expect("cache");
-    let frame = renderer
-        .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
-        .expect("GI frame");
-    renderer.ctx.check().expect("no wgpu errors");
+    let (frame, cache) = common::render_gi_with_cache(&renderer, &scene, &CacheSettings::default());
     assert!(cache.radiance.as_ref().is_some_and(|r| r.records.count > 0));
     let indirect = frame.indirect.expect("indirect");
     let wall = scene

@@ -179,13 +179,22 @@ pub fn render_gi(
     scene: &Scene,
     settings: &radsplat::records::CacheSettings,
 ) -> radsplat::frame::Frame {
+    render_gi_with_cache(renderer, scene, settings).0
+}
+
+/// [`render_gi`], with the cache it filled.
+pub fn render_gi_with_cache(
+    renderer: &radsplat::Renderer,
+    scene: &Scene,
+    settings: &radsplat::records::CacheSettings,
+) -> (radsplat::frame::Frame, radsplat::frame::IrradianceCache) {
     let prepared = renderer.prepare(scene).expect("prepare");
     let mut cache = renderer.new_cache(settings).expect("cache");
     let frame = renderer
         .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
         .expect("frame");
     renderer.ctx.check().expect("no wgpu errors");
-    frame
+    (frame, cache)
 }
 
 /// Mean of the green channel of `indirect` against `reference`'s, and the relative RMS
