@@ -2,8 +2,10 @@
 // regions ... detect variance based on neighborhood", algorithms.md 1.7): per record, one
 // workgroup ranks the plane's pixels by contrast and writes the `refined` pixels of highest
 // contrast, in pixel order, to `selected`. Contrast: the largest difference of the channel
-// sum r + g + b to a 4-neighbour, times the pixel's cosine weight (what a wrong pixel costs
-// E). Ties go to the lower pixel index. The selection is exact and deterministic: a radix
+// sum r + g + b between two of the pixel's 4-neighbours (its own sample left out, so that
+// refining it does not depend on it: refining pixels for their own extreme sample undid
+// only the lucky hits of patches smaller than a pixel, a bias, records::refine), times
+// the pixel's cosine weight (what a wrong pixel costs E). Ties go to the lower pixel index. The selection is exact and deterministic: a radix
 // select on the contrast's bits (non-negative floats order as their bits) with integer
 // workgroup histograms, then prefix sums in pixel order. A plane without light anywhere
 // has no contrast to rank: its K slots all say DARK_PLANE, and plane_refine.wgsl then
@@ -46,7 +48,7 @@ fn channel_sum(s: PlaneSample) -> f32 {
     return (s.radiance.x + s.radiance.y) + s.radiance.z;
 }
 
-// The contrast of sample `a` (channel sum `y`) to its neighbour `b`: their difference less
+// The contrast of sample `a` (channel sum `y`) to sample `b`: their difference less
 // what the two got from environment samples (`noise`), which one shadow ray a hit samples
 // too coarsely for a difference in it to mean anything. Ranking pixels by that noise
 // picked those whose sample happened to be extreme and replaced them by their sub-rays'
@@ -111,20 +113,29 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     }
     for (var k = first; k < last; k++) {
         let i = k % res;
-        let a = base + k;
-        let y = channel_sum(samples[a]);
-        var c = 0.0;
+        var around: array<u32, 4>;
+        var m = 0u;
         if i > 0u {
-            c = max(c, edge_contrast(y, a, a - 1u));
+            around[m] = base + k - 1u;
+            m++;
         }
         if i + 1u < res {
-            c = max(c, edge_contrast(y, a, a + 1u));
+            around[m] = base + k + 1u;
+            m++;
         }
         if k >= res {
-            c = max(c, edge_contrast(y, a, a - res));
+            around[m] = base + k - res;
+            m++;
         }
         if k + res < n {
-            c = max(c, edge_contrast(y, a, a + res));
+            around[m] = base + k + res;
+            m++;
+        }
+        var c = 0.0;
+        for (var ia = 0u; ia < m; ia++) {
+            for (var ib = ia + 1u; ib < m; ib++) {
+                c = max(c, edge_contrast(channel_sum(samples[around[ia]]), around[ia], around[ib]));
+            }
         }
         keys[base + k] = bitcast<u32>(c * plane[k].weights.x);
     }

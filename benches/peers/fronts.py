@@ -122,6 +122,27 @@ SETTINGS = {
             ("aa0.1-ad1024", ["-aa", "0.1", "-ad", "1024", "-as", "512", "-ar", "128"]),
         ],
     },
+    # Our own stand-in for issue 17's cathedral (scenes/nave.toml, 288 triangles): a hall lit
+    # by a low sun through five small windows, nearly all of its light indirect and from a
+    # few bright patches. Sun: rpict's source unjittered (-dj 0), as radsplat's delta sun.
+    "nave": {
+        "spp": 4096, "dj": 0.0, "light_samples": None, "ref_light_samples": None,
+        "size": "160x160",
+        "radsplat": [
+            ("a0.5-P16", ["-a", "0.5", "--plane-resolution", "16"]),
+            ("a0.3-P16", ["-a", "0.3", "--plane-resolution", "16"]),
+            ("a0.2-P24", ["-a", "0.2", "--plane-resolution", "24"]),
+            ("a0.15-P24", ["-a", "0.15", "--plane-resolution", "24"]),
+            ("a0.15-P32", ["-a", "0.15", "--plane-resolution", "32"]),
+            ("a0.1-P32", ["-a", "0.1", "--plane-resolution", "32"]),
+        ],
+        "rpict": [
+            ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),
+            ("aa0.3-ad256", ["-aa", "0.3", "-ad", "256", "-as", "128", "-ar", "32"]),
+            ("aa0.15-ad768", ["-aa", "0.15", "-ad", "768", "-as", "384", "-ar", "96"]),
+            ("aa0.1-ad1024", ["-aa", "0.1", "-ad", "1024", "-as", "512", "-ar", "128"]),
+        ],
+    },
 }
 # Any other scene: the Cornell box's lists at the scene's own size.
 FALLBACK = dict(SETTINGS["cornell-box"], spp=1024, size=None, ref_light_samples=None)
