@@ -457,9 +457,11 @@ struct CacheArgs {
     /// rays; gaps between coplanar pieces no longer darken the record).
     #[arg(long, value_enum, default_value_t = CacheSettings::default().photons.area)]
     photon_area: radsplat::photons::PhotonArea,
-    /// R_min as the validity radius a R_min in pixels at creation.
-    #[arg(long, default_value_t = CacheSettings::default().r_min_pixels, value_parser = parse_positive)]
-    r_min_pixels: f32,
+    /// R_min as the validity radius a R_min in pixels at creation. Default: 2 for still
+    /// frames, 3 for animations and for VPL and photon records (what they were measured
+    /// with).
+    #[arg(long, value_parser = parse_positive)]
+    r_min_pixels: Option<f32>,
     /// A world-space lower bound on R_min, as a fraction of the scene's bounding-box
     /// diagonal (like Radiance's -ar: R_min is the larger of this and the pixel bound).
     #[arg(long, default_value_t = CacheSettings::default().r_min_scene)]
@@ -697,7 +699,13 @@ impl CacheArgs {
             plane_spacing: self.plane_spacing,
             plane_light_samples: self.plane_light_samples,
             plane_light_choices: self.plane_light_choices,
-            r_min_pixels: self.r_min_pixels,
+            r_min_pixels: self.r_min_pixels.unwrap_or(
+                if animated || self.record_source != radsplat::records::RecordSource::Planes {
+                    CacheSettings::ANIMATION_R_MIN_PIXELS
+                } else {
+                    CacheSettings::default().r_min_pixels
+                },
+            ),
             r_min_scene: self.r_min_scene,
             r_max_factor: self.r_max_factor,
             record_radius: match self.record_radius {

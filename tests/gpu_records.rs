@@ -406,6 +406,8 @@ fn refinement_off_gives_todays_records() {
         plane_spacing: radsplat::records::PlaneSpacing::Uniform,
         r_min_scene: 0.0,
         neighbour_clamp: false,
+        // The pixel bound the golden was recorded with (the default before stop 47).
+        r_min_pixels: 3.0,
         ..CacheSettings::default()
     };
     let sites = sites(&scene, &renderer, &settings, 12);

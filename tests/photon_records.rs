@@ -30,6 +30,8 @@ fn photon_settings(paths: u32, bounces: u32) -> CacheSettings {
             paths,
             ..PhotonSettings::default()
         },
+        // What the CLI gives animations and VPL/photon records (they were measured so).
+        r_min_pixels: CacheSettings::ANIMATION_R_MIN_PIXELS,
         ..CacheSettings::default()
     };
     s.bounce.bounces = bounces;

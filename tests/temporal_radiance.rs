@@ -42,6 +42,8 @@ fn settings() -> CacheSettings {
     TemporalCache::record_settings(&CacheSettings {
         accuracy: 0.3,
         plane_resolution: 12,
+        // What the CLI gives animations and VPL/photon records (they were measured so).
+        r_min_pixels: CacheSettings::ANIMATION_R_MIN_PIXELS,
         ..CacheSettings::default()
     })
 }

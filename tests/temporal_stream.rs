@@ -18,6 +18,8 @@ fn tiny_cache() -> CacheSettings {
     CacheSettings {
         accuracy: 0.25,
         plane_resolution: 8,
+        // What the CLI gives animations and VPL/photon records (they were measured so).
+        r_min_pixels: CacheSettings::ANIMATION_R_MIN_PIXELS,
         ..CacheSettings::default()
     }
 }

@@ -23,6 +23,8 @@ fn vpl_settings(paths: u32, clamp: f32, bounces: u32) -> CacheSettings {
         vpl: VplSettings { paths, clamp },
         // What `radsplat render --records vpl` runs with.
         accuracy: CacheSettings::ANIMATION_ACCURACY,
+        // What the CLI gives animations and VPL/photon records (they were measured so).
+        r_min_pixels: CacheSettings::ANIMATION_R_MIN_PIXELS,
         ..CacheSettings::default()
     };
     s.bounce.bounces = bounces;

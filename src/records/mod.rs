@@ -193,6 +193,8 @@ pub struct CacheSettings {
     /// plane time falls by a third at the error of every light (docs/results.md).
     pub plane_light_choices: u32,
     /// R_min in pixels of validity radius: a R_min spans this many pixels at creation.
+    /// Default [`Self::STILL_R_MIN_PIXELS`]; animations and the VPL and photon record
+    /// sources were measured at [`Self::ANIMATION_R_MIN_PIXELS`].
     pub r_min_pixels: f32,
     /// A world-space lower bound on R_min as a fraction of the scene's bounding-box
     /// diagonal (like Radiance's `-ar`, whose minimum spacing is size x aa / ar): R_min is
@@ -311,7 +313,7 @@ impl Default for CacheSettings {
             plane_spacing: PlaneSpacing::Cosine,
             plane_light_samples: 1,
             plane_light_choices: 2,
-            r_min_pixels: 3.0,
+            r_min_pixels: Self::STILL_R_MIN_PIXELS,
             r_min_scene: 1.0 / 32.0,
             r_max_factor: 64.0,
             record_radius: RecordRadius::Hessian {
@@ -413,6 +415,20 @@ impl CacheSettings {
     /// The CLI's default accuracy for animations and for VPL and photon records (the
     /// static default, 0.25, is chosen with Hessian-sized plane records).
     pub const ANIMATION_ACCURACY: f32 = 0.2;
+
+    /// The default pixel bound on R_min of still frames: a validity radius `a R_min` of at
+    /// least 2 pixels (R >= 8 pixels at a 0.25; Mitsuba's TL04 clamp is R >= 3). A bound in
+    /// pixels is a coarse world size in a small image: at 3 pixels, half the records of a
+    /// 160x160 hall lit through small windows (scenes/nave.toml) sat at it and its indirect
+    /// error was 20.9 %; at 2 pixels 15.8 % for 11 % more time (Cornell box 128x128 1.56 ->
+    /// 1.36 %, conference room 160x120 3.32 -> 3.10 %; Sponza 1000x1000, where the world
+    /// bound binds, the same bytes; docs/results.md, "A hall lit through small windows").
+    pub const STILL_R_MIN_PIXELS: f32 = 2.0;
+
+    /// The CLI's pixel bound for animations and for VPL and photon records, which were
+    /// measured with it (as [`Self::ANIMATION_ACCURACY`]); library callers that animate set
+    /// it themselves.
+    pub const ANIMATION_R_MIN_PIXELS: f32 = 3.0;
 
     /// These settings as a frame uses them: animations (`animated`) and the VPL and photon
     /// record sources size their records by Ward's split sphere, the sizing they were
