@@ -5,9 +5,10 @@
 // sum r + g + b between two of the pixel's 4-neighbours (its own sample left out, so that
 // refining it does not depend on it: refining pixels for their own extreme sample undid
 // only the lucky hits of patches smaller than a pixel, a bias, records::refine), times
-// the pixel's cosine weight (what a wrong pixel costs E). Ties go to the lower pixel index. The selection is exact and deterministic: a radix
-// select on the contrast's bits (non-negative floats order as their bits) with integer
-// workgroup histograms, then prefix sums in pixel order. A plane without light anywhere
+// the pixel's cosine weight (what a wrong pixel costs E). Ties go to the lower pixel
+// index. The selection is exact and deterministic: a radix select on the contrast's bits
+// (non-negative floats order as their bits) with integer workgroup histograms, then
+// prefix sums in pixel order. A plane without light anywhere
 // has no contrast to rank: its K slots all say DARK_PLANE, and plane_refine.wgsl then
 // refines every pixel of it. The CPU mirror is records::refine::select_pixels.
 //!include shared/records.wgsl
