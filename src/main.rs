@@ -684,28 +684,28 @@ enum RecordRadiusArg {
 
 impl CacheArgs {
     /// The cache settings of these flags for a still frame or an animation (`animated`:
-    /// the default accuracy differs).
+    /// the default accuracy and pixel bound differ).
     fn settings(&self, animated: bool) -> CacheSettings {
+        // Animations and VPL/photon records were measured with their own accuracy and
+        // pixel bound; still frames of plane records with the library's defaults.
+        let measured_apart =
+            animated || self.record_source != radsplat::records::RecordSource::Planes;
         CacheSettings {
-            accuracy: self.accuracy.unwrap_or(
-                if animated || self.record_source != radsplat::records::RecordSource::Planes {
-                    CacheSettings::ANIMATION_ACCURACY
-                } else {
-                    CacheSettings::default().accuracy
-                },
-            ),
+            accuracy: self.accuracy.unwrap_or(if measured_apart {
+                CacheSettings::ANIMATION_ACCURACY
+            } else {
+                CacheSettings::default().accuracy
+            }),
             plane_resolution: self.plane_resolution,
             plane_fov_degrees: self.plane_fov,
             plane_spacing: self.plane_spacing,
             plane_light_samples: self.plane_light_samples,
             plane_light_choices: self.plane_light_choices,
-            r_min_pixels: self.r_min_pixels.unwrap_or(
-                if animated || self.record_source != radsplat::records::RecordSource::Planes {
-                    CacheSettings::ANIMATION_R_MIN_PIXELS
-                } else {
-                    CacheSettings::default().r_min_pixels
-                },
-            ),
+            r_min_pixels: self.r_min_pixels.unwrap_or(if measured_apart {
+                CacheSettings::ANIMATION_R_MIN_PIXELS
+            } else {
+                CacheSettings::default().r_min_pixels
+            }),
             r_min_scene: self.r_min_scene,
             r_max_factor: self.r_max_factor,
             record_radius: match self.record_radius {

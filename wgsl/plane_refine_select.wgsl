@@ -49,15 +49,15 @@ fn channel_sum(s: PlaneSample) -> f32 {
     return (s.radiance.x + s.radiance.y) + s.radiance.z;
 }
 
-// The contrast of sample `a` (channel sum `y`) to sample `b`: their difference less
-// what the two got from environment samples (`noise`), which one shadow ray a hit samples
-// too coarsely for a difference in it to mean anything. Ranking pixels by that noise
-// picked those whose sample happened to be extreme and replaced them by their sub-rays'
-// mean, a bias (env-sphere: 0.956 of the reference's mean indirect light, docs/results.md).
-// Lights and light maps are exact at a hit (suns, points) or nearly so: their differences
-// still count. With no environment it is |y - y_b| bit for bit.
-fn edge_contrast(y: f32, a: u32, b: u32) -> f32 {
-    return max(abs(y - channel_sum(samples[b])) - (noise[a] + noise[b]), 0.0);
+// The contrast of two samples (channel sums `ya`, `yb`): their difference less what the
+// two got from environment samples (`na`, `nb`, from `noise`), which one shadow ray a hit
+// samples too coarsely for a difference in it to mean anything. Ranking pixels by that
+// noise picked those whose sample happened to be extreme and replaced them by their
+// sub-rays' mean, a bias (env-sphere: 0.956 of the reference's mean indirect light,
+// docs/results.md). Lights and light maps are exact at a hit (suns, points) or nearly so:
+// their differences still count. With no environment it is |ya - yb| bit for bit.
+fn edge_contrast(ya: f32, na: f32, yb: f32, nb: f32) -> f32 {
+    return max(abs(ya - yb) - (na + nb), 0.0);
 }
 
 // Exclusive prefix sum of `counts` in thread order (serial by thread 0: THREADS entries).
@@ -114,28 +114,35 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     }
     for (var k = first; k < last; k++) {
         let i = k % res;
-        var around: array<u32, 4>;
+        // The 4-neighbours' channel sums and environment shares, each loaded once (a
+        // storage load is a per-lane loop on lavapipe).
+        var ys: array<f32, 4>;
+        var ns: array<f32, 4>;
         var m = 0u;
         if i > 0u {
-            around[m] = base + k - 1u;
+            ys[m] = channel_sum(samples[base + k - 1u]);
+            ns[m] = noise[base + k - 1u];
             m++;
         }
         if i + 1u < res {
-            around[m] = base + k + 1u;
+            ys[m] = channel_sum(samples[base + k + 1u]);
+            ns[m] = noise[base + k + 1u];
             m++;
         }
         if k >= res {
-            around[m] = base + k - res;
+            ys[m] = channel_sum(samples[base + k - res]);
+            ns[m] = noise[base + k - res];
             m++;
         }
         if k + res < n {
-            around[m] = base + k + res;
+            ys[m] = channel_sum(samples[base + k + res]);
+            ns[m] = noise[base + k + res];
             m++;
         }
         var c = 0.0;
         for (var ia = 0u; ia < m; ia++) {
             for (var ib = ia + 1u; ib < m; ib++) {
-                c = max(c, edge_contrast(channel_sum(samples[around[ia]]), around[ia], around[ib]));
+                c = max(c, edge_contrast(ys[ia], ns[ia], ys[ib], ns[ib]));
             }
         }
         keys[base + k] = bitcast<u32>(c * plane[k].weights.x);

@@ -56,6 +56,14 @@ from compare_peers import (  # noqa: E402  (shared pieces of the single-setting 
 # shadow rays per bounce buy more bounce samples for the same time: on the Cornell box 1024
 # spp with 2 light samples cost what 256 spp with 16 did, at half the noise); "size": the
 # default --size (None: the scene's).
+# rpict's points beside its defaults (which every scene runs too): two cheaper, two dearer,
+# the same on every scene.
+RPICT_POINTS = [
+    ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),
+    ("aa0.3-ad256", ["-aa", "0.3", "-ad", "256", "-as", "128", "-ar", "32"]),
+    ("aa0.15-ad768", ["-aa", "0.15", "-ad", "768", "-as", "384", "-ar", "96"]),
+    ("aa0.1-ad1024", ["-aa", "0.1", "-ad", "1024", "-as", "512", "-ar", "128"]),
+]
 SETTINGS = {
     "cornell-box": {
         "spp": 4096, "dj": 0.7, "light_samples": None, "ref_light_samples": 2,
@@ -68,12 +76,7 @@ SETTINGS = {
             ("a0.1-P32", ["-a", "0.1", "--plane-resolution", "32"]),
             ("a0.1-P48", ["-a", "0.1", "--plane-resolution", "48"]),
         ],
-        "rpict": [
-            ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),
-            ("aa0.3-ad256", ["-aa", "0.3", "-ad", "256", "-as", "128", "-ar", "32"]),
-            ("aa0.15-ad768", ["-aa", "0.15", "-ad", "768", "-as", "384", "-ar", "96"]),
-            ("aa0.1-ad1024", ["-aa", "0.1", "-ad", "1024", "-as", "512", "-ar", "128"]),
-        ],
+        "rpict": RPICT_POINTS,
     },
     # Issue 17's measurements at 1000x1000: rpict 22.7 % in 12.3 s (-aa 0.3 -ad 256 -as 128
     # -ar 32), 20.2 % in 32.1 s (defaults), 19.0 % in 90.5 s, 18.6 % in 194 s (-aa 0.1
@@ -95,12 +98,7 @@ SETTINGS = {
             ("a0.3-P24", ["-a", "0.3", "--plane-resolution", "24"]),
             ("a0.15-P24", ["-a", "0.15", "--plane-resolution", "24"]),
         ],
-        "rpict": [
-            ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),
-            ("aa0.3-ad256", ["-aa", "0.3", "-ad", "256", "-as", "128", "-ar", "32"]),
-            ("aa0.15-ad768", ["-aa", "0.15", "-ad", "768", "-as", "384", "-ar", "96"]),
-            ("aa0.1-ad1024", ["-aa", "0.1", "-ad", "1024", "-as", "512", "-ar", "128"]),
-        ],
+        "rpict": RPICT_POINTS,
     },
     # 160x120: rpict -ab 1 at its defaults takes ~16 CPU s at 80x60 on this scene (331k
     # triangles), so ~65 s here, its cheaper points 10-30 s, its dearest a few minutes.
@@ -115,12 +113,7 @@ SETTINGS = {
             ("a0.15-P32", ["-a", "0.15", "--plane-resolution", "32"]),
             ("a0.1-P32", ["-a", "0.1", "--plane-resolution", "32"]),
         ],
-        "rpict": [
-            ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),
-            ("aa0.3-ad256", ["-aa", "0.3", "-ad", "256", "-as", "128", "-ar", "32"]),
-            ("aa0.15-ad768", ["-aa", "0.15", "-ad", "768", "-as", "384", "-ar", "96"]),
-            ("aa0.1-ad1024", ["-aa", "0.1", "-ad", "1024", "-as", "512", "-ar", "128"]),
-        ],
+        "rpict": RPICT_POINTS,
     },
     # Our own stand-in for issue 17's cathedral (scenes/nave.toml, 288 triangles): a hall lit
     # by a low sun through five small windows, nearly all of its light indirect and from a
@@ -136,12 +129,7 @@ SETTINGS = {
             ("a0.15-P32", ["-a", "0.15", "--plane-resolution", "32"]),
             ("a0.1-P32", ["-a", "0.1", "--plane-resolution", "32"]),
         ],
-        "rpict": [
-            ("aa0.4-ad128", ["-aa", "0.4", "-ad", "128", "-as", "64", "-ar", "16"]),
-            ("aa0.3-ad256", ["-aa", "0.3", "-ad", "256", "-as", "128", "-ar", "32"]),
-            ("aa0.15-ad768", ["-aa", "0.15", "-ad", "768", "-as", "384", "-ar", "96"]),
-            ("aa0.1-ad1024", ["-aa", "0.1", "-ad", "1024", "-as", "512", "-ar", "128"]),
-        ],
+        "rpict": RPICT_POINTS,
     },
 }
 # Any other scene: the Cornell box's lists at the scene's own size.

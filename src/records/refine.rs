@@ -70,31 +70,29 @@ pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample], noise: &[
     (0..n)
         .map(|k| {
             let i = k % res;
-            let mut around = [0usize; 4];
+            // The 4-neighbours' channel sums and environment shares.
+            let mut around = [(0.0f32, 0.0f32); 4];
             let mut m = 0;
-            if i > 0 {
-                around[m] = k - 1;
+            let mut add = |j: usize| {
+                around[m] = (channel_sum(&samples[j]), noise_of(j));
                 m += 1;
+            };
+            if i > 0 {
+                add(k - 1);
             }
             if i + 1 < res {
-                around[m] = k + 1;
-                m += 1;
+                add(k + 1);
             }
             if k >= res {
-                around[m] = k - res;
-                m += 1;
+                add(k - res);
             }
             if k + res < n {
-                around[m] = k + res;
-                m += 1;
+                add(k + res);
             }
             let mut c = 0.0f32;
-            for a in 0..m {
-                for b in a + 1..m {
-                    let (ja, jb) = (around[a], around[b]);
-                    let d = (channel_sum(&samples[ja]) - channel_sum(&samples[jb])).abs()
-                        - (noise_of(ja) + noise_of(jb));
-                    c = c.max(d.max(0.0));
+            for (a, &(ya, na)) in around[..m].iter().enumerate() {
+                for &(yb, nb) in &around[a + 1..m] {
+                    c = c.max(((ya - yb).abs() - (na + nb)).max(0.0));
                 }
             }
             (c * plane.pixels[k].cos_weight).to_bits()
