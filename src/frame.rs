@@ -757,7 +757,7 @@ impl Renderer {
             bounds: &bounds,
             records: &cache.records,
             first: 0,
-            accuracy: cache.settings().accuracy,
+            accuracy: cache.settings().interpolation_accuracy(),
         };
         splat_pass.splat(ctx, src, &splat, false, &mut times)?;
         if tail {
@@ -1004,17 +1004,19 @@ impl Renderer {
         };
         let splat = SplatBuffer::with_coverage(ctx, camera.width, camera.height, coverage_records)?;
         if !placement_only || count_coverage {
-            // Every record, those placement added included.
+            // Every record, those placement added included, interpolated at the wider
+            // accuracy (`CacheSettings::interpolation_factor`): placement left every
+            // pixel within a of some record, so each is still reached, by more records.
             let all = SplatSource {
                 scene: &scene.gpu,
                 vis: &vis,
                 bounds: &bounds,
                 records,
                 first: 0,
-                accuracy,
+                accuracy: pass.settings.interpolation_accuracy(),
             };
             splat_pass.splat(ctx, all, &splat, false, &mut times)?;
-            // Tail fill: the pixels no record reaches at a take every record that reaches
+            // Tail fill: the pixels no record reaches then take every record that reaches
             // them at the tail's accuracy (placement made one reach each of them). Only
             // the tail's records are sure to, but the others make a smoother mean
             // (Cornell box 128x128: 1.46 % indirect error with the tail's alone, 1.41 %

@@ -224,6 +224,15 @@ pub struct CacheSettings {
     /// `kappa a` (Ward's error at most kappa a, weights `1 / err - 1 / (kappa a)`), at most
     /// [`Self::TAIL_MAX_ACCURACY`].
     pub tail_factor: f32,
+    /// Records are interpolated (the frame's gather) at `interpolation_factor a`, wider
+    /// than the accuracy a they are placed at: at least 1, so that every pixel placement
+    /// covered is reached. Ward's weight `1 / err - 1 / a` falls to zero at the edge of a
+    /// record's reach, so at 1 a pixel near that edge takes nearly all of its light from
+    /// one record and each record's own plane noise shows as a disc; a wider interpolation
+    /// averages more records there. Default [`Self::STILL_INTERPOLATION_FACTOR`];
+    /// animations and the VPL and photon record sources were measured at
+    /// [`Self::ANIMATION_INTERPOLATION_FACTOR`].
+    pub interpolation_factor: f32,
     /// Store and use rotational and translational gradients.
     pub gradients: bool,
     /// How plane hits find their shadows: light-space maps traced once per prepared scene, or one
@@ -323,6 +332,7 @@ impl Default for CacheSettings {
             record_budget: 200_000,
             tail_share: Self::TAIL_SHARE,
             tail_factor: Self::TAIL_FACTOR,
+            interpolation_factor: Self::STILL_INTERPOLATION_FACTOR,
             gradients: true,
             plane_shadows: PlaneShadows::Auto,
             light_maps: LightMapSettings {
@@ -399,6 +409,26 @@ impl CacheSettings {
         let scaled = (f64::from(p) * ratio.sqrt()).round() as u32;
         scaled.clamp(p.min(Self::TAIL_MIN_PLANE_RESOLUTION), p)
     }
+
+    /// The accuracy records are interpolated at: `interpolation_factor a`
+    /// ([`Self::interpolation_factor`]).
+    pub fn interpolation_accuracy(&self) -> f32 {
+        self.accuracy * self.interpolation_factor
+    }
+
+    /// The default [`Self::interpolation_factor`] of still frames (measured, indirect
+    /// error after a 4x4 box filter, factor 1 -> 1.5, docs/results.md "Interpolating wider
+    /// than placing"): Sponza sun 1000x1000 10.05 -> 9.69 %, a hall lit through small
+    /// windows 160x160 15.79 -> 14.57 %, conference room 160x120 3.10 -> 3.01 %, Cornell
+    /// box 128x128 1.36 -> 1.37 %; at 2 the Cornell box rose to 1.54 %.
+    pub const STILL_INTERPOLATION_FACTOR: f32 = 1.5;
+
+    /// The CLI's interpolation factor for animations and for VPL and photon records, which
+    /// were measured with it (as [`Self::ANIMATION_ACCURACY`]).
+    pub const ANIMATION_INTERPOLATION_FACTOR: f32 = 1.0;
+
+    /// The widest [`Self::interpolation_factor`] [`Self::validate`] admits.
+    pub const MAX_INTERPOLATION_FACTOR: f32 = 4.0;
 
     /// The smallest plane resolution [`Self::tail_plane_resolution`] reduces to.
     pub const TAIL_MIN_PLANE_RESOLUTION: u32 = 8;
@@ -481,6 +511,16 @@ impl CacheSettings {
                 "-a/--accuracy",
                 self.accuracy.to_string(),
                 "must be in (0, 1]",
+            );
+        }
+        if !(self.interpolation_factor >= 1.0
+            && self.interpolation_factor <= Self::MAX_INTERPOLATION_FACTOR)
+        {
+            return bad(
+                "interpolation factor",
+                "--interpolation-factor",
+                self.interpolation_factor.to_string(),
+                "must be in [1, 4] (below 1, pixels that placement covered would get no record)",
             );
         }
         let r = &self.radiance;
@@ -1008,7 +1048,6 @@ impl RecordPass {
     /// A pass computing `kind` records: radiance records are irradiance records whose
     /// planes are also projected onto HSH (`radiance_project.wgsl`).
     pub fn with_kind(ctx: &GpuContext, settings: &CacheSettings, kind: RecordKind) -> Result<Self> {
-        use Binding::*;
         settings.validate()?;
         // Photon records leave holes that plane records fill.
         let planes = settings.source != RecordSource::Vpl;
@@ -1032,6 +1071,39 @@ impl RecordPass {
         // As many records per dispatch as fit one binding, at most 256 (a few seconds of
         // rays on a CPU device, so progress stays visible).
         let batch = (ctx.max_binding_size() / plane_bytes).clamp(1, 256) as u32;
+        // The refinement's pipelines compile on a thread of their own while this one
+        // compiles the plane's: each holds a copy of the traversal and shading, which
+        // lavapipe compiles in about 0.1 s, and the record pass is the longest of the
+        // passes a frame builds at start-up (`Renderer::build_passes`).
+        let (refine, built) = std::thread::scope(|s| {
+            let refine = s.spawn(|| {
+                if planes {
+                    refine::RefinePass::new(ctx, settings)
+                } else {
+                    Ok(None)
+                }
+            });
+            let built = Self::without_refinement(ctx, settings, kind, planes, projection, batch);
+            let refine = refine
+                .join()
+                .unwrap_or_else(|_| Err(Error::Gpu("building the refinement panicked".into())));
+            (refine, built)
+        });
+        let mut pass = built?;
+        pass.refine = refine?;
+        Ok(pass)
+    }
+
+    /// [`Self::with_kind`]'s pass, its refinement (built apart) not yet in it.
+    fn without_refinement(
+        ctx: &GpuContext,
+        settings: &CacheSettings,
+        kind: RecordKind,
+        planes: bool,
+        projection: Option<radiance_projection::RadianceProjectionPass>,
+        batch: u32,
+    ) -> Result<Self> {
+        use Binding::*;
         Ok(Self {
             sites: ComputePass::new(
                 ctx,
@@ -1079,11 +1151,7 @@ impl RecordPass {
             )?,
             neighbour_grid: neighbour_grid::NeighbourGridPass::new(ctx)?,
             table: PlaneTable::new(ctx, settings.plane_resolution, settings)?,
-            refine: if planes {
-                refine::RefinePass::new(ctx, settings)?
-            } else {
-                None
-            },
+            refine: None,
             settings: settings.clone(),
             batch,
             no_light_maps: LightMaps::none(ctx)?,

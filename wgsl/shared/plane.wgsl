@@ -48,8 +48,9 @@ fn trace_plane_ray(site: RecordSite, dir: vec3f, index: u32) -> TracedSample {
             params.light_samples, params.light_choices);
         let hit = shaded.hit;
         if hit.instance != NO_HIT {
-            out.sample.radiance = hit_radiance(shaded, site.seed, index);
-            let sampled = surface_albedo(shaded.surface) * (1.0 / PI) * shaded.env_irradiance;
+            let albedo = surface_albedo(shaded.surface);
+            out.sample.radiance = hit_radiance_with_albedo(shaded, albedo, site.seed, index);
+            let sampled = albedo * (1.0 / PI) * shaded.env_irradiance;
             out.noise = (sampled.x + sampled.y) + sampled.z;
             out.sample.depth = hit.t * dot(dir, site.normal);
             out.hit = PlaneHit(hit.instance, hit.triangle, hit.u, hit.v);

@@ -74,7 +74,13 @@ fn trace_and_shade_at(primary: Ray, seed: u32, first: u32, count: u32, choices: 
 // reference's path continuation, or zero (one bounce). `seed` and `k` are the caller's
 // sequence seed and sample index.
 fn hit_radiance(shaded: ShadedHit, seed: u32, k: u32) -> vec3f {
-    let h = shaded.surface;
+    return hit_radiance_with_albedo(shaded, surface_albedo(shaded.surface), seed, k);
+}
+
+// The same with the hit's albedo (`surface_albedo`) already looked up: a textured albedo
+// is four texel loads and twelve sRGB decodes, which a caller that needs it again pays
+// once.
+fn hit_radiance_with_albedo(shaded: ShadedHit, albedo: vec3f, seed: u32, k: u32) -> vec3f {
     let e = shaded.irradiance + hit_indirect_irradiance(shaded, seed, k);
-    return surface_albedo(h) * (1.0 / PI) * e + indirect_emission(h);
+    return albedo * (1.0 / PI) * e + indirect_emission(shaded.surface);
 }
