@@ -32,6 +32,7 @@ fn photon_settings(paths: u32, bounces: u32) -> CacheSettings {
         },
         // What the CLI gives animations and VPL/photon records (they were measured so).
         r_min_pixels: CacheSettings::ANIMATION_R_MIN_PIXELS,
+        interpolation_factor: CacheSettings::ANIMATION_INTERPOLATION_FACTOR,
         ..CacheSettings::default()
     };
     s.bounce.bounces = bounces;
