@@ -99,8 +99,9 @@ fn each_pipeline_is_compiled_once_at_first_use_and_reported_apart() {
 fn the_pipeline_cache_is_kept_in_a_file_between_runs() {
     let ctx = common::gpu();
     let info = ctx.adapter_info.clone().expect("own adapter");
-    let dir = std::env::temp_dir().join(format!("radsplat-pcache-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = common::TestDir::new("pcache");
+    // Open in a directory that does not exist yet: the cache creates it.
+    let dir = dir.join("cache");
     if !ctx
         .device
         .features()

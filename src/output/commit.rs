@@ -171,11 +171,28 @@ fn same_file(a: &Path, b: &Path) -> bool {
 mod tests {
     use super::*;
 
-    fn tmp_dir(name: &str) -> PathBuf {
+    /// A fresh directory for one test, removed when dropped (a set of them was left in the
+    /// temp dir by every run).
+    struct TmpDir(PathBuf);
+
+    impl std::ops::Deref for TmpDir {
+        type Target = Path;
+        fn deref(&self) -> &Path {
+            &self.0
+        }
+    }
+
+    impl Drop for TmpDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    fn tmp_dir(name: &str) -> TmpDir {
         let d = std::env::temp_dir().join(format!("radsplat-commit-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).expect("temp dir");
-        d
+        TmpDir(d)
     }
 
     fn entries(dir: &Path) -> Vec<String> {
