@@ -464,10 +464,9 @@ struct CacheArgs {
     r_min_pixels: Option<f32>,
     /// Records are interpolated at this times the accuracy -a (placed at -a itself), in
     /// [1, 4]: a pixel near the edge of a record's reach averages more records instead of
-    /// taking one record's plane noise. Default: 1.5 for still frames, 1 for animations
-    /// and for VPL and photon records (what they were measured with).
-    #[arg(long)]
-    interpolation_factor: Option<f32>,
+    /// taking one record's plane noise.
+    #[arg(long, default_value_t = CacheSettings::default().interpolation_factor)]
+    interpolation_factor: f32,
     /// A world-space lower bound on R_min, as a fraction of the scene's bounding-box
     /// diagonal (like Radiance's -ar: R_min is the larger of this and the pixel bound).
     #[arg(long, default_value_t = CacheSettings::default().r_min_scene)]
@@ -690,11 +689,10 @@ enum RecordRadiusArg {
 
 impl CacheArgs {
     /// The cache settings of these flags for a still frame or an animation (`animated`:
-    /// the default accuracy, pixel bound and interpolation factor differ).
+    /// the default accuracy and pixel bound differ).
     fn settings(&self, animated: bool) -> CacheSettings {
-        // Animations and VPL/photon records were measured with their own accuracy, pixel
-        // bound and interpolation factor; still frames of plane records with the library's
-        // defaults.
+        // Animations and VPL/photon records were measured with their own accuracy and
+        // pixel bound; still frames of plane records with the library's defaults.
         let measured_apart =
             animated || self.record_source != radsplat::records::RecordSource::Planes;
         CacheSettings {
@@ -713,11 +711,7 @@ impl CacheArgs {
             } else {
                 CacheSettings::default().r_min_pixels
             }),
-            interpolation_factor: self.interpolation_factor.unwrap_or(if measured_apart {
-                CacheSettings::ANIMATION_INTERPOLATION_FACTOR
-            } else {
-                CacheSettings::STILL_INTERPOLATION_FACTOR
-            }),
+            interpolation_factor: self.interpolation_factor,
             r_min_scene: self.r_min_scene,
             r_max_factor: self.r_max_factor,
             record_radius: match self.record_radius {

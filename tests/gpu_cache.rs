@@ -53,14 +53,14 @@ fn cornell_cache_at(
 
 #[test]
 fn gpu_splat_matches_cpu_splat() {
-    check_splat_against_cpu((48, 40), CacheSettings::STILL_INTERPOLATION_FACTOR);
+    check_splat_against_cpu((48, 40), CacheSettings::INTERPOLATION_FACTOR);
 }
 
-/// The same interpolating at the accuracy records are placed at (animations'), where the
-/// moved camera leaves pixels that only the tail's wider accuracy reaches.
+/// The same interpolating at the accuracy records are placed at (`interpolation_factor`
+/// 1), where the moved camera leaves pixels that only the tail's wider accuracy reaches.
 #[test]
 fn gpu_splat_matches_cpu_splat_with_the_tail_tier() {
-    check_splat_against_cpu((48, 40), CacheSettings::ANIMATION_INTERPOLATION_FACTOR);
+    check_splat_against_cpu((48, 40), 1.0);
 }
 
 /// The same at a size whose tiles span several binning blocks (8 x 8 tiles of 8 x 8 pixels),
@@ -69,7 +69,7 @@ fn gpu_splat_matches_cpu_splat_with_the_tail_tier() {
 /// gather reaches every listed empty pixel.
 #[test]
 fn gpu_splat_matches_cpu_splat_across_binning_blocks() {
-    check_splat_against_cpu((136, 72), CacheSettings::ANIMATION_INTERPOLATION_FACTOR);
+    check_splat_against_cpu((136, 72), 1.0);
 }
 
 fn check_splat_against_cpu(size: (u32, u32), interpolation_factor: f32) {
@@ -433,8 +433,8 @@ fn passes_built_ahead_on_many_threads_render_the_same_bytes() {
 /// unbiased selection): 1.49 % -> 1.34 % against a 2,048-spp reference (same protocol),
 /// mean indirect 1.000 -> 1.002 of the reference's; and again with the still-frame pixel
 /// bound on R_min at 2 pixels (was 3, `CacheSettings::STILL_R_MIN_PIXELS`): 1.34 % ->
-/// 0.95 %, 538 -> 688 records, mean 1.001. Changed on purpose in stop 48: still frames
-/// interpolate their records at 1.5 a (`CacheSettings::STILL_INTERPOLATION_FACTOR`; the
+/// 0.95 %, 538 -> 688 records, mean 1.001. Changed on purpose in stop 48: records are
+/// interpolated at 1.5 a (`CacheSettings::INTERPOLATION_FACTOR`; the
 /// same 688 records): 0.95 % -> 1.00 % here (a 2,048-spp reference, same protocol; mean
 /// 1.001 -> 1.002), where the box's error is interpolation more than record noise; on the
 /// peer harness's scenes 1.36 -> 1.37 % (Cornell box 128x128), 3.10 -> 3.01 % (conference

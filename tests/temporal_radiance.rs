@@ -44,7 +44,6 @@ fn settings() -> CacheSettings {
         plane_resolution: 12,
         // What the CLI gives animations and VPL/photon records (they were measured so).
         r_min_pixels: CacheSettings::ANIMATION_R_MIN_PIXELS,
-        interpolation_factor: CacheSettings::ANIMATION_INTERPOLATION_FACTOR,
         ..CacheSettings::default()
     })
 }

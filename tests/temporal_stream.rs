@@ -20,7 +20,6 @@ fn tiny_cache() -> CacheSettings {
         plane_resolution: 8,
         // What the CLI gives animations and VPL/photon records (they were measured so).
         r_min_pixels: CacheSettings::ANIMATION_R_MIN_PIXELS,
-        interpolation_factor: CacheSettings::ANIMATION_INTERPOLATION_FACTOR,
         ..CacheSettings::default()
     }
 }

@@ -25,7 +25,6 @@ fn vpl_settings(paths: u32, clamp: f32, bounces: u32) -> CacheSettings {
         accuracy: CacheSettings::ANIMATION_ACCURACY,
         // What the CLI gives animations and VPL/photon records (they were measured so).
         r_min_pixels: CacheSettings::ANIMATION_R_MIN_PIXELS,
-        interpolation_factor: CacheSettings::ANIMATION_INTERPOLATION_FACTOR,
         ..CacheSettings::default()
     };
     s.bounce.bounces = bounces;

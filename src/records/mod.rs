@@ -229,9 +229,7 @@ pub struct CacheSettings {
     /// covered is reached. Ward's weight `1 / err - 1 / a` falls to zero at the edge of a
     /// record's reach, so at 1 a pixel near that edge takes nearly all of its light from
     /// one record and each record's own plane noise shows as a disc; a wider interpolation
-    /// averages more records there. Default [`Self::STILL_INTERPOLATION_FACTOR`];
-    /// animations and the VPL and photon record sources were measured at
-    /// [`Self::ANIMATION_INTERPOLATION_FACTOR`].
+    /// averages more records there. Default [`Self::INTERPOLATION_FACTOR`].
     pub interpolation_factor: f32,
     /// Store and use rotational and translational gradients.
     pub gradients: bool,
@@ -332,7 +330,7 @@ impl Default for CacheSettings {
             record_budget: 200_000,
             tail_share: Self::TAIL_SHARE,
             tail_factor: Self::TAIL_FACTOR,
-            interpolation_factor: Self::STILL_INTERPOLATION_FACTOR,
+            interpolation_factor: Self::INTERPOLATION_FACTOR,
             gradients: true,
             plane_shadows: PlaneShadows::Auto,
             light_maps: LightMapSettings {
@@ -416,16 +414,15 @@ impl CacheSettings {
         self.accuracy * self.interpolation_factor
     }
 
-    /// The default [`Self::interpolation_factor`] of still frames (measured, indirect
-    /// error after a 4x4 box filter, factor 1 -> 1.5, docs/results.md "Interpolating wider
-    /// than placing"): Sponza sun 1000x1000 10.05 -> 9.69 %, a hall lit through small
-    /// windows 160x160 15.79 -> 14.57 %, conference room 160x120 3.10 -> 3.01 %, Cornell
-    /// box 128x128 1.36 -> 1.37 %; at 2 the Cornell box rose to 1.54 %.
-    pub const STILL_INTERPOLATION_FACTOR: f32 = 1.5;
-
-    /// The CLI's interpolation factor for animations and for VPL and photon records, which
-    /// were measured with it (as [`Self::ANIMATION_ACCURACY`]).
-    pub const ANIMATION_INTERPOLATION_FACTOR: f32 = 1.0;
+    /// The default [`Self::interpolation_factor`] (measured, docs/results.md "Interpolating
+    /// wider than placing"; indirect error after a 4x4 box filter unless said, factor
+    /// 1 -> 1.5): Sponza sun 1000x1000 10.05 -> 9.69 %, a hall lit through small windows
+    /// 160x160 15.79 -> 14.57 %, conference room 160x120 3.10 -> 3.01 %, Cornell box
+    /// 128x128 1.36 -> 1.37 % (at 2 it rose to 1.54 %); animations: cube in a box 48x48
+    /// (frames 0..23, P 16) 3.23 -> 2.86 %, Spheres 64x64 (frames 0..11, beauty) 1.04 ->
+    /// 0.98 % with less flicker; VPL and photon records on the Cornell box 8.02 -> 7.90 %
+    /// and 5.49 -> 5.08 %.
+    pub const INTERPOLATION_FACTOR: f32 = 1.5;
 
     /// The widest [`Self::interpolation_factor`] [`Self::validate`] admits.
     pub const MAX_INTERPOLATION_FACTOR: f32 = 4.0;
