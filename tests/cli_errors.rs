@@ -428,6 +428,21 @@ fn cache_settings_errors_name_the_setting_flag_and_value() {
             },
             "--record-budget) 0",
         ),
+        // Below 1 the gather would leave pixels that placement covered without a record.
+        (
+            CacheSettings {
+                interpolation_factor: 0.9,
+                ..CacheSettings::default()
+            },
+            "--interpolation-factor) 0.9",
+        ),
+        (
+            CacheSettings {
+                interpolation_factor: f32::NAN,
+                ..CacheSettings::default()
+            },
+            "--interpolation-factor) NaN",
+        ),
     ];
     for (settings, want) in cases {
         let err = settings.validate().expect_err(want).to_string();
