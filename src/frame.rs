@@ -7,7 +7,7 @@ use crate::direct::{DirectLightPass, DirectOutput};
 use crate::glossy::GlossyIndirectPass;
 use crate::gpu::scene_buffers::GpuLight;
 use crate::gpu::timer::PassTimer;
-use crate::gpu::{GpuContext, GpuScene};
+use crate::gpu::{GpuContext, GpuScene, LightKinds};
 use crate::light_maps::{LightMapPass, LightMapSettings, LightMaps, MappedLights};
 use crate::placement::{PlacementPass, PlacementStats};
 use crate::records::kind::RadianceSettings;
@@ -642,6 +642,19 @@ impl Renderer {
         cache: Option<&CacheSettings>,
         threads: usize,
     ) -> Result<Option<IrradianceCache>> {
+        self.build_passes_for(cache, threads, &|| LightKinds::ALL)
+    }
+
+    /// [`Self::build_passes_on`] with the record pass's plane pipelines compiled for the
+    /// light kinds `lights` returns ([`RecordPass::for_lights`]), which the thread building
+    /// the record pass asks for (once) when it starts: `radsplat render` hands over the
+    /// scene's kinds as soon as the scene has loaded, while the other passes build.
+    pub fn build_passes_for(
+        &self,
+        cache: Option<&CacheSettings>,
+        threads: usize,
+        lights: &(dyn Fn() -> LightKinds + Sync),
+    ) -> Result<Option<IrradianceCache>> {
         let cores = threads.max(1);
         type Build<'a> = Box<dyn Fn() -> Result<()> + Sync + 'a>;
         let built_cache = std::sync::Mutex::new(None);
@@ -665,7 +678,7 @@ impl Renderer {
             builds.insert(
                 0,
                 Box::new(move || {
-                    let cache = self.new_cache(settings)?;
+                    let cache = self.new_cache_for(settings, lights())?;
                     if tail {
                         cache.pass.tail_pass(&self.ctx)?;
                     }
@@ -701,9 +714,26 @@ impl Renderer {
     /// An empty irradiance cache with `settings` as a still frame uses them
     /// ([`CacheSettings::resolved`]).
     pub fn new_cache(&self, settings: &CacheSettings) -> Result<IrradianceCache> {
+        self.new_cache_for(settings, LightKinds::ALL)
+    }
+
+    /// [`Self::new_cache`] with its plane pipelines compiled for the light kinds `lights`
+    /// alone ([`RecordPass::for_lights`]; `LightKinds::of` a scene): less code for the
+    /// shader compiler and the plane rays (Sponza, sun only: 5 % of its plane time, the
+    /// same bytes). A scene with another kind is refused by its frames.
+    pub fn new_cache_for(
+        &self,
+        settings: &CacheSettings,
+        lights: LightKinds,
+    ) -> Result<IrradianceCache> {
         Ok(IrradianceCache {
             records: RecordCache::new(&self.ctx)?,
-            pass: RecordPass::new(&self.ctx, &settings.resolved(false))?,
+            pass: RecordPass::for_lights(
+                &self.ctx,
+                &settings.resolved(false),
+                crate::records::RecordKind::Irradiance,
+                lights,
+            )?,
             radiance: None,
         })
     }

@@ -580,3 +580,51 @@ fn neighbour_clamping_bounds_new_records_by_earlier_ones() {
         "{on} violations with clamping, {off} without"
     );
 }
+
+/// Record passes compiled for a scene's kinds of light alone (`RecordPass::for_lights`, what
+/// `radsplat render` builds: the other kinds' shading left out of the plane pipelines) give
+/// the bytes of the pass compiled for every kind, on a scene with a rect light, one with a
+/// sun and one with an environment map; and a pass compiled without a kind the scene has
+/// refuses it instead of leaving that light out.
+#[test]
+fn record_passes_for_the_scenes_light_kinds_give_the_same_bytes() {
+    use radsplat::gpu::LightKinds;
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let mut kinds_seen = Vec::new();
+    for name in ["cornell-box.toml", "nave.toml", "env-sphere.toml"] {
+        let scene = common::load(name, Some((24, 24)));
+        let kinds = LightKinds::of(&scene);
+        assert_ne!(kinds, LightKinds::ALL);
+        kinds_seen.push(kinds);
+        let mut generic = renderer.new_cache(&settings()).expect("cache");
+        let mut special = renderer
+            .new_cache_for(&settings(), kinds)
+            .expect("cache for the scene's lights");
+        let a = render(&renderer, &scene, &mut generic);
+        let b = render(&renderer, &scene, &mut special);
+        assert!(
+            a.beauty == b.beauty && a.indirect == b.indirect,
+            "{name}: the pass for its light kinds changed the image"
+        );
+        assert!(
+            a.indirect
+                .as_ref()
+                .is_some_and(|ind| ind.iter().any(|p| p[0] > 0.0)),
+            "{name}: no indirect light to compare"
+        );
+    }
+    // Three different sets: a rect light, a sun, an environment map.
+    assert!(kinds_seen[0] != kinds_seen[1] && kinds_seen[1] != kinds_seen[2]);
+    // The Cornell box's rect light through a pass compiled for the nave's sun alone.
+    let cornell = common::load("cornell-box.toml", Some((24, 24)));
+    let mut sun_only = renderer
+        .new_cache_for(&settings(), kinds_seen[1])
+        .expect("cache");
+    let prepared = renderer.prepare(&cornell).expect("prepare");
+    let err = renderer
+        .render_gi_frame(&prepared, &cornell.camera, &mut sun_only, None, |_| {})
+        .err()
+        .expect("a rect light through a sun-only pass is refused")
+        .to_string();
+    assert!(err.contains("light kinds"), "{err}");
+}

@@ -2,7 +2,7 @@
 //! cache, written as EXR/PNG with a record map and stats.
 
 use super::{encode_png, load_scene_with, progress};
-use crate::gpu::GpuContext;
+use crate::gpu::{GpuContext, LightKinds};
 use crate::output::{ImageFormat, OutputSet};
 use crate::records::CacheSettings;
 use crate::{Error, Renderer, Result};
@@ -60,15 +60,40 @@ pub fn render(args: RenderArgs) -> Result<()> {
     // The device starts on its own thread while the scene loads and its BVH is built
     // (neither needs the device): on an H200 machine the start took 170 ms and loading
     // Sponza 230 ms, one after the other. A scene error is reported before a device one.
+    // The scene's kinds of light go to the thread building the record pass as soon as the
+    // scene has loaded: its plane pipelines are compiled for those alone (the other passes
+    // build meanwhile). A scene that fails to load sends none; the pass is then built for
+    // every kind, and the scene's error is the one reported.
+    let (kinds_tx, kinds_rx) = std::sync::mpsc::channel::<LightKinds>();
+    let kinds_rx = std::sync::Mutex::new(kinds_rx);
     let (loaded, started) = std::thread::scope(|s| {
         // The passes this frame runs are built there too, each on its own thread.
         let starting = s.spawn(|| {
             let renderer = Renderer::new(GpuContext::new()?)?;
-            let gi_cache = renderer.build_passes(cache.as_ref())?;
+            let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+            let lights = || {
+                kinds_rx
+                    .lock()
+                    .ok()
+                    .and_then(|rx| rx.recv().ok())
+                    .unwrap_or(LightKinds::ALL)
+            };
+            let gi_cache = renderer.build_passes_for(cache.as_ref(), cores, &lights)?;
             Ok::<_, Error>((renderer, gi_cache))
         });
         let loaded = (|| {
-            let scene = load_scene_with(scene_path, None, size, light_samples)?;
+            let scene = load_scene_with(scene_path, None, size, light_samples);
+            let scene = match scene {
+                Ok(scene) => {
+                    // The receiver may be gone (a device error): nothing waits then.
+                    let _ = kinds_tx.send(LightKinds::of(&scene));
+                    scene
+                }
+                Err(e) => {
+                    drop(kinds_tx);
+                    return Err(e);
+                }
+            };
             let output = output.unwrap_or_else(|| {
                 let stem = scene_path.file_stem().unwrap_or_default().to_string_lossy();
                 PathBuf::from(format!("{stem}.exr"))

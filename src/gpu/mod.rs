@@ -3,6 +3,7 @@
 
 mod buffers;
 pub mod context;
+pub mod light_kinds;
 pub mod pipeline;
 pub mod prefix_sum;
 pub mod scene_buffers;
@@ -10,5 +11,6 @@ pub mod shader;
 pub mod timer;
 
 pub use context::{GpuContext, OPTIONAL_FEATURES, required_limits};
+pub use light_kinds::LightKinds;
 pub use pipeline::ComputePass;
 pub use scene_buffers::GpuScene;

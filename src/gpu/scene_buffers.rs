@@ -274,6 +274,8 @@ pub struct GpuScene {
     pub diagonal: f32,
     /// The scene's world bounds (min, max corners).
     pub bounds: ([f32; 3], [f32; 3]),
+    /// The kinds of light the scene has (pipelines compiled for fewer refuse it).
+    pub light_kinds: super::LightKinds,
     /// Whether any material has a glossy lobe (passes for glossy pixels run only then).
     pub has_glossy: bool,
     /// Each material's glossy lobe (index: material), for the tables radiance records
@@ -469,6 +471,7 @@ impl GpuScene {
                 let (lo, hi) = bvh.world_bounds();
                 (lo.to_array(), hi.to_array())
             },
+            light_kinds: super::LightKinds::of(scene),
             has_glossy: scene.materials.iter().any(|m| m.glossy.is_some()),
             glossy_lobes: scene.materials.iter().map(|m| m.glossy).collect(),
             bounce_cache: std::sync::Mutex::new(Self::empty_bounce_cache(ctx)?),

@@ -19,9 +19,9 @@ pub mod stage;
 pub mod vpl_gather;
 pub mod vpl_update;
 
-use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
+use crate::gpu::{GpuContext, LightKinds};
 use crate::light_maps::{LightMapSettings, LightMaps};
 use crate::visibility::VisibilityBuffer;
 use crate::{Error, Result};
@@ -1029,6 +1029,8 @@ pub struct RecordPass {
     no_noise: wgpu::Buffer,
     /// The kind of records computed; radiance records also project their planes.
     pub kind: RecordKind,
+    /// The light kinds its plane hits are shaded for ([`Self::for_lights`]).
+    lights: LightKinds,
     projection: Option<radiance_projection::RadianceProjectionPass>,
     /// The gather of VPL records ([`RecordSource::Vpl`]).
     vpl: Option<vpl_gather::VplGatherPass>,
@@ -1046,8 +1048,20 @@ impl RecordPass {
     }
 
     /// A pass computing `kind` records: radiance records are irradiance records whose
-    /// planes are also projected onto HSH (`radiance_project.wgsl`).
+    /// planes are also projected onto HSH (`radiance_project.wgsl`). Its plane hits are
+    /// shaded for every kind of light ([`Self::for_lights`] compiles fewer).
     pub fn with_kind(ctx: &GpuContext, settings: &CacheSettings, kind: RecordKind) -> Result<Self> {
+        Self::for_lights(ctx, settings, kind, LightKinds::ALL)
+    }
+
+    /// [`Self::with_kind`] with the plane and refinement pipelines compiled for the light
+    /// kinds `lights` alone: a scene with others is refused by [`Self::check_lights`].
+    pub fn for_lights(
+        ctx: &GpuContext,
+        settings: &CacheSettings,
+        kind: RecordKind,
+        lights: LightKinds,
+    ) -> Result<Self> {
         settings.validate()?;
         // Photon records leave holes that plane records fill.
         let planes = settings.source != RecordSource::Vpl;
@@ -1078,12 +1092,13 @@ impl RecordPass {
         let (refine, built) = std::thread::scope(|s| {
             let refine = s.spawn(|| {
                 if planes {
-                    refine::RefinePass::new(ctx, settings)
+                    refine::RefinePass::new(ctx, settings, lights)
                 } else {
                     Ok(None)
                 }
             });
-            let built = Self::without_refinement(ctx, settings, kind, planes, projection, batch);
+            let built =
+                Self::without_refinement(ctx, settings, kind, planes, projection, batch, lights);
             let refine = refine
                 .join()
                 .unwrap_or_else(|_| Err(Error::Gpu("building the refinement panicked".into())));
@@ -1102,6 +1117,7 @@ impl RecordPass {
         planes: bool,
         projection: Option<radiance_projection::RadianceProjectionPass>,
         batch: u32,
+        lights: LightKinds,
     ) -> Result<Self> {
         use Binding::*;
         Ok(Self {
@@ -1110,7 +1126,7 @@ impl RecordPass {
                 "record_sites.wgsl",
                 &[Uniform, Uniform, StorageRead, StorageRead, StorageReadWrite],
             )?,
-            plane: ComputePass::new(
+            plane: ComputePass::with_constants(
                 ctx,
                 "hemisphere_plane.wgsl",
                 &[
@@ -1125,6 +1141,7 @@ impl RecordPass {
                     StorageRead,
                     StorageReadWrite,
                 ],
+                &[lights.constant()],
             )?,
             // The Hessian's mesh sum only in the pipeline that uses it (lavapipe ran the
             // split-sphere reduction slower with the unused branch compiled in).
@@ -1157,6 +1174,7 @@ impl RecordPass {
             no_light_maps: LightMaps::none(ctx)?,
             no_noise: ctx.storage_buffer_sized("no plane noise", 16)?,
             kind,
+            lights,
             projection,
             vpl: if planes {
                 None
@@ -1213,8 +1231,22 @@ impl RecordPass {
             plane_resolution: tail_resolution,
             ..self.settings.clone()
         };
-        let pass = Self::with_kind(ctx, &tail_settings, self.kind)?;
+        let pass = Self::for_lights(ctx, &tail_settings, self.kind, self.lights)?;
         Ok(self.tail.get_or_init(|| Box::new(pass)))
+    }
+
+    /// Refuses a scene with a kind of light this pass's plane pipelines were not compiled
+    /// for ([`Self::for_lights`]): its hits would be shaded without that light.
+    pub fn check_lights(&self, scene: &GpuScene) -> Result<()> {
+        if self.lights.contains(scene.light_kinds) {
+            Ok(())
+        } else {
+            Err(Error::Usage(format!(
+                "this record pass was compiled for the light kinds {:#x} and the scene has                  {:#x}: build it for the scene's (`RecordPass::for_lights`,                  `LightKinds::of`)",
+                self.lights.bits(),
+                scene.light_kinds.bits()
+            )))
+        }
     }
 
     /// Sites for the visibility-buffer `pixels` (one per new record, in order), computed on
@@ -1285,6 +1317,7 @@ impl RecordPass {
         mut stage: Option<&mut (dyn RecordStage + '_)>,
         mut on_batch: impl FnMut(u32),
     ) -> Result<Vec<(&'static str, f64)>> {
+        self.check_lights(scene)?;
         let light_maps = light_maps.unwrap_or(&self.no_light_maps);
         if self.vpl.is_some() && stage.is_some() {
             return Err(Error::Usage(
@@ -1779,6 +1812,7 @@ impl RecordPass {
         noise: Option<&wgpu::Buffer>,
         then: impl FnOnce(&mut wgpu::CommandEncoder, &PlaneBatch<'_>) -> Result<T>,
     ) -> Result<(Vec<PlaneSample>, T)> {
+        self.check_lights(scene)?;
         let res = self.settings.plane_resolution;
         let n = sites.len() as u32;
         if n > self.batch {

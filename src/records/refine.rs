@@ -30,9 +30,9 @@
 
 use super::{CacheSettings, HemispherePlane, PlaneSample, PlaneTable, RecordSite};
 use crate::Result;
-use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
+use crate::gpu::{GpuContext, LightKinds};
 use bytemuck::{Pod, Zeroable};
 
 /// The channel sum the contrast compares (not luminance: `(r + g) + b` has no product for
@@ -216,8 +216,13 @@ pub struct RefinePass {
 }
 
 impl RefinePass {
-    /// The passes and the sub-sample table for `settings`; `None` when refinement is off.
-    pub fn new(ctx: &GpuContext, settings: &CacheSettings) -> Result<Option<Self>> {
+    /// The passes and the sub-sample table for `settings`, its rays' hits shaded for the
+    /// light kinds `lights`; `None` when refinement is off.
+    pub fn new(
+        ctx: &GpuContext,
+        settings: &CacheSettings,
+        lights: LightKinds,
+    ) -> Result<Option<Self>> {
         use Binding::*;
         let refined = settings.refined_pixels();
         if refined == 0 {
@@ -239,7 +244,7 @@ impl RefinePass {
                     StorageRead,
                 ],
             )?,
-            refine: ComputePass::new(
+            refine: ComputePass::with_constants(
                 ctx,
                 "plane_refine.wgsl",
                 &[
@@ -254,6 +259,7 @@ impl RefinePass {
                     StorageRead,
                     StorageRead,
                 ],
+                &[lights.constant()],
             )?,
             subs: ctx.storage_buffer("refine samples", &plane.refine_samples(split))?,
             dark_planes: ctx.storage_buffer("dark planes", &[0u32])?,
