@@ -148,7 +148,14 @@ pub fn render_animation(
             renderer.prepare_frame(s, &mut bvh, previous)
         };
     let mut temporal = match &options.temporal {
-        Some(settings) => Some(TemporalCache::new(&renderer.ctx, &options.cache, settings)?),
+        // The record pass's plane pipelines compiled for this scene's kinds of light alone
+        // (the same bytes, less code to run per plane ray).
+        Some(settings) => Some(TemporalCache::for_lights(
+            &renderer.ctx,
+            &options.cache,
+            settings,
+            crate::gpu::LightKinds::of(scene),
+        )?),
         None => None,
     };
     // Interpolated gradients need every record's successor: a first pass places and
@@ -220,7 +227,10 @@ pub fn render_animation(
                         }
                         cache
                     }
-                    None => per_frame.insert(renderer.new_cache(&options.cache)?),
+                    None => per_frame.insert(
+                        renderer
+                            .new_cache_for(&options.cache, crate::gpu::LightKinds::of(scene))?,
+                    ),
                 };
                 let frame = renderer.render_gi_frame(
                     &prepared,

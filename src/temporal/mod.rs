@@ -30,7 +30,7 @@ pub use reprojection::{NextFrame, ReprojectionPass};
 use crate::frame::{
     CachedFrameOptions, Frame, PreparedScene, RadianceCache, RadianceFrame, Renderer,
 };
-use crate::gpu::GpuContext;
+use crate::gpu::{GpuContext, LightKinds};
 use crate::records::{
     CacheSettings, Record, RecordCache, RecordKind, RecordPass, RecordSite, RecordStage,
 };
@@ -550,6 +550,7 @@ impl RadianceTemporal {
                 &record_settings,
                 &settings,
                 tables.settings.kind(),
+                LightKinds::ALL,
             )?,
             splat: RadianceSplatPass::new(ctx, tables)?,
         }))
@@ -657,7 +658,18 @@ impl TemporalCache {
         cache: &CacheSettings,
         settings: &TemporalSettings,
     ) -> Result<Self> {
-        Self::with_kind(ctx, cache, settings, RecordKind::Irradiance)
+        Self::for_lights(ctx, cache, settings, LightKinds::ALL)
+    }
+
+    /// [`Self::new`] with its record pass's plane pipelines compiled for the light kinds
+    /// `lights` alone (`RecordPass::for_lights`; `LightKinds::of` the scene).
+    pub fn for_lights(
+        ctx: &GpuContext,
+        cache: &CacheSettings,
+        settings: &TemporalSettings,
+        lights: LightKinds,
+    ) -> Result<Self> {
+        Self::with_kind(ctx, cache, settings, RecordKind::Irradiance, lights)
     }
 
     /// A temporal cache of `kind` records (radiance records: one beside the irradiance
@@ -667,6 +679,7 @@ impl TemporalCache {
         cache: &CacheSettings,
         settings: &TemporalSettings,
         kind: RecordKind,
+        lights: LightKinds,
     ) -> Result<Self> {
         settings.validate()?;
         let user_settings = cache.clone();
@@ -679,7 +692,7 @@ impl TemporalCache {
             // with that plane, `Lookahead::reduced`). Radiance records' never are: on
             // glossy Spheres refining them too lowered the error 1.11 -> 1.07 % at the time
             // per-frame recomputation takes for 0.87 % (docs/results.md, stop 43).
-            pass: RecordPass::with_kind(
+            pass: RecordPass::for_lights(
                 ctx,
                 &CacheSettings {
                     plane_refine: match kind {
@@ -691,6 +704,7 @@ impl TemporalCache {
                     ..cache.clone()
                 },
                 kind,
+                lights,
             )?,
             reprojection: ReprojectionPass::new(
                 ctx,
