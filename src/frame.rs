@@ -305,7 +305,8 @@ impl RadianceCache {
         let kind = tables.settings.kind();
         Ok(Some(Self {
             records: RecordCache::with_kind(ctx, kind)?,
-            pass: RecordPass::with_kind(ctx, &record_settings, kind)?,
+            // Its plane pipelines compiled for the scene's kinds of light alone.
+            pass: RecordPass::for_lights(ctx, &record_settings, kind, scene.light_kinds)?,
             splat: RadianceSplatPass::new(ctx, tables)?,
         }))
     }

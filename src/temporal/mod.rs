@@ -550,7 +550,7 @@ impl RadianceTemporal {
                 &record_settings,
                 &settings,
                 tables.settings.kind(),
-                LightKinds::ALL,
+                scene.light_kinds,
             )?,
             splat: RadianceSplatPass::new(ctx, tables)?,
         }))
