@@ -720,8 +720,9 @@ impl Renderer {
 
     /// [`Self::new_cache`] with its plane pipelines compiled for the light kinds `lights`
     /// alone ([`RecordPass::for_lights`]; `LightKinds::of` a scene): less code for the
-    /// shader compiler and the plane rays (Sponza, sun only: 5 % of its plane time, the
-    /// same bytes). A scene with another kind is refused by its frames.
+    /// shader compiler and the plane rays (Sponza 400x400, a sun alone: plane pass 19 % and
+    /// refinement 23 % faster, the same bytes). A scene with another kind is refused by its
+    /// frames.
     pub fn new_cache_for(
         &self,
         settings: &CacheSettings,

@@ -1,6 +1,7 @@
 //! Which kinds of light a scene has, for pipelines compiled for one scene: the plane passes
 //! leave out the shading of the kinds it has not (`SHADED_LIGHT_KINDS` in
-//! `wgsl/shared/shading.wgsl`; on Sponza's sun alone 5 % of the plane time, the same bytes).
+//! `wgsl/shared/shading.wgsl`; Sponza 400x400, a sun alone: plane pass 19 % and refinement
+//! 23 % faster, the same bytes).
 
 use super::scene_buffers::{LIGHT_POINT, LIGHT_RECT, LIGHT_SPOT, LIGHT_SUN};
 use crate::scene::{Light, Scene};
