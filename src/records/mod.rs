@@ -1242,7 +1242,9 @@ impl RecordPass {
             Ok(())
         } else {
             Err(Error::Usage(format!(
-                "this record pass was compiled for the light kinds {:#x} and the scene has                  {:#x}: build it for the scene's (`RecordPass::for_lights`,                  `LightKinds::of`)",
+                "this record pass was compiled for the light kinds {:#x} and the scene has \
+                 {:#x}: build it for the scene's (`RecordPass::for_lights`, \
+                 `LightKinds::of`)",
                 self.lights.bits(),
                 scene.light_kinds.bits()
             )))

@@ -147,14 +147,15 @@ pub fn render_animation(
             s.try_set_frame(t as f32)?;
             renderer.prepare_frame(s, &mut bvh, previous)
         };
+    // Record passes' plane pipelines compiled for this scene's kinds of light alone (the
+    // same bytes, less code to run per plane ray); the kinds hold over every frame.
+    let lights = crate::gpu::LightKinds::of(scene);
     let mut temporal = match &options.temporal {
-        // The record pass's plane pipelines compiled for this scene's kinds of light alone
-        // (the same bytes, less code to run per plane ray).
         Some(settings) => Some(TemporalCache::for_lights(
             &renderer.ctx,
             &options.cache,
             settings,
-            crate::gpu::LightKinds::of(scene),
+            lights,
         )?),
         None => None,
     };
@@ -227,10 +228,7 @@ pub fn render_animation(
                         }
                         cache
                     }
-                    None => per_frame.insert(
-                        renderer
-                            .new_cache_for(&options.cache, crate::gpu::LightKinds::of(scene))?,
-                    ),
+                    None => per_frame.insert(renderer.new_cache_for(&options.cache, lights)?),
                 };
                 let frame = renderer.render_gi_frame(
                     &prepared,
