@@ -163,6 +163,11 @@ pub struct CacheFrameStats {
     pub dark_plane_rays: u64,
     /// Visible pixels no record covers after placement.
     pub uncovered_pixels: u64,
+    /// The factor of the accuracy the frame's records were interpolated at: the settings'
+    /// `interpolation_factor`, widened for noisy records (`records::noise_widening`), and
+    /// their median relative noise (0: no record carries one, or it was not read).
+    pub interpolation_factor: f32,
+    pub median_record_noise: f32,
     /// Radiance records in their cache after the frame, and those added this frame.
     pub radiance_records: u32,
     pub new_radiance_records: u32,
@@ -783,13 +788,14 @@ impl Renderer {
         let (vis, bounds) = self.visible_tiles(scene, camera, &mut times)?;
         let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
         let splat_pass = self.splat_pass()?;
+        let (factor, _) = self.frame_interpolation_factor(cache.settings(), &cache.records)?;
         let src = SplatSource {
             scene: &scene.gpu,
             vis: &vis,
             bounds: &bounds,
             records: &cache.records,
             first: 0,
-            accuracy: cache.settings().interpolation_accuracy(),
+            accuracy: cache.settings().accuracy * factor,
         };
         splat_pass.splat(ctx, src, &splat, false, &mut times)?;
         if tail {
@@ -1035,17 +1041,20 @@ impl Renderer {
             0
         };
         let splat = SplatBuffer::with_coverage(ctx, camera.width, camera.height, coverage_records)?;
+        let (interpolation_factor, median_record_noise) =
+            self.frame_interpolation_factor(&pass.settings, records)?;
         if !placement_only || count_coverage {
             // Every record, those placement added included, interpolated at the wider
-            // accuracy (`CacheSettings::interpolation_factor`): placement left every
-            // pixel within a of some record, so each is still reached, by more records.
+            // accuracy (`CacheSettings::interpolation_factor`, widened for noisy
+            // records): placement left every pixel within a of some record, so each is
+            // still reached, by more records.
             let all = SplatSource {
                 scene: &scene.gpu,
                 vis: &vis,
                 bounds: &bounds,
                 records,
                 first: 0,
-                accuracy: pass.settings.interpolation_accuracy(),
+                accuracy: pass.settings.accuracy * interpolation_factor,
             };
             splat_pass.splat(ctx, all, &splat, false, &mut times)?;
             // Tail fill: the pixels no record reaches then take every record that reaches
@@ -1165,6 +1174,8 @@ impl Renderer {
                 dark_plane_rays,
                 placement,
                 uncovered_pixels,
+                interpolation_factor,
+                median_record_noise: median_record_noise.unwrap_or(0.0),
                 radiance_records: radiance_stats.0,
                 new_radiance_records: radiance_stats.1,
                 radiance_order: radiance_stats.2,
@@ -1268,6 +1279,25 @@ impl Renderer {
             stats: stats(&times, uncovered_pixels),
         };
         Ok((frame, coverage))
+    }
+
+    /// The interpolation factor of a frame over `records`
+    /// ([`crate::records::noise_widening::frame_interpolation_factor`]) and their median
+    /// relative noise: the records are read back only where the settings widen for it.
+    fn frame_interpolation_factor(
+        &self,
+        settings: &CacheSettings,
+        records: &RecordCache,
+    ) -> Result<(f32, Option<f32>)> {
+        use crate::records::noise_widening;
+        if settings.noise_widening <= 0.0 || records.count == 0 {
+            return Ok((settings.interpolation_factor, None));
+        }
+        let median = noise_widening::median_noise(&records.read(&self.ctx)?);
+        Ok((
+            noise_widening::frame_interpolation_factor(settings, median),
+            median,
+        ))
     }
 
     /// Per record of `records`, the pixels of `vis` it contributes to; with `expiring`

@@ -467,6 +467,12 @@ struct CacheArgs {
     /// taking one record's plane noise.
     #[arg(long, default_value_t = CacheSettings::default().interpolation_factor)]
     interpolation_factor: f32,
+    /// A still frame whose records are typically noisier than this times -a (their
+    /// median relative noise, estimated from each plane) interpolates wider than
+    /// --interpolation-factor, by the ratio, up to 4 a: where the records' plane noise is
+    /// the error (small bright patches), more records average it. 0: never.
+    #[arg(long, default_value_t = CacheSettings::default().noise_widening)]
+    noise_widening: f32,
     /// A world-space lower bound on R_min, as a fraction of the scene's bounding-box
     /// diagonal (like Radiance's -ar: R_min is the larger of this and the pixel bound).
     #[arg(long, default_value_t = CacheSettings::default().r_min_scene)]
@@ -712,6 +718,7 @@ impl CacheArgs {
                 CacheSettings::default().r_min_pixels
             }),
             interpolation_factor: self.interpolation_factor,
+            noise_widening: self.noise_widening,
             r_min_scene: self.r_min_scene,
             r_max_factor: self.r_max_factor,
             record_radius: match self.record_radius {

@@ -42,6 +42,7 @@ struct Partial {
     translation_x: vec3f,
     translation_y: vec3f,
     hessian: vec3f,         // luminance Hessian (xx, xy, yy), record_hessian.wgsl
+    variance: f32,          // the plane's sampling variance (records::reference::plane_noise)
 }
 
 var<workgroup> partials: array<Partial, THREADS>;
@@ -57,6 +58,7 @@ fn add(a: Partial, b: Partial) -> Partial {
         a.translation_x + b.translation_x,
         a.translation_y + b.translation_y,
         a.hessian + b.hessian,
+        a.variance + b.variance,
     );
 }
 
@@ -78,14 +80,19 @@ fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32
     // Rotational gradient: sum L (n x w) dw (algorithms.md 3.3).
     (*acc).rotation_x += s.radiance * px.rot_center.x;
     (*acc).rotation_y += s.radiance * px.rot_center.y;
-    // Translational gradient: each pixel edge sweeps with the nearer depth.
+    // Translational gradient: each pixel edge sweeps with the nearer depth. The same edges
+    // give the plane's sampling variance, w^2 (y_k - y_j)^2 / 4 per edge (plane_noise).
     let i = k % res;
+    let y = channel_sum(s.radiance);
+    let w2 = w.x * w.x * 0.25;
     if i + 1u < res {
         let right = samples[base + k + 1u];
         let z = nearer_depth(s.depth, right.depth);
         if z > 0.0 {
             (*acc).translation_x += (right.radiance - s.radiance) * (w.z / z);
         }
+        let dy = channel_sum(right.radiance) - y;
+        (*acc).variance += w2 * dy * dy;
     }
     if k + res < count {
         let up = samples[base + k + res];
@@ -93,7 +100,21 @@ fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32
         if z > 0.0 {
             (*acc).translation_y += (up.radiance - s.radiance) * (w.w / z);
         }
+        let dy = channel_sum(up.radiance) - y;
+        (*acc).variance += w2 * dy * dy;
     }
+}
+
+// The channel sum r + g + b, added in that order (as the CPU mirror).
+fn channel_sum(c: vec3f) -> f32 {
+    return (c.x + c.y) + c.z;
+}
+
+// The record's relative noise sqrt(V) / (E_r + E_g + E_b) from its plane's sampling
+// variance V (records::reference::plane_noise); 0 for a dark plane.
+fn relative_noise(variance: f32, e: vec3f) -> f32 {
+    let total = channel_sum(e);
+    return select(0.0, sqrt(variance) / total, total > 0.0);
 }
 
 // R in [R_min, R_max] from the reduced plane, before neighbour clamping.
@@ -188,7 +209,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     // same order of additions, the same bytes, as 128 invocations of one subset each
     // (lavapipe ran the reduction in 0.8x the time with 64: its barriers cost per
     // invocation).
-    var low = Partial(vec3f(0.0), 0.0, vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0));
+    var low = Partial(vec3f(0.0), 0.0, vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0), 0.0);
     var high = low;
     if record < params.count {
         let far = HESSIAN_MISS_DISTANCE * sites[record].r_min * params.r_max_factor;
@@ -261,5 +282,6 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         out.rotation_gradient[c] = vec4f(rot[c], 0.0);
         out.translation_gradient[c] = vec4f(tr[c], 0.0);
     }
+    out.rotation_gradient[0].w = relative_noise(sum.variance, e);
     records[params.first_record + record] = out;
 }

@@ -179,7 +179,10 @@ pub fn reduce_plane(
     let mut inv_distance = 0.0f64;
     let mut weight_sum = 0.0f64;
     let (mut rx, mut ry, mut tx, mut ty) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+    let mut variance = 0.0f64;
+    let y = |s: &PlaneSample| l(s).element_sum();
     for (k, (s, px)) in samples.iter().zip(&plane.pixels).enumerate() {
+        let w2 = f64::from(px.cos_weight).powi(2) * 0.25;
         let w = f64::from(px.cos_weight);
         weight_sum += w;
         e += l(s) * w;
@@ -195,6 +198,7 @@ pub fn reduce_plane(
             if z > 0.0 {
                 tx += (l(right) - l(s)) * (f64::from(px.edge_x) / f64::from(z));
             }
+            variance += w2 * (y(right) - y(s)).powi(2);
         }
         if k + res < samples.len() {
             let up = &samples[k + res];
@@ -202,6 +206,7 @@ pub fn reduce_plane(
             if z > 0.0 {
                 ty += (l(up) - l(s)) * (f64::from(px.edge_y) / f64::from(z));
             }
+            variance += w2 * (y(up) - y(s)).powi(2);
         }
     }
     let r_min = f64::from(site.r_min);
@@ -258,6 +263,8 @@ pub fn reduce_plane(
         }
     }
     let v4 = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
+    let mut rotation_gradient = [v4(rot[0]), v4(rot[1]), v4(rot[2])];
+    rotation_gradient[0][3] = plane_noise(variance, e) as f32;
     Record {
         position: site.position,
         radius: radius as f32,
@@ -265,7 +272,23 @@ pub fn reduce_plane(
         r_min: site.r_min,
         irradiance: [e.x as f32, e.y as f32, e.z as f32],
         instance: site.instance,
-        rotation_gradient: [v4(rot[0]), v4(rot[1]), v4(rot[2])],
+        rotation_gradient,
         translation_gradient: [v4(tr[0]), v4(tr[1]), v4(tr[2])],
+    }
+}
+
+/// A record's relative noise from its plane (`record_reduce.wgsl` `relative_noise`):
+/// `sqrt(V) / (E_r + E_g + E_b)`, 0 for a dark plane. `variance` is a stratified estimate
+/// of the variance of the plane's sum over the channel sums y: each stratum's variance is
+/// read from its differences with its right and upper neighbours, `V = sum over those
+/// edges of w_k^2 (y_k - y_j)^2 / 4` (half a squared difference estimates a variance, and
+/// a pixel has about two such edges). An edge in the radiance counts as noise too: the
+/// pixels that straddle one are where a stratified estimate errs.
+pub fn plane_noise(variance: f64, e: DVec3) -> f64 {
+    let total = e.element_sum();
+    if total > 0.0 {
+        variance.sqrt() / total
+    } else {
+        0.0
     }
 }

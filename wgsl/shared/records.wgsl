@@ -11,7 +11,7 @@ struct Record {
     r_min: f32,
     irradiance: vec3f,             // E_k (rgb)
     instance: u32,                 // the instance it lies on (temporal records can move with it)
-    rotation_gradient: array<vec4f, 3>,     // per channel: grad_r (xyz)
+    rotation_gradient: array<vec4f, 3>,     // per channel: grad_r (xyz); [0].w relative noise
     translation_gradient: array<vec4f, 3>,  // per channel: grad_t (xyz)
 }
 
