@@ -443,6 +443,20 @@ fn cache_settings_errors_name_the_setting_flag_and_value() {
             },
             "--interpolation-factor) NaN",
         ),
+        (
+            CacheSettings {
+                noise_widening: -0.5,
+                ..CacheSettings::default()
+            },
+            "--noise-widening) -0.5",
+        ),
+        (
+            CacheSettings {
+                noise_widening: f32::INFINITY,
+                ..CacheSettings::default()
+            },
+            "--noise-widening) inf",
+        ),
     ];
     for (settings, want) in cases {
         let err = settings.validate().expect_err(want).to_string();
