@@ -995,6 +995,8 @@ impl Renderer {
         // Mark the pixels the records the cache already holds cover, place new records
         // where none does, then splat every record once (the weighted gather).
         let reused_records = records.count;
+        // Temporal caching keeps one interpolation factor for every frame.
+        let temporal = stage.is_some();
         let accuracy = pass.settings.accuracy;
         let splat_pass = self.splat_pass()?;
         let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
@@ -1041,8 +1043,11 @@ impl Renderer {
             0
         };
         let splat = SplatBuffer::with_coverage(ctx, camera.width, camera.height, coverage_records)?;
-        let (interpolation_factor, median_record_noise) =
-            self.frame_interpolation_factor(&pass.settings, records)?;
+        let (interpolation_factor, median_record_noise) = if temporal {
+            (pass.settings.interpolation_factor, None)
+        } else {
+            self.frame_interpolation_factor(&pass.settings, records)?
+        };
         if !placement_only || count_coverage {
             // Every record, those placement added included, interpolated at the wider
             // accuracy (`CacheSettings::interpolation_factor`, widened for noisy
