@@ -21,7 +21,7 @@
 //! the records' noise"). Records that carry no estimate (dark planes, VPL and photon
 //! records) do not count; a frame without any keeps the settings' factor.
 
-use super::{CacheSettings, Record};
+use super::{CacheSettings, Record, RecordSource};
 
 /// The widest accuracy a widened gather interpolates at: Ward's error `|p - p_k| / R_k +
 /// sqrt(1 - n.n_k)` at most 1 (on the nave at `-a 0.5` with 16x16 planes a factor of 4,
@@ -44,12 +44,13 @@ pub fn median_noise(records: &[Record]) -> Option<f32> {
 }
 
 /// The interpolation factor of a frame whose records' median relative noise is `median`
-/// (see the module): the settings' factor where [`CacheSettings::noise_widening`] is 0 or
-/// the noise is unknown.
+/// (see the module): the settings' factor where [`CacheSettings::noise_widening`] is 0,
+/// the noise is unknown or the records do not come from planes alone (VPL and photon
+/// records were measured with a fixed factor).
 pub fn frame_interpolation_factor(settings: &CacheSettings, median: Option<f32>) -> f32 {
     let base = settings.interpolation_factor;
     match median {
-        Some(noise) if settings.noise_widening > 0.0 => {
+        Some(noise) if settings.noise_widening > 0.0 && settings.source == RecordSource::Planes => {
             let budget = settings.noise_widening * settings.accuracy;
             // Never past Ward's error 1, where a record whose normal is at right angles
             // to the pixel's would still contribute (and never below the base factor).
@@ -109,6 +110,11 @@ mod tests {
             ..settings.clone()
         };
         assert_eq!(frame_interpolation_factor(&half, Some(10.0)), 2.0);
+        let photons = CacheSettings {
+            source: RecordSource::Photons,
+            ..settings.clone()
+        };
+        assert_eq!(frame_interpolation_factor(&photons, Some(10.0)), base);
         let off = CacheSettings {
             noise_widening: 0.0,
             ..settings
