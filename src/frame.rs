@@ -796,6 +796,7 @@ impl Renderer {
             records: &cache.records,
             first: 0,
             accuracy: cache.settings().accuracy * factor,
+            plateau: crate::records::noise_widening::weight_plateau(cache.settings(), factor),
         };
         splat_pass.splat(ctx, src, &splat, false, &mut times)?;
         if tail {
@@ -830,6 +831,7 @@ impl Renderer {
             records: &cache.records,
             first: 0,
             accuracy: cache.pass.settings.accuracy,
+            plateau: 0.0,
         };
         let sums = cache.splat.gather(ctx, splat_pass, src, &mut times)?;
         let sums = ctx.read_buffer(&sums)?;
@@ -867,6 +869,7 @@ impl Renderer {
                 records: &partial,
                 first,
                 accuracy,
+                plateau: 0.0,
             };
             splat_pass.splat(ctx, src, &splat, true, &mut times)?;
             splat_pass.cover(ctx, src, &mask, &mut times)?;
@@ -1008,6 +1011,7 @@ impl Renderer {
             records,
             first: 0,
             accuracy,
+            plateau: 0.0,
         };
         splat_pass.cover(ctx, held, &mask, &mut times)?;
         // Light-space visibility for the plane hits of new records, traced once per scene.
@@ -1060,6 +1064,10 @@ impl Renderer {
                 records,
                 first: 0,
                 accuracy: pass.settings.accuracy * interpolation_factor,
+                plateau: crate::records::noise_widening::weight_plateau(
+                    &pass.settings,
+                    interpolation_factor,
+                ),
             };
             splat_pass.splat(ctx, all, &splat, false, &mut times)?;
             // Tail fill: the pixels no record reaches then take every record that reaches
@@ -1094,6 +1102,7 @@ impl Renderer {
                     records: rf.records,
                     first: 0,
                     accuracy,
+                    plateau: 0.0,
                 };
                 splat_pass.cover(ctx, held, &need, &mut times)?;
                 // Placed in the placement-only pass too (the first pass of interpolated
@@ -1133,6 +1142,7 @@ impl Renderer {
                         records: rf.records,
                         first: 0,
                         accuracy,
+                        plateau: 0.0,
                     };
                     Some(rf.splat.gather(ctx, splat_pass, all, &mut times)?)
                 };
@@ -1332,6 +1342,7 @@ impl Renderer {
             records,
             first: 0,
             accuracy,
+            plateau: 0.0,
         };
         splat_pass.splat(ctx, src, &out, false, times)?;
         out.read_coverage(ctx)

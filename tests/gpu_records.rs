@@ -597,7 +597,8 @@ fn refinement_keeps_the_light_of_patches_smaller_than_a_plane_pixel() {
 /// Noisy records widen a still frame's gather, quiet ones do not
 /// (`records::noise_widening`): the hall lit through small windows, whose planes see small
 /// patches of sunlight, gathers at a wider accuracy (up to Ward's error 1) and its image
-/// changes; the Cornell box keeps the settings' factor and its bytes. What the widening
+/// changes, and its gather matches the CPU mirror; the Cornell box keeps the settings'
+/// factor and its bytes. What the widening
 /// does to the error is measured in docs/results.md ("Interpolating as wide as the
 /// records' noise"): on the hall it varies with the configuration, so a test of one
 /// configuration would pin luck, not the method.
@@ -636,6 +637,43 @@ fn noisy_records_widen_the_gather_and_quiet_ones_do_not() {
         wide.indirect != narrow.indirect,
         "the wider gather changed nothing"
     );
+
+    // The widened gather, its weights capped near each record (`noise_widening::PLATEAU`),
+    // on the GPU against its CPU mirror.
+    let (frame, cache) = common::render_gi_with_cache(&renderer, &nave, &widening);
+    let settings = cache.settings().clone();
+    let (factor, _) = stats(&frame);
+    let plateau = radsplat::records::noise_widening::weight_plateau(&settings, factor);
+    assert!(plateau > 0.0);
+    let prepared = renderer.prepare(&nave).expect("prepare");
+    let (vis, gpu) = renderer
+        .splat_cache(&prepared, &nave.camera, &cache, false)
+        .expect("splat");
+    let records = cache.records.read(&renderer.ctx).expect("records");
+    let mut cpu = vec![[0.0f32; 4]; vis.len()];
+    radsplat::splat::reference::splat_records_widened(
+        &records,
+        0,
+        &vis,
+        settings.accuracy * factor,
+        plateau,
+        &mut cpu,
+    );
+    let mut covered = 0;
+    for (i, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
+        assert_eq!(g[3] > 0.0, c[3] > 0.0, "coverage differs at pixel {i}");
+        if c[3] > 0.0 {
+            covered += 1;
+            for k in 0..4 {
+                let tol = 1e-4 * c[k].abs().max(1e-3 * c[3]);
+                assert!(
+                    (g[k] - c[k]).abs() <= tol,
+                    "pixel {i} channel {k}: {g:?} vs {c:?}"
+                );
+            }
+        }
+    }
+    assert!(covered > vis.len() / 2, "{covered} pixels covered");
 
     let cornell = common::load("cornell-box.toml", Some((48, 48)));
     let quiet = common::render_gi(&renderer, &cornell, &widening);

@@ -200,7 +200,7 @@ fn main(@builtin(global_invocation_id) id: vec3u) {
         if err > params.accuracy {
             continue;
         }
-        let w = splat_weight(err, params.accuracy);
+        let w = splat_weight(err, params.accuracy, params.plateau);
         let nk = records[k].normal;
         let pk = records[k].position;
         let block = k * rparams.stride;

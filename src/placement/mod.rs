@@ -315,6 +315,7 @@ impl PlacementPass {
                             records: cache,
                             first,
                             accuracy: cover_accuracy,
+                            plateau: 0.0,
                         };
                         splat_pass.cover(ctx, new_records, mask, times)?;
                         stats.new_records += n;

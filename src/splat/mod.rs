@@ -69,7 +69,9 @@ pub(crate) struct SplatParams {
     accuracy: f32,
     accumulate: u32,
     count_coverage: u32,
-    _pad: [u32; 3],
+    /// [`SplatSource::plateau`].
+    plateau: f32,
+    _pad: [u32; 2],
 }
 
 impl SplatParams {
@@ -229,6 +231,9 @@ pub struct SplatSource<'a> {
     pub first: u32,
     /// Ward's accuracy a: a record contributes where its error is at most a.
     pub accuracy: f32,
+    /// Below this error a record's weight stops growing (`splat_weight`): 0 but in a
+    /// gather widened for noisy records (`records::noise_widening::weight_plateau`).
+    pub plateau: f32,
 }
 
 pub struct SplatPass {
@@ -513,6 +518,7 @@ impl SplatPass {
             records: cache,
             first,
             accuracy,
+            plateau,
         } = src;
         let (width, height) = (vis.width, vis.height);
         let tiles_x = width.div_ceil(TILE_SIZE);
@@ -537,7 +543,8 @@ impl SplatPass {
                 accuracy,
                 accumulate: into as u32,
                 count_coverage,
-                _pad: [0; 3],
+                plateau,
+                _pad: [0; 2],
             },
         );
         let record_tiles = ctx.storage_buffer_sized("record tiles", u64::from(records) * 16)?;

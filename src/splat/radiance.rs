@@ -478,7 +478,7 @@ pub fn reference_gather(
         for (k, r) in records.iter().enumerate() {
             let err = r.error_at(p, n);
             if err <= a && r.in_front_of(p, n, a) {
-                let w = super::reference::splat_weight(err, a);
+                let w = super::reference::splat_weight(err, a, 0.0);
                 let rr = RadianceRecord {
                     record: r,
                     block: &coefficients[k * stride..(k + 1) * stride],

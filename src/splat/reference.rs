@@ -14,6 +14,18 @@ pub fn splat_records(
     accuracy: f32,
     sums: &mut [[f32; 4]],
 ) {
+    splat_records_widened(records, first, vis, accuracy, 0.0, sums);
+}
+
+/// [`splat_records`] with the weight's plateau of a widened gather ([`splat_weight`]).
+pub fn splat_records_widened(
+    records: &[Record],
+    first: usize,
+    vis: &[VisSample],
+    accuracy: f32,
+    plateau: f32,
+    sums: &mut [[f32; 4]],
+) {
     for (v, sum) in vis.iter().zip(sums.iter_mut()) {
         if !v.is_hit() {
             continue;
@@ -23,7 +35,7 @@ pub fn splat_records(
         for r in &records[first.min(records.len())..] {
             let err = r.error_at(p, n);
             if err <= accuracy && r.in_front_of(p, n, accuracy) {
-                let w = splat_weight(err, accuracy);
+                let w = splat_weight(err, accuracy, plateau);
                 let e = r.irradiance_at(p, n);
                 sum[0] += w * e.x;
                 sum[1] += w * e.y;
@@ -90,9 +102,10 @@ pub fn record_coverage(
 
 /// The weight of a record with Ward's error `err <= accuracy` at a pixel (WGSL
 /// `splat_weight`): `1 / err - 1 / a`, so that it falls to zero at the edge of the record's
-/// validity area, floored at 1e-6.
-pub fn splat_weight(err: f32, accuracy: f32) -> f32 {
-    (1.0 / err.max(1e-6) - 1.0 / accuracy).max(1e-6)
+/// validity area, floored at 1e-6; `1 / err` is capped at `1 / plateau` (0 in every gather
+/// but a widened one: `records::noise_widening::weight_plateau`).
+pub fn splat_weight(err: f32, accuracy: f32, plateau: f32) -> f32 {
+    (1.0 / err.max(plateau.max(1e-6)) - 1.0 / accuracy).max(1e-6)
 }
 
 #[cfg(test)]
@@ -103,17 +116,29 @@ mod tests {
     fn splat_weights_fall_to_zero_at_the_validity_edge() {
         let a = 0.2;
         // Inside: Ward's 1/err less its value at the edge.
-        assert!((splat_weight(0.05, a) - 15.0).abs() < 1e-4);
-        assert!((splat_weight(0.1, a) - 5.0).abs() < 1e-4);
+        assert!((splat_weight(0.05, a, 0.0) - 15.0).abs() < 1e-4);
+        assert!((splat_weight(0.1, a, 0.0) - 5.0).abs() < 1e-4);
         // Decreasing, continuous to (almost) zero at err = a: no step at the edge.
         let mut last = f32::INFINITY;
         for k in 1..=100 {
-            let w = splat_weight(a * k as f32 / 100.0, a);
+            let w = splat_weight(a * k as f32 / 100.0, a, 0.0);
             assert!(w > 0.0 && w <= last, "k {k}: {w}");
             last = w;
         }
-        assert!(splat_weight(a, a) <= 1e-5);
+        assert!(splat_weight(a, a, 0.0) <= 1e-5);
         // The record's own point: capped, finite.
-        assert!(splat_weight(0.0, a).is_finite());
+        assert!(splat_weight(0.0, a, 0.0).is_finite());
+    }
+
+    #[test]
+    fn a_plateau_caps_the_weight_near_the_record_and_nothing_beyond_it() {
+        let a = 0.8;
+        // Within the plateau every error weighs as the plateau's edge.
+        let top = splat_weight(0.1, a, 0.1);
+        assert!((top - (10.0 - 1.25)).abs() < 1e-4);
+        assert_eq!(splat_weight(0.0, a, 0.1), top);
+        assert_eq!(splat_weight(0.05, a, 0.1), top);
+        // Beyond it, Ward's weight as without one.
+        assert_eq!(splat_weight(0.4, a, 0.1), splat_weight(0.4, a, 0.0));
     }
 }

@@ -23,9 +23,9 @@ struct SplatParams {
     accumulate: u32,     // 1: add onto the splat buffer's previous sums; 2: fill only empty ones
     count_coverage: u32, // 1: count the pixels each record contributes to; 2: only those
                          // no record outliving the frame contributes to (splat_gather.wgsl)
+    plateau: f32,        // below this error a record's weight stops growing (splat_weight)
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 // The pixels of tile `tile` (row-major over `params.tiles_x`): x0, y0 inclusive, x1, y1

@@ -63,7 +63,7 @@ fn pixel_add(s: ptr<function, PixelSum>, k: u32, r: Record, err: f32) {
     // record fades out at its edge instead of dropping from 1 / a to 0, which drew its
     // circle (the splotches; Cornell box 128x128: indirect error 2.54 % -> 2.43 %). Floored
     // so that a pixel at the edge of its only record still takes that record's irradiance.
-    let w = splat_weight(err, params.accuracy);
+    let w = splat_weight(err, params.accuracy, params.plateau);
     (*s).sum += vec4f(w * record_irradiance_at(r, (*s).p, (*s).n), w);
     if params.count_coverage == COUNT_NEEDED {
         (*s).survivor = (*s).survivor || expiring[k] == 0u;

@@ -33,7 +33,8 @@ fn contribution_error(k: u32, p: vec3f, n: vec3f) -> f32 {
 }
 
 // The weight of a contributing record with error `err` <= a (splat_gather.wgsl; CPU mirror
-// splat::reference::splat_weight).
-fn splat_weight(err: f32, accuracy: f32) -> f32 {
-    return max(1.0 / max(err, 1.0e-6) - 1.0 / accuracy, 1.0e-6);
+// splat::reference::splat_weight): 1 / err capped at 1 / plateau (0 but in a gather widened
+// for noisy records, records::noise_widening::PLATEAU).
+fn splat_weight(err: f32, accuracy: f32, plateau: f32) -> f32 {
+    return max(1.0 / max(err, max(plateau, 1.0e-6)) - 1.0 / accuracy, 1.0e-6);
 }
