@@ -455,9 +455,9 @@ impl CacheSettings {
     /// The default [`Self::noise_widening`] (measured: docs/results.md, "Interpolating as
     /// wide as the records' noise"). Median record noise at the defaults: Cornell box
     /// 0.041, conference room 0.042, Sponza sun 0.105 (none widen: the same bytes);
-    /// env-sphere 0.188 (factor 2.25, indirect error 3.11 -> 2.87 %), a hall lit through
-    /// small windows 0.470 (factor 4, 14.57 -> 10.99 % at 160x160; about 9 % less on
-    /// average over nearby accuracies and image sizes, up to 7 % more in some).
+    /// env-sphere 0.188 (factor 2.25, indirect error 3.11 -> 2.85 %), a hall lit through
+    /// small windows 0.470 (factor 4, 14.57 -> 10.72 % at 160x160; 12 % less on average
+    /// over nearby accuracies, 8 % over image sizes, 10-16 % more at 64x64 and 96x96).
     pub const NOISE_WIDENING: f32 = 0.5;
 
     /// The widest [`Self::interpolation_factor`] [`Self::validate`] admits.
