@@ -605,11 +605,13 @@ fn refinement_keeps_the_light_of_patches_smaller_than_a_plane_pixel() {
 #[test]
 fn noisy_records_widen_the_gather_and_quiet_ones_do_not() {
     let renderer = Renderer::new(common::gpu()).expect("renderer");
-    let widening = CacheSettings::default();
-    let fixed = CacheSettings {
-        noise_widening: 0.0,
+    let widening = CacheSettings {
+        noise_widening: CacheSettings::SUGGESTED_NOISE_WIDENING,
         ..CacheSettings::default()
     };
+    // Off by default.
+    let fixed = CacheSettings::default();
+    assert_eq!(fixed.noise_widening, 0.0);
     let stats = |frame: &radsplat::frame::Frame| {
         let c = frame.stats.cache.as_ref().expect("cache stats");
         (c.interpolation_factor, c.median_record_noise)

@@ -247,12 +247,13 @@ pub struct CacheSettings {
     /// record's reach, so at 1 a pixel near that edge takes nearly all of its light from
     /// one record and each record's own plane noise shows as a disc; a wider interpolation
     /// averages more records there. Default [`Self::INTERPOLATION_FACTOR`]; still frames
-    /// widen it for noisy records ([`Self::noise_widening`]).
+    /// may widen it for noisy records ([`Self::noise_widening`]).
     pub interpolation_factor: f32,
     /// A still frame whose records' median relative noise exceeds `noise_widening a`
     /// interpolates wider than `interpolation_factor`, by the ratio, up to
-    /// [`Self::MAX_INTERPOLATION_FACTOR`] (`noise_widening`); 0: never. Default
-    /// [`Self::NOISE_WIDENING`].
+    /// [`Self::MAX_INTERPOLATION_FACTOR`] (`noise_widening`); 0, the default: never. Off by
+    /// default because it can cost as much as it gains: see
+    /// [`Self::SUGGESTED_NOISE_WIDENING`].
     pub noise_widening: f32,
     /// Store and use rotational and translational gradients.
     pub gradients: bool,
@@ -354,7 +355,7 @@ impl Default for CacheSettings {
             tail_share: Self::TAIL_SHARE,
             tail_factor: Self::TAIL_FACTOR,
             interpolation_factor: Self::INTERPOLATION_FACTOR,
-            noise_widening: Self::NOISE_WIDENING,
+            noise_widening: 0.0,
             gradients: true,
             plane_shadows: PlaneShadows::Auto,
             light_maps: LightMapSettings {
@@ -452,13 +453,16 @@ impl CacheSettings {
     /// own accuracy (the glossy Cornell box did not gain).
     pub const INTERPOLATION_FACTOR: f32 = 1.5;
 
-    /// The default [`Self::noise_widening`] (measured: docs/results.md, "Interpolating as
-    /// wide as the records' noise"). Median record noise at the defaults: Cornell box
-    /// 0.041, conference room 0.042, Sponza sun 0.105 (none widen: the same bytes);
-    /// env-sphere 0.188 (factor 2.25, indirect error 3.11 -> 2.85 %), a hall lit through
-    /// small windows 0.470 (factor 4, 14.57 -> 10.72 % at 160x160; 12 % less on average
-    /// over nearby accuracies, 8 % over image sizes, 10-16 % more at 64x64 and 96x96).
-    pub const NOISE_WIDENING: f32 = 0.5;
+    /// The [`Self::noise_widening`] measured when it is turned on (docs/results.md,
+    /// "Interpolating as wide as the records' noise"). Median record noise at the
+    /// defaults: Cornell box 0.041, conference room 0.042, Sponza sun 0.105 (none widen:
+    /// the same bytes); env-sphere 0.188 (factor 2.25, indirect error 3.11 -> 2.85 %), a
+    /// hall lit through small windows 0.470 (factor 4, 14.57 -> 10.72 % at 160x160; 12 %
+    /// less on average over nearby accuracies, 8 % over image sizes). But the same hall
+    /// with the sun from another side (median 0.495) went from 16.5 to 28.9 %, and at
+    /// 64x64 and 96x96 the hall lost 10-16 %: noise alone does not say how much
+    /// interpolation error a wider gather adds, so the defaults do not widen.
+    pub const SUGGESTED_NOISE_WIDENING: f32 = 0.5;
 
     /// The widest [`Self::interpolation_factor`] [`Self::validate`] admits.
     pub const MAX_INTERPOLATION_FACTOR: f32 = 4.0;

@@ -1,4 +1,5 @@
-//! How wide a still frame's gather interpolates, from the noise of its records.
+//! How wide a still frame's gather interpolates, from the noise of its records (off by
+//! default: `CacheSettings::noise_widening`, `--noise-widening 0.5` turns it on).
 //!
 //! Each record's plane estimates E with noise. Where that noise, not interpolation, is the
 //! image's error (planes that see small bright patches: a hall lit through small windows,
