@@ -106,20 +106,7 @@ fn check_splat_against_cpu(size: (u32, u32), interpolation_factor: f32) {
         .zip(&cpu)
         .filter(|(s, c)| s[3] == 0.0 && c[3] > 0.0)
         .count();
-    let mut covered = 0;
-    for (i, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
-        assert_eq!(g[3] > 0.0, c[3] > 0.0, "coverage differs at pixel {i}");
-        if c[3] > 0.0 {
-            covered += 1;
-            for k in 0..4 {
-                let tol = 1e-4 * c[k].abs().max(1e-3 * c[3]);
-                assert!(
-                    (g[k] - c[k]).abs() <= tol,
-                    "pixel {i} channel {k}: {g:?} vs {c:?}"
-                );
-            }
-        }
-    }
+    let covered = common::assert_splat_sums_match(&gpu, &cpu);
     let visible = vis.iter().filter(|v| v.is_hit()).count();
     eprintln!(
         "{} records; {covered} of {visible} visible pixels covered, {tail_pixels} by the tail tier",

@@ -661,20 +661,7 @@ fn noisy_records_widen_the_gather_and_quiet_ones_do_not() {
         plateau,
         &mut cpu,
     );
-    let mut covered = 0;
-    for (i, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
-        assert_eq!(g[3] > 0.0, c[3] > 0.0, "coverage differs at pixel {i}");
-        if c[3] > 0.0 {
-            covered += 1;
-            for k in 0..4 {
-                let tol = 1e-4 * c[k].abs().max(1e-3 * c[3]);
-                assert!(
-                    (g[k] - c[k]).abs() <= tol,
-                    "pixel {i} channel {k}: {g:?} vs {c:?}"
-                );
-            }
-        }
-    }
+    let covered = common::assert_splat_sums_match(&gpu, &cpu);
     assert!(covered > vis.len() / 2, "{covered} pixels covered");
 
     let cornell = common::load("cornell-box.toml", Some((48, 48)));

@@ -45,10 +45,6 @@ var<workgroup> counts: array<u32, THREADS>;
 var<workgroup> prefix_key: u32;
 var<workgroup> remaining: u32;
 
-fn channel_sum(s: PlaneSample) -> f32 {
-    return (s.radiance.x + s.radiance.y) + s.radiance.z;
-}
-
 // The contrast of two samples (channel sums `ya`, `yb`): their difference less what the
 // two got from environment samples (`na`, `nb`, from `noise`), which one shadow ray a hit
 // samples too coarsely for a difference in it to mean anything. Ranking pixels by that
@@ -94,7 +90,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     }
     workgroupBarrier();
     for (var k = first; k < last; k++) {
-        if channel_sum(samples[base + k]) != 0.0 {
+        if channel_sum(samples[base + k].radiance) != 0.0 {
             atomicOr(&lit, 1u);
             break;
         }
@@ -120,22 +116,22 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         var ns: array<f32, 4>;
         var m = 0u;
         if i > 0u {
-            ys[m] = channel_sum(samples[base + k - 1u]);
+            ys[m] = channel_sum(samples[base + k - 1u].radiance);
             ns[m] = noise[base + k - 1u];
             m++;
         }
         if i + 1u < res {
-            ys[m] = channel_sum(samples[base + k + 1u]);
+            ys[m] = channel_sum(samples[base + k + 1u].radiance);
             ns[m] = noise[base + k + 1u];
             m++;
         }
         if k >= res {
-            ys[m] = channel_sum(samples[base + k - res]);
+            ys[m] = channel_sum(samples[base + k - res].radiance);
             ns[m] = noise[base + k - res];
             m++;
         }
         if k + res < n {
-            ys[m] = channel_sum(samples[base + k + res]);
+            ys[m] = channel_sum(samples[base + k + res].radiance);
             ns[m] = noise[base + k + res];
             m++;
         }

@@ -105,11 +105,6 @@ fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32
     }
 }
 
-// The channel sum r + g + b, added in that order (as the CPU mirror).
-fn channel_sum(c: vec3f) -> f32 {
-    return (c.x + c.y) + c.z;
-}
-
 // The record's relative noise sqrt(V) / (E_r + E_g + E_b) from its plane's sampling
 // variance V (records::reference::plane_noise); 0 for a dark plane.
 fn relative_noise(variance: f32, e: vec3f) -> f32 {

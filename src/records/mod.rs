@@ -141,15 +141,21 @@ impl RadiusStats {
             records: n,
             at_r_min: share(&|x| x <= 1.001),
             at_r_max: share(&|x| x >= r_max_factor * 0.999),
-            ratio_quartiles: [ratios[n / 4], ratios[n / 2], ratios[(3 * n) / 4]],
+            ratio_quartiles: quartiles(&ratios),
             dark: records.iter().filter(|r| r.is_dark()).count() as f64 / n as f64,
             noise_quartiles: {
                 let mut noise: Vec<f32> = records.iter().map(Record::relative_noise).collect();
                 noise.sort_by(f32::total_cmp);
-                [noise[n / 4], noise[n / 2], noise[(3 * n) / 4]]
+                quartiles(&noise)
             },
         }
     }
+}
+
+/// The quartiles of sorted, non-empty `values`.
+fn quartiles(values: &[f32]) -> [f32; 3] {
+    let n = values.len();
+    [values[n / 4], values[n / 2], values[(3 * n) / 4]]
 }
 
 /// Where a new record goes (mirror of WGSL `RecordSite`, 48 bytes).

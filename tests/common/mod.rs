@@ -197,6 +197,28 @@ pub fn render_gi_with_cache(
     (frame, cache)
 }
 
+/// Asserts that GPU splat sums `(sum w E, sum w)` match the CPU mirror's: the same pixels
+/// covered, each sum within 1e-4 of the CPU's (relative, or of 1e-3 of the weight sum).
+/// Returns the pixels covered.
+pub fn assert_splat_sums_match(gpu: &[[f32; 4]], cpu: &[[f32; 4]]) -> usize {
+    assert_eq!(gpu.len(), cpu.len());
+    let mut covered = 0;
+    for (i, (g, c)) in gpu.iter().zip(cpu).enumerate() {
+        assert_eq!(g[3] > 0.0, c[3] > 0.0, "coverage differs at pixel {i}");
+        if c[3] > 0.0 {
+            covered += 1;
+            for k in 0..4 {
+                let tol = 1e-4 * c[k].abs().max(1e-3 * c[3]);
+                assert!(
+                    (g[k] - c[k]).abs() <= tol,
+                    "pixel {i} channel {k}: {g:?} vs {c:?}"
+                );
+            }
+        }
+    }
+    covered
+}
+
 /// Mean of the green channel of `indirect` against `reference`'s, and the relative RMS
 /// difference after averaging both over `block` x `block` pixels (image width `w`).
 pub fn compare_blocks(

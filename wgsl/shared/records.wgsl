@@ -19,6 +19,13 @@ struct Record {
 // tangent and bitangent, each padded to a vec4.
 const FRAME_FLOATS: u32 = 8u;
 
+// The channel sum r + g + b, added in that order (no product for a GPU to fuse, so the GPU
+// and the CPU mirrors, records::refine and records::reference, compute the same bits):
+// refinement's contrast and a record's relative noise.
+fn channel_sum(c: vec3f) -> f32 {
+    return (c.x + c.y) + c.z;
+}
+
 // Depth of the nearer of two plane samples (Ward's min rule for the translational
 // gradients' pixel edges); <= 0 when both are misses. Rust: records::nearer_depth.
 fn nearer_depth(a: f32, b: f32) -> f32 {
