@@ -168,6 +168,10 @@ pub struct CacheFrameStats {
     /// their median relative noise (0: no record carries one, or it was not read).
     pub interpolation_factor: f32,
     pub median_record_noise: f32,
+    /// Pixels that kept the widened gather's irradiance, within
+    /// `CacheSettings::widening_tolerance` of the default gather's (0 where the frame did
+    /// not widen, or widened without the check).
+    pub widened_pixels: u64,
     /// Radiance records in their cache after the frame, and those added this frame.
     pub radiance_records: u32,
     pub new_radiance_records: u32,
@@ -180,6 +184,21 @@ pub struct CacheFrameStats {
     /// The photon map and the records placed from it (`--records photons`; none on a
     /// frame whose cache already held records).
     pub photons: Option<PhotonRecordStats>,
+}
+
+/// [`Renderer::splat_cache_checked`]'s gathers, per pixel `(sum w E (rgb), sum w)`.
+pub struct CheckedSplat {
+    pub vis: Vec<VisSample>,
+    /// The frame's widened interpolation factor.
+    pub factor: f32,
+    /// At the settings' `interpolation_factor`.
+    pub narrow: Vec<[f32; 4]>,
+    /// At `factor`, before the check.
+    pub wide: Vec<[f32; 4]>,
+    /// `wide` after the check against `narrow` on the GPU.
+    pub checked: Vec<[f32; 4]>,
+    /// Pixels that kept `wide`'s sums where both had some.
+    pub kept: u32,
 }
 
 /// What photon-mapped records cost and gave in a frame.
@@ -812,6 +831,64 @@ impl Renderer {
         Ok((visibility, sums))
     }
 
+    /// The gathers of every record of `cache` (no placement, no tail fill) that a widened
+    /// still frame compares (`CacheSettings::widening_tolerance`): at the settings'
+    /// `interpolation_factor` and at the frame's widened factor, and the widened one after
+    /// the check on the GPU (`wgsl/splat_consistency.wgsl`), with how many pixels kept
+    /// it: for tests.
+    pub fn splat_cache_checked(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        cache: &IrradianceCache,
+    ) -> Result<CheckedSplat> {
+        let ctx = &self.ctx;
+        let mut times = Vec::new();
+        let (vis, bounds) = self.visible_tiles(scene, camera, &mut times)?;
+        let splat_pass = self.splat_pass()?;
+        let settings = cache.settings();
+        let (factor, _) = self.frame_interpolation_factor(settings, &cache.records)?;
+        let narrow = SplatBuffer::new(ctx, camera.width, camera.height)?;
+        let wide = SplatBuffer::new(ctx, camera.width, camera.height)?;
+        let src = SplatSource {
+            scene: &scene.gpu,
+            vis: &vis,
+            bounds: &bounds,
+            records: &cache.records,
+            first: 0,
+            accuracy: settings.accuracy * settings.interpolation_factor,
+            plateau: 0.0,
+        };
+        splat_pass.splat(ctx, src, &narrow, false, &mut times)?;
+        let widened = SplatSource {
+            accuracy: settings.accuracy * factor,
+            plateau: crate::records::noise_widening::weight_plateau(settings, factor),
+            ..src
+        };
+        splat_pass.splat(ctx, widened, &wide, false, &mut times)?;
+        let narrow_sums = ctx.read_buffer(&narrow.sums)?;
+        let wide_sums = ctx.read_buffer(&wide.sums)?;
+        let kept = splat_pass.keep_consistent(
+            ctx,
+            &scene.gpu,
+            &narrow,
+            &wide,
+            settings.widening_tolerance,
+            &mut times,
+        )?;
+        let checked = ctx.read_buffer(&wide.sums)?;
+        let vis = vis.read(ctx)?;
+        ctx.check()?;
+        Ok(CheckedSplat {
+            vis,
+            factor,
+            narrow: narrow_sums,
+            wide: wide_sums,
+            checked,
+            kept,
+        })
+    }
+
     /// The visibility buffer of `camera` and the radiance splat sums
     /// `(specular * sum w L, sum w)` of every record of `cache` (no placement): for tests.
     pub fn splat_radiance_cache(
@@ -1047,6 +1124,7 @@ impl Renderer {
             0
         };
         let splat = SplatBuffer::with_coverage(ctx, camera.width, camera.height, coverage_records)?;
+        let mut widened_pixels = 0;
         let (interpolation_factor, median_record_noise) = if temporal {
             (pass.settings.interpolation_factor, None)
         } else {
@@ -1075,12 +1153,35 @@ impl Renderer {
             // the tail's records are sure to, but the others make a smoother mean
             // (Cornell box 128x128: 1.46 % indirect error with the tail's alone, 1.41 %
             // with all, for 0.5 s more binning on Sponza 1000x1000).
-            if placement.tail_from_record.is_some() {
-                let tail = SplatSource {
-                    accuracy: pass.settings.tail_accuracy(),
+            let tail_fill = |src: SplatSource, out: &SplatBuffer, times: &mut Vec<_>| {
+                if placement.tail_from_record.is_some() {
+                    let tail = SplatSource {
+                        accuracy: pass.settings.tail_accuracy(),
+                        ..src
+                    };
+                    splat_pass.fill_empty(ctx, tail, out, times)?;
+                }
+                Ok::<_, Error>(())
+            };
+            tail_fill(all, &splat, &mut times)?;
+            // A widened frame keeps the wider gather only where it agrees with the default
+            // one (`CacheSettings::widening_tolerance`): a peak of light narrower than
+            // the records' spacing is not spread over its neighbours.
+            let base_factor = pass.settings.interpolation_factor;
+            let tolerance = pass.settings.widening_tolerance;
+            if interpolation_factor > base_factor && tolerance.is_finite() {
+                let narrow = SplatBuffer::new(ctx, camera.width, camera.height)?;
+                let default_gather = SplatSource {
+                    accuracy: pass.settings.accuracy * base_factor,
+                    plateau: 0.0,
                     ..all
                 };
-                splat_pass.fill_empty(ctx, tail, &splat, &mut times)?;
+                splat_pass.splat(ctx, default_gather, &narrow, false, &mut times)?;
+                tail_fill(default_gather, &narrow, &mut times)?;
+                widened_pixels = u64::from(
+                    splat_pass
+                        .keep_consistent(ctx, &scene.gpu, &narrow, &splat, tolerance, &mut times)?,
+                );
             }
         }
 
@@ -1191,6 +1292,7 @@ impl Renderer {
                 uncovered_pixels,
                 interpolation_factor,
                 median_record_noise: median_record_noise.unwrap_or(0.0),
+                widened_pixels,
                 radiance_records: radiance_stats.0,
                 new_radiance_records: radiance_stats.1,
                 radiance_order: radiance_stats.2,

@@ -470,12 +470,19 @@ struct CacheArgs {
     /// A still frame whose records are typically noisier than this times -a (their
     /// median relative noise, estimated from each plane) interpolates wider than
     /// --interpolation-factor, by the ratio, up to 4 a: where the records' plane noise is
-    /// the error (small bright patches), more records average it. 0 (the default): never.
-    /// Try 0.5: on a hall lit through small windows it took the indirect error from 14.6
-    /// to 10.7 %, but with the sun from another side from 16.5 to 28.9 %
-    /// (docs/results.md, "Interpolating as wide as the records' noise")
+    /// the error (small bright patches), more records average it; each pixel stays within
+    /// --widening-tolerance of the narrower gather. On a hall lit through small windows
+    /// the indirect error went from 14.6 to 12.6 %; quiet scenes (a Cornell box) keep
+    /// their bytes (docs/results.md, "The widened gather checked against the default
+    /// one"). 0: never
     #[arg(long, default_value_t = CacheSettings::default().noise_widening)]
     noise_widening: f32,
+    /// With --noise-widening: a pixel keeps the widened gather's indirect irradiance only
+    /// where it is within this (relative) of the gather at --interpolation-factor, whose
+    /// value it keeps elsewhere, so that a narrow peak of light (the foot of a sunlit
+    /// wall) is not spread over its neighbours. 'inf': the widened gather everywhere
+    #[arg(long, default_value_t = CacheSettings::default().widening_tolerance)]
+    widening_tolerance: f32,
     /// A world-space lower bound on R_min, as a fraction of the scene's bounding-box
     /// diagonal (like Radiance's -ar: R_min is the larger of this and the pixel bound).
     #[arg(long, default_value_t = CacheSettings::default().r_min_scene)]
@@ -722,6 +729,7 @@ impl CacheArgs {
             }),
             interpolation_factor: self.interpolation_factor,
             noise_widening: self.noise_widening,
+            widening_tolerance: self.widening_tolerance,
             r_min_scene: self.r_min_scene,
             r_max_factor: self.r_max_factor,
             record_radius: match self.record_radius {

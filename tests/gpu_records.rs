@@ -605,13 +605,14 @@ fn refinement_keeps_the_light_of_patches_smaller_than_a_plane_pixel() {
 #[test]
 fn noisy_records_widen_the_gather_and_quiet_ones_do_not() {
     let renderer = Renderer::new(common::gpu()).expect("renderer");
-    let widening = CacheSettings {
-        noise_widening: CacheSettings::SUGGESTED_NOISE_WIDENING,
+    // On by default.
+    let widening = CacheSettings::default();
+    assert_eq!(widening.noise_widening, CacheSettings::NOISE_WIDENING);
+    assert!(widening.noise_widening > 0.0);
+    let fixed = CacheSettings {
+        noise_widening: 0.0,
         ..CacheSettings::default()
     };
-    // Off by default.
-    let fixed = CacheSettings::default();
-    assert_eq!(fixed.noise_widening, 0.0);
     let stats = |frame: &radsplat::frame::Frame| {
         let c = frame.stats.cache.as_ref().expect("cache stats");
         (c.interpolation_factor, c.median_record_noise)
@@ -675,6 +676,69 @@ fn noisy_records_widen_the_gather_and_quiet_ones_do_not() {
     assert!(
         quiet.indirect == plain.indirect,
         "the Cornell box's image changed"
+    );
+}
+
+/// A widened gather is kept only where it agrees with the default one
+/// (`CacheSettings::widening_tolerance`, `wgsl/splat_consistency.wgsl`): on the hall lit
+/// through small windows, the check on the GPU gives the CPU mirror's sums bit for bit; every
+/// pixel ends within the tolerance of the default gather's irradiance or takes the default's
+/// sums; and both happen (the check keeps most of the wider average and reverts pixels
+/// where the wider gather moved the light by more, at the sunlit patches' edges).
+#[test]
+fn a_widened_gather_stays_within_the_tolerance_of_the_default_one() {
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = CacheSettings::default();
+    assert!(settings.noise_widening > 0.0 && settings.widening_tolerance.is_finite());
+    let nave = common::load("nave.toml", Some((48, 48)));
+    let (_, cache) = common::render_gi_with_cache(&renderer, &nave, &settings);
+    let prepared = renderer.prepare(&nave).expect("prepare");
+    let checked = renderer
+        .splat_cache_checked(&prepared, &nave.camera, &cache)
+        .expect("checked splat");
+    renderer.ctx.check().expect("no wgpu errors");
+    assert!(
+        checked.factor > settings.interpolation_factor,
+        "the nave widens: factor {}",
+        checked.factor
+    );
+    let tolerance = settings.widening_tolerance;
+    let mut cpu = checked.wide.clone();
+    let kept = radsplat::splat::reference::keep_consistent(&mut cpu, &checked.narrow, tolerance);
+    assert_eq!(kept, checked.kept, "pixels kept, GPU against CPU");
+    let differ = cpu
+        .iter()
+        .zip(&checked.checked)
+        .filter(|(c, g)| c.map(f32::to_bits) != g.map(f32::to_bits))
+        .count();
+    assert_eq!(
+        differ, 0,
+        "{differ} pixels differ from the CPU mirror's check"
+    );
+    let both = checked
+        .narrow
+        .iter()
+        .zip(&checked.wide)
+        .filter(|(n, w)| n[3] > 0.0 && w[3] > 0.0)
+        .count();
+    let y = |s: &[f32; 4]| ((s[0] + s[1]) + s[2]) / s[3];
+    for (i, (out, narrow)) in checked.checked.iter().zip(&checked.narrow).enumerate() {
+        if narrow[3] > 0.0 && out != narrow {
+            let (yo, yn) = (y(out), y(narrow));
+            assert!(
+                (yo - yn).abs() <= tolerance * yn * (1.0 + 1e-6),
+                "pixel {i}: {yo} against the default gather's {yn}"
+            );
+        }
+    }
+    eprintln!(
+        "nave 48x48: factor {}, {} of {both} pixels keep the widened gather",
+        checked.factor, checked.kept
+    );
+    assert!(
+        checked.kept > 0 && (checked.kept as usize) < both,
+        "kept {} of {both}",
+        checked.kept
     );
 }
 

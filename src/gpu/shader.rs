@@ -250,6 +250,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/splat_fill.wgsl"),
     ),
     (
+        "splat_consistency.wgsl",
+        include_str!("../../wgsl/splat_consistency.wgsl"),
+    ),
+    (
         "splat_tile_bounds.wgsl",
         include_str!("../../wgsl/splat_tile_bounds.wgsl"),
     ),

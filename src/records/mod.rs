@@ -257,10 +257,16 @@ pub struct CacheSettings {
     pub interpolation_factor: f32,
     /// A still frame whose records' median relative noise exceeds `noise_widening a`
     /// interpolates wider than `interpolation_factor`, by the ratio, up to
-    /// [`Self::MAX_INTERPOLATION_FACTOR`] (`noise_widening`); 0, the default: never. Off by
-    /// default because it can cost as much as it gains: see
-    /// [`Self::SUGGESTED_NOISE_WIDENING`].
+    /// [`Self::MAX_INTERPOLATION_FACTOR`] (`noise_widening`), each pixel within
+    /// [`Self::widening_tolerance`] of the gather at `interpolation_factor`; 0: never.
+    /// Default [`Self::NOISE_WIDENING`].
     pub noise_widening: f32,
+    /// Where a still frame is widened ([`Self::noise_widening`]), a pixel keeps the widened
+    /// gather's irradiance only where it is within this (relative, on the channel sum) of
+    /// the gather at `interpolation_factor`, whose irradiance it takes elsewhere
+    /// ([`noise_widening::WIDENING_TOLERANCE`], `wgsl/splat_consistency.wgsl`); infinite:
+    /// the widened gather everywhere.
+    pub widening_tolerance: f32,
     /// Store and use rotational and translational gradients.
     pub gradients: bool,
     /// How plane hits find their shadows: light-space maps traced once per prepared scene, or one
@@ -361,7 +367,8 @@ impl Default for CacheSettings {
             tail_share: Self::TAIL_SHARE,
             tail_factor: Self::TAIL_FACTOR,
             interpolation_factor: Self::INTERPOLATION_FACTOR,
-            noise_widening: 0.0,
+            noise_widening: Self::NOISE_WIDENING,
+            widening_tolerance: noise_widening::WIDENING_TOLERANCE,
             gradients: true,
             plane_shadows: PlaneShadows::Auto,
             light_maps: LightMapSettings {
@@ -459,16 +466,16 @@ impl CacheSettings {
     /// own accuracy (the glossy Cornell box did not gain).
     pub const INTERPOLATION_FACTOR: f32 = 1.5;
 
-    /// The [`Self::noise_widening`] measured when it is turned on (docs/results.md,
-    /// "Interpolating as wide as the records' noise"). Median record noise at the
-    /// defaults: Cornell box 0.041, conference room 0.042, Sponza sun 0.105 (none widen:
-    /// the same bytes); env-sphere 0.188 (factor 2.25, indirect error 3.11 -> 2.85 %), a
-    /// hall lit through small windows 0.470 (factor 4, 14.57 -> 10.72 % at 160x160; 12 %
-    /// less on average over nearby accuracies, 8 % over image sizes). But the same hall
-    /// with the sun from another side (median 0.495) went from 16.5 to 28.9 %, and at
-    /// 64x64 and 96x96 the hall lost 10-16 %: noise alone does not say how much
-    /// interpolation error a wider gather adds, so the defaults do not widen.
-    pub const SUGGESTED_NOISE_WIDENING: f32 = 0.5;
+    /// The default [`Self::noise_widening`] (docs/results.md, "Interpolating as wide as
+    /// the records' noise" and "The widened gather checked against the default one").
+    /// Median record noise at the defaults: Cornell box 0.041, conference room 0.042,
+    /// Sponza sun 0.105 (none widen: the same bytes); env-sphere 0.188 (factor 2.25,
+    /// indirect error 3.11 -> 2.87 %), a hall lit through small windows 0.470 (factor 4,
+    /// 14.57 -> 12.58 % at 160x160). Widened everywhere (stop 49, no tolerance) the same
+    /// hall with the sun from another side went from 16.5 to 28.9 %; checked against the
+    /// default gather ([`Self::widening_tolerance`]) it is 16.5 %, and twelve of thirteen
+    /// configurations of the hall and env-sphere gain (one loses 3 %).
+    pub const NOISE_WIDENING: f32 = 0.5;
 
     /// The widest [`Self::interpolation_factor`] [`Self::validate`] admits.
     pub const MAX_INTERPOLATION_FACTOR: f32 = 4.0;
@@ -568,6 +575,14 @@ impl CacheSettings {
                 "--interpolation-factor",
                 self.interpolation_factor.to_string(),
                 "must be in [1, 4] (below 1, pixels that placement covered would get no record)",
+            );
+        }
+        if !(self.widening_tolerance >= 0.0) {
+            return bad(
+                "widening tolerance",
+                "--widening-tolerance",
+                self.widening_tolerance.to_string(),
+                "must be a relative tolerance >= 0 ('inf': no check)",
             );
         }
         if !(self.noise_widening >= 0.0 && self.noise_widening.is_finite()) {

@@ -7,6 +7,7 @@
 //! the same contribution test without the sums), and the weighted gather runs over every
 //! record after placement.
 
+pub mod consistency;
 pub mod cover;
 pub mod radiance;
 pub mod reference;
@@ -256,6 +257,8 @@ pub struct SplatPass {
     /// list.
     no_sums: wgpu::Buffer,
     no_empty: tile_bounds::EmptyPixels,
+    /// The widened gather's check against the default one, built when a frame first widens.
+    consistency: std::sync::OnceLock<consistency::ConsistencyPass>,
 }
 
 impl SplatPass {
@@ -365,7 +368,30 @@ impl SplatPass {
                 list: ctx.storage_buffer_sized("no empty pixels", 4)?,
                 count: ctx.storage_buffer_sized("no empty pixel count", 4)?,
             },
+            consistency: std::sync::OnceLock::new(),
         })
+    }
+
+    /// The widened gather `wide` checked against the default gather `narrow` of the same
+    /// image ([`consistency::ConsistencyPass::keep_consistent`]): returns how many pixels
+    /// kept the widened sums.
+    pub fn keep_consistent(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        narrow: &SplatBuffer,
+        wide: &SplatBuffer,
+        tolerance: f32,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<u32> {
+        let pass = match self.consistency.get() {
+            Some(pass) => pass,
+            None => {
+                let built = consistency::ConsistencyPass::new(ctx)?;
+                self.consistency.get_or_init(|| built)
+            }
+        };
+        pass.keep_consistent(ctx, scene, narrow, wide, tolerance, times)
     }
 
     /// Splats `src`'s records into `out`: onto its previous sums when `accumulate`, else

@@ -46,6 +46,27 @@ pub fn splat_records_widened(
     }
 }
 
+/// `wgsl/splat_consistency.wgsl` on the CPU: each pixel of `wide` keeps its sums where
+/// both `narrow` and `wide` have some and the irradiance channel sums `Y = (r + g + b) / w`
+/// differ by at most `tolerance Y_narrow`, or where `narrow` has none; elsewhere it takes
+/// `narrow`'s. Returns how many pixels kept `wide`'s sums where both had some.
+pub fn keep_consistent(wide: &mut [[f32; 4]], narrow: &[[f32; 4]], tolerance: f32) -> u32 {
+    let mut kept = 0;
+    for (w, n) in wide.iter_mut().zip(narrow) {
+        if n[3] <= 0.0 || w[3] <= 0.0 {
+            continue;
+        }
+        let y_narrow = ((n[0] + n[1]) + n[2]) / n[3];
+        let y_wide = ((w[0] + w[1]) + w[2]) / w[3];
+        if (y_wide - y_narrow).abs() <= tolerance * y_narrow {
+            kept += 1;
+        } else {
+            *w = *n;
+        }
+    }
+    kept
+}
+
 /// Per-pixel sums with tail fill (`splat_gather.wgsl` with `accumulate` 2): every record
 /// at `accuracy`, as [`splat_records`]; then, where no record reaches the pixel, the records
 /// that reach it at `tail_accuracy`, weighted at that accuracy.
