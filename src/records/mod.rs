@@ -577,7 +577,7 @@ impl CacheSettings {
                 "must be in [1, 4] (below 1, pixels that placement covered would get no record)",
             );
         }
-        if !(self.widening_tolerance >= 0.0) {
+        if self.widening_tolerance.is_nan() || self.widening_tolerance < 0.0 {
             return bad(
                 "widening tolerance",
                 "--widening-tolerance",
