@@ -457,6 +457,20 @@ fn cache_settings_errors_name_the_setting_flag_and_value() {
             },
             "--noise-widening) inf",
         ),
+        (
+            CacheSettings {
+                widening_tolerance: -0.1,
+                ..CacheSettings::default()
+            },
+            "--widening-tolerance) -0.1",
+        ),
+        (
+            CacheSettings {
+                widening_tolerance: f32::NAN,
+                ..CacheSettings::default()
+            },
+            "--widening-tolerance) NaN",
+        ),
     ];
     for (settings, want) in cases {
         let err = settings.validate().expect_err(want).to_string();
