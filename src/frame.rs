@@ -873,7 +873,7 @@ impl Renderer {
             &scene.gpu,
             &narrow,
             &wide,
-            settings.widening_tolerance,
+            settings.widening_tolerance * settings.accuracy,
             &mut times,
         )?;
         let checked = ctx.read_buffer(&wide.sums)?;
@@ -1168,7 +1168,7 @@ impl Renderer {
             // one (`CacheSettings::widening_tolerance`): a peak of light narrower than
             // the records' spacing is not spread over its neighbours.
             let base_factor = pass.settings.interpolation_factor;
-            let tolerance = pass.settings.widening_tolerance;
+            let tolerance = pass.settings.widening_tolerance * pass.settings.accuracy;
             if interpolation_factor > base_factor && tolerance.is_finite() {
                 let narrow = SplatBuffer::new(ctx, camera.width, camera.height)?;
                 let default_gather = SplatSource {

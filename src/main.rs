@@ -471,16 +471,17 @@ struct CacheArgs {
     /// median relative noise, estimated from each plane) interpolates wider than
     /// --interpolation-factor, by the ratio, up to 4 a: where the records' plane noise is
     /// the error (small bright patches), more records average it; each pixel stays within
-    /// --widening-tolerance of the narrower gather. On a hall lit through small windows
+    /// --widening-tolerance times -a of the narrower gather. On a hall lit through small windows
     /// the indirect error went from 14.6 to 12.6 %; quiet scenes (a Cornell box) keep
     /// their bytes (docs/results.md, "The widened gather checked against the default
     /// one"). 0: never
     #[arg(long, default_value_t = CacheSettings::default().noise_widening)]
     noise_widening: f32,
     /// With --noise-widening: a pixel keeps the widened gather's indirect irradiance only
-    /// where it is within this (relative) of the gather at --interpolation-factor, whose
-    /// value it keeps elsewhere, so that a narrow peak of light (the foot of a sunlit
-    /// wall) is not spread over its neighbours. 'inf': the widened gather everywhere
+    /// where it is within this times -a (relative) of the gather at
+    /// --interpolation-factor, whose value it keeps elsewhere, so that a narrow peak of
+    /// light (the foot of a sunlit wall) is not spread over its neighbours. 'inf': the
+    /// widened gather everywhere
     #[arg(long, default_value_t = CacheSettings::default().widening_tolerance)]
     widening_tolerance: f32,
     /// A world-space lower bound on R_min, as a fraction of the scene's bounding-box

@@ -702,7 +702,7 @@ fn a_widened_gather_stays_within_the_tolerance_of_the_default_one() {
         "the nave widens: factor {}",
         checked.factor
     );
-    let tolerance = settings.widening_tolerance;
+    let tolerance = settings.widening_tolerance * settings.accuracy;
     let mut cpu = checked.wide.clone();
     let kept = radsplat::splat::reference::keep_consistent(&mut cpu, &checked.narrow, tolerance);
     assert_eq!(kept, checked.kept, "pixels kept, GPU against CPU");

@@ -1,14 +1,14 @@
 // The widened gather checked against the default one (records::noise_widening,
-// `widening_tolerance`): a still frame whose records are noisy interpolates them wider,
-// which averages their plane noise away but also spreads a narrow peak of light (the
-// bright foot of a sunlit wall) over its darker neighbours. Per pixel, the widened
-// gather's sums stay where the irradiance they give, E_wide = sum w E / sum w, is within
-// `tolerance` of the default gather's, |Y_wide - Y_default| <= tolerance Y_default (Y the
-// channel sum); elsewhere the default gather's sums replace them. A pixel the default
-// gather does not reach keeps the widened one's. So no pixel strays further than the
-// tolerance from the default's irradiance. One invocation per pixel; `kept` counts the
-// pixels that keep the widened sums (an exact integer whatever the order). CPU mirror:
-// splat::reference::keep_consistent.
+// `widening_tolerance` times the accuracy a, given here as `tolerance`): a still frame
+// whose records are noisy interpolates them wider, which averages their plane noise away
+// but also spreads a narrow peak of light (the bright foot of a sunlit wall) over its
+// darker neighbours. Per pixel, the widened gather's sums stay where the irradiance they
+// give, E_wide = sum w E / sum w, is within `tolerance` of the default gather's,
+// |Y_wide - Y_default| <= tolerance Y_default (Y the channel sum); elsewhere the default
+// gather's sums replace them. A pixel the default gather does not reach keeps the widened
+// one's. So no pixel strays further than the tolerance from the default's irradiance. One
+// invocation per pixel; `kept` counts the pixels that keep the widened sums (an exact
+// integer whatever the order). CPU mirror: splat::reference::keep_consistent.
 //!include shared/linear_dispatch.wgsl
 //!include shared/records.wgsl
 

@@ -262,10 +262,10 @@ pub struct CacheSettings {
     /// Default [`Self::NOISE_WIDENING`].
     pub noise_widening: f32,
     /// Where a still frame is widened ([`Self::noise_widening`]), a pixel keeps the widened
-    /// gather's irradiance only where it is within this (relative, on the channel sum) of
-    /// the gather at `interpolation_factor`, whose irradiance it takes elsewhere
-    /// ([`noise_widening::WIDENING_TOLERANCE`], `wgsl/splat_consistency.wgsl`); infinite:
-    /// the widened gather everywhere.
+    /// gather's irradiance only where it is within `widening_tolerance a` (relative, on the
+    /// channel sum) of the gather at `interpolation_factor`, whose irradiance it takes
+    /// elsewhere ([`noise_widening::WIDENING_TOLERANCE`], `wgsl/splat_consistency.wgsl`);
+    /// infinite: the widened gather everywhere.
     pub widening_tolerance: f32,
     /// Store and use rotational and translational gradients.
     pub gradients: bool,
@@ -582,7 +582,7 @@ impl CacheSettings {
                 "widening tolerance",
                 "--widening-tolerance",
                 self.widening_tolerance.to_string(),
-                "must be a relative tolerance >= 0 ('inf': no check)",
+                "must be a fraction of the accuracy >= 0 ('inf': no check)",
             );
         }
         if !(self.noise_widening >= 0.0 && self.noise_widening.is_finite()) {
