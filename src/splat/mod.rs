@@ -372,26 +372,14 @@ impl SplatPass {
         })
     }
 
-    /// The widened gather `wide` checked against the default gather `narrow` of the same
-    /// image ([`consistency::ConsistencyPass::keep_consistent`]): returns how many pixels
-    /// kept the widened sums.
-    pub fn keep_consistent(
-        &self,
-        ctx: &GpuContext,
-        scene: &GpuScene,
-        narrow: &SplatBuffer,
-        wide: &SplatBuffer,
-        tolerance: f32,
-        times: &mut Vec<(&'static str, f64)>,
-    ) -> Result<u32> {
-        let pass = match self.consistency.get() {
-            Some(pass) => pass,
-            None => {
-                let built = consistency::ConsistencyPass::new(ctx)?;
-                self.consistency.get_or_init(|| built)
-            }
-        };
-        pass.keep_consistent(ctx, scene, narrow, wide, tolerance, times)
+    /// The check of a widened gather against the default one
+    /// ([`consistency::ConsistencyPass`]), built when a frame first widens.
+    pub fn consistency(&self, ctx: &GpuContext) -> Result<&consistency::ConsistencyPass> {
+        if let Some(pass) = self.consistency.get() {
+            return Ok(pass);
+        }
+        let built = consistency::ConsistencyPass::new(ctx)?;
+        Ok(self.consistency.get_or_init(|| built))
     }
 
     /// Splats `src`'s records into `out`: onto its previous sums when `accumulate`, else
