@@ -52,8 +52,7 @@ fn phong_sample(s: Surface, wo: vec3f, u: vec2f) -> vec3f {
 fn shadow_sample_irradiance(st: ShadowLoop) -> vec3f {
     let smp = st.sample;
     if st.kind == LIGHT_RECT {
-        let area = length(cross(st.light.b.xyz, st.light.c.xyz));
-        return st.light.d.xyz * (smp.cos_s * smp.cos_l / smp.d2 * (area / f32(st.count)));
+        return st.light.d.xyz * (smp.cos_s * smp.rect_weight / f32(st.count));
     } else if st.kind == LIGHT_ENVIRONMENT && has_environment_map() {
         // Importance-sampled map: L cos / pdf / count per sample.
         return smp.intensity / f32(st.count);

@@ -167,7 +167,7 @@ fn shadows_may_change(s: Surface, seed: u32, first: u32, count: u32) -> bool {
             }
             let light_seed = hash_combine(seed, li);
             for (var k = 0u; k < count; k++) {
-                let d = rect_light_point(light, first + k, light_seed) - origin;
+                let d = rect_light_point(light, s.position, first + k, light_seed) - origin;
                 for (var j = 0u; j < n; j++) {
                     if segment_meets_mover(origin, d, 1.0, near[j]) {
                         return true;
