@@ -731,8 +731,9 @@ mod tests {
     /// formula) within 1 % from 1,024 Sobol points, for a receiver far from the panel, one
     /// beside it and one 1 mm under it, where area sampling's weights cos_l A / d^2 pass
     /// a thousand: no solid-angle sample weighs more than the 2 pi a visible
-    /// rect can subtend, and every point lies on the rect. A receiver behind the panel, or
-    /// in its plane, gets weight 0.
+    /// rect can subtend, and every point lies on the rect. A parallelogram is drawn by area
+    /// (its estimate as unbiased). A receiver behind the panel, or in its plane, gets
+    /// weight 0.
     #[test]
     fn rect_samples_by_solid_angle_are_bounded_and_unbiased() {
         let a = Vec3::new(-0.5, 1.0, -0.25);
@@ -788,6 +789,27 @@ mod tests {
                 );
             }
         }
+        // A parallelogram is drawn by area: the same points and weights as the quad's
+        // area sampling, and the same unbiased estimate from afar.
+        let skew = Vec3::new(0.3, 0.0, 0.5);
+        let p = Vec3::new(0.2, -3.0, 0.4);
+        let mut sum = 0.0f64;
+        for k in 0..count {
+            let xi = sobol_2d(k, 78);
+            let rs = rect_light_sample(a, b, skew, p, xi);
+            let q = a + xi.x * b + xi.y * skew;
+            let d = q - p;
+            let by_area = -b.cross(skew).dot(d) / d.length().powi(3);
+            assert_eq!(rs.point, q, "sample {k}");
+            assert!((rs.weight - by_area).abs() <= 1e-6 * by_area, "sample {k}");
+            sum += f64::from(Vec3::Y.dot(d.normalize()).max(0.0) * rs.weight);
+        }
+        let exact = f64::from(rect_projected_solid_angle(Vec3::Y, a - p, b, skew));
+        let estimate = sum / f64::from(count);
+        assert!(
+            (estimate - exact).abs() <= 0.01 * exact,
+            "parallelogram: estimate {estimate}, Lambert {exact}"
+        );
         for behind in [Vec3::new(0.0, 1.5, 0.0), Vec3::new(3.0, 1.0, 0.0)] {
             let rs = rect_light_sample(a, b, c, behind, Vec2::splat(0.5));
             assert_eq!(rs.weight, 0.0, "{behind}");
