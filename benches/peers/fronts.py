@@ -28,8 +28,9 @@ pyradiance version, scene.rad and the view); a rerun reuses every point whose ke
 so a new radsplat build rerenders radsplat's points only. `--only radsplat` rerenders
 radsplat's points even if cached and takes rpict's from the cache (never rendering them),
 `--only rpict` the other way round; `--fresh` rerenders everything. References are cached by
-scene, size, spp, seed and light samples (not by binary: the reference pass is not what is
-measured); `--reference A.exr --reference2 B.exr` reuses given files.
+scene, size, spp, seed, light samples and `REFERENCE_ESTIMATOR` (not by binary: the
+reference pass is not what is measured, but a change of its estimator makes earlier
+references stale); `--reference A.exr --reference2 B.exr` reuses given files.
 """
 
 import argparse
@@ -134,6 +135,13 @@ SETTINGS = {
 }
 # Any other scene: the Cornell box's lists at the scene's own size.
 FALLBACK = dict(SETTINGS["cornell-box"], spp=1024, size=None, ref_light_samples=None)
+
+
+# What the reference estimates with, when it changes the references' noise: part of their
+# cache key, so that a cached reference from an older estimator is rendered again. Stop 51
+# draws rect lights by solid angle (the area-sampled ones carried fireflies beside panels:
+# the conference room's reference noise 0.70 -> 0.195 %).
+REFERENCE_ESTIMATOR = "rect-lights-by-solid-angle"
 
 
 def sha256_file(path, chunk=1 << 20):
@@ -353,7 +361,8 @@ def main():
         if given is not None:
             refs.append({"image": str(given.resolve()), "seed": None, "given": True})
             continue
-        key = key_of("reference", notex_hash, size, spp, seed, ref_ls, *([ab] if ab > 1 else []))
+        key = key_of("reference", notex_hash, size, spp, seed, ref_ls, *([ab] if ab > 1 else []),
+                     *([REFERENCE_ESTIMATOR] if REFERENCE_ESTIMATOR else []))
         img = out / f"reference-seed{seed}.exr"
         meta = out / f"reference-seed{seed}.json"
         if meta.exists() and img.exists() and json.loads(meta.read_text()).get("key") == key \
