@@ -40,6 +40,7 @@ import math
 import re
 import statistics
 import sys
+import tomllib
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -137,10 +138,11 @@ SETTINGS = {
 FALLBACK = dict(SETTINGS["cornell-box"], spp=1024, size=None, ref_light_samples=None)
 
 
-# What the reference estimates with, when it changes the references' noise: part of their
-# cache key, so that a cached reference from an older estimator is rendered again. Stop 51
-# draws rect lights by solid angle (the area-sampled ones carried fireflies beside panels:
-# the conference room's reference noise 0.70 -> 0.195 %).
+# What the reference estimates with, when it changes the references' noise: part of the
+# cache key of the scenes it concerns, so that a cached reference from an older estimator
+# is rendered again. Stop 51 draws rect lights by solid angle (the area-sampled ones
+# carried fireflies beside panels: the conference room's reference noise 0.70 -> 0.195 %);
+# scenes without a rect light keep their references.
 REFERENCE_ESTIMATOR = "rect-lights-by-solid-angle"
 
 
@@ -334,6 +336,9 @@ def main():
             run([bindir / "oconv", out / "rad/scene.rad"], env, stdout=f)
         oct_key.write_text(scene_rad_hash)
     notex_hash = sha256_file(notex)
+    # Only references of scenes with a rect light changed with `REFERENCE_ESTIMATOR`.
+    has_rect_light = any(light.get("type") == "rect"
+                         for light in tomllib.loads(notex.read_text()).get("light", []))
     radsplat_hash = sha256_file(radsplat)
     ls = ["--light-samples", str(light_samples)] if light_samples else []
     common = ["--size", size, "--quiet"] + ls + (["--bounces", str(ab)] if ab > 1 else [])
@@ -362,7 +367,7 @@ def main():
             refs.append({"image": str(given.resolve()), "seed": None, "given": True})
             continue
         key = key_of("reference", notex_hash, size, spp, seed, ref_ls, *([ab] if ab > 1 else []),
-                     *([REFERENCE_ESTIMATOR] if REFERENCE_ESTIMATOR else []))
+                     *([REFERENCE_ESTIMATOR] if has_rect_light else []))
         img = out / f"reference-seed{seed}.exr"
         meta = out / f"reference-seed{seed}.json"
         if meta.exists() and img.exists() and json.loads(meta.read_text()).get("key") == key \
