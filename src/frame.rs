@@ -216,6 +216,28 @@ pub struct PhotonRecordStats {
     pub gathered: u64,
 }
 
+/// Every record of `records`, gathered at `factor` times the settings' accuracy with the
+/// weight plateau that factor takes (`records::noise_widening::weight_plateau`): a still
+/// frame's gather, which the test helpers `Renderer::splat_cache*` repeat.
+fn frame_gather_source<'a>(
+    scene: &'a PreparedScene,
+    vis: &'a VisibilityBuffer,
+    bounds: &'a TileBounds,
+    records: &'a RecordCache,
+    settings: &CacheSettings,
+    factor: f32,
+) -> SplatSource<'a> {
+    SplatSource {
+        scene: &scene.gpu,
+        vis,
+        bounds,
+        records,
+        first: 0,
+        accuracy: settings.accuracy * factor,
+        plateau: crate::records::noise_widening::weight_plateau(settings, factor),
+    }
+}
+
 /// The images of one frame, row-major, top row first.
 #[derive(Clone, Debug)]
 pub struct Frame {
@@ -867,15 +889,14 @@ impl Renderer {
         let (vis, bounds) = self.visible_tiles(scene, camera, &mut times)?;
         let splat = SplatBuffer::new(ctx, camera.width, camera.height)?;
         let (factor, _) = self.frame_interpolation_factor(cache.settings(), &cache.records)?;
-        let src = SplatSource {
-            scene: &scene.gpu,
-            vis: &vis,
-            bounds: &bounds,
-            records: &cache.records,
-            first: 0,
-            accuracy: cache.settings().accuracy * factor,
-            plateau: crate::records::noise_widening::weight_plateau(cache.settings(), factor),
-        };
+        let src = frame_gather_source(
+            scene,
+            &vis,
+            &bounds,
+            &cache.records,
+            cache.settings(),
+            factor,
+        );
         self.gather_with_tail(cache.settings(), src, tail, &splat, &mut times)?;
         let sums = ctx.read_buffer(&splat.sums)?;
         let visibility = vis.read(ctx)?;
@@ -900,15 +921,7 @@ impl Renderer {
         let settings = cache.settings();
         let (factor, _) = self.frame_interpolation_factor(settings, &cache.records)?;
         let wide = SplatBuffer::new(ctx, camera.width, camera.height)?;
-        let src = SplatSource {
-            scene: &scene.gpu,
-            vis: &vis,
-            bounds: &bounds,
-            records: &cache.records,
-            first: 0,
-            accuracy: settings.accuracy * factor,
-            plateau: crate::records::noise_widening::weight_plateau(settings, factor),
-        };
+        let src = frame_gather_source(scene, &vis, &bounds, &cache.records, settings, factor);
         self.gather_with_tail(settings, src, false, &wide, &mut times)?;
         let wide_sums = ctx.read_buffer(&wide.sums)?;
         let (kept, narrow) = self
@@ -1174,18 +1187,14 @@ impl Renderer {
             // accuracy (`CacheSettings::interpolation_factor`, widened for noisy
             // records): placement left every pixel within a of some record, so each is
             // still reached, by more records.
-            let all = SplatSource {
-                scene: &scene.gpu,
-                vis: &vis,
-                bounds: &bounds,
+            let all = frame_gather_source(
+                scene,
+                &vis,
+                &bounds,
                 records,
-                first: 0,
-                accuracy: pass.settings.accuracy * interpolation_factor,
-                plateau: crate::records::noise_widening::weight_plateau(
-                    &pass.settings,
-                    interpolation_factor,
-                ),
-            };
+                &pass.settings,
+                interpolation_factor,
+            );
             let tail = placement.tail_from_record.is_some();
             self.gather_with_tail(&pass.settings, all, tail, &splat, &mut times)?;
             widened_pixels = self
