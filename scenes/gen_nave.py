@@ -18,8 +18,11 @@ Every solid is a closed box with outward faces (two triangles a face, flat norma
 Deterministic (no randomness, fixed formatting): rerunning it reproduces the committed files.
 
 Usage: python3 scenes/gen_nave.py   (from anywhere; writes next to this script)
+       python3 scenes/gen_nave.py --bare --out DIR   (the hall without its piers and screen,
+       DIR/nave-bare.obj and .mtl: a variant benches/nave-variants renders)
 """
 
+import argparse
 import os
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -47,8 +50,8 @@ def box(lo, hi):
     ]
 
 
-def solids():
-    """(material, lo, hi) for every box of the hall."""
+def solids(bare=False):
+    """(material, lo, hi) for every box of the hall (`bare`: without piers and screen)."""
     w = WALL
     out = [
         ("floor", (-w, -w, -w), (LENGTH + w, 0.0, WIDTH + w)),
@@ -66,6 +69,8 @@ def solids():
     edges.append(LENGTH)
     for x0, x1 in zip(edges[0::2], edges[1::2]):
         out.append(("stone", (x0, WINDOW_Y0, -w), (x1, WINDOW_Y1, 0.0)))
+    if bare:
+        return out
     h = PIER / 2
     for z in PIER_ZS:
         for x in PIER_XS:
@@ -81,13 +86,18 @@ def fmt(v):
 
 
 def main():
-    lines = ["# nave.obj: written by gen_nave.py (do not edit)", "mtllib nave.mtl"]
+    ap = argparse.ArgumentParser(description="Writes the nave's OBJ and MTL.")
+    ap.add_argument("--bare", action="store_true", help="no piers, no screen wall")
+    ap.add_argument("--out", default=HERE, help="directory to write into")
+    args = ap.parse_args()
+    stem = "nave-bare" if args.bare else "nave"
+    lines = [f"# {stem}.obj: written by gen_nave.py (do not edit)", f"mtllib {stem}.mtl"]
     normals = [(-1, 0, 0), (1, 0, 0), (0, -1, 0), (0, 1, 0), (0, 0, -1), (0, 0, 1)]
     lines += [f"vn {fmt(n)}" for n in normals]
     vcount = 0
     body = []
     current = None
-    for material, lo, hi in solids():
+    for material, lo, hi in solids(args.bare):
         if material != current:
             body.append(f"usemtl {material}")
             current = material
@@ -98,10 +108,10 @@ def main():
             body.append(f"f {a}//{n} {b}//{n} {c}//{n}")
             body.append(f"f {a}//{n} {c}//{n} {d}//{n}")
             vcount += 4
-    with open(os.path.join(HERE, "nave.obj"), "w", newline="\n") as f:
+    with open(os.path.join(args.out, f"{stem}.obj"), "w", newline="\n") as f:
         f.write("\n".join(lines + body) + "\n")
-    with open(os.path.join(HERE, "nave.mtl"), "w", newline="\n") as f:
-        f.write("# nave.mtl: written by gen_nave.py (do not edit)\n")
+    with open(os.path.join(args.out, f"{stem}.mtl"), "w", newline="\n") as f:
+        f.write(f"# {stem}.mtl: written by gen_nave.py (do not edit)\n")
         f.write("newmtl stone\nKd 0.62 0.58 0.52\n\n")
         f.write("newmtl floor\nKd 0.45 0.42 0.40\n")
 

@@ -8,7 +8,9 @@ use radsplat::output::{exr_out, sha256_hex};
 use radsplat::placement::sequential::sequential_placement;
 use radsplat::records::{CacheSettings, Record, RecordRadius};
 use radsplat::scene::Scene;
-use radsplat::splat::reference::{record_coverage, splat_records, splat_records_with_tail};
+use radsplat::splat::reference::{
+    lit_records, record_coverage, splat_records, splat_records_with_tail,
+};
 use radsplat::visibility::GpuCamera;
 use radsplat::{Frame, IrradianceCache, Renderer};
 
@@ -98,6 +100,8 @@ fn check_splat_against_cpu(size: (u32, u32), interpolation_factor: f32) {
     // tail's 2 a).
     let interpolation = settings.interpolation_accuracy();
     assert!(interpolation < settings.tail_accuracy());
+    // A still frame's gather leaves dark records out (none on the Cornell box).
+    let records = lit_records(&records);
     let cpu = splat_records_with_tail(&records, &vis, interpolation, settings.tail_accuracy());
     let mut strict = vec![[0.0f32; 4]; vis.len()];
     splat_records(&records, 0, &vis, interpolation, &mut strict);
@@ -118,6 +122,79 @@ fn check_splat_against_cpu(size: (u32, u32), interpolation_factor: f32) {
     if interpolation == settings.accuracy {
         assert!(tail_pixels > 0);
     }
+}
+
+/// Dark records (E = 0 in every channel: a plane whose P^2 rays all missed the light) add
+/// nothing to a still frame's gather, and the pixels that only dark records reach take the
+/// lit records that reach them at the tail's accuracy: the GPU gather matches the CPU
+/// splat with tail fill over the lit records alone. Splatted, the dark records' zeros made
+/// those pixels black, the floors of exactly zero indirect light issue 17 forbids
+/// (docs/results.md, "Dark records left out of the gather").
+#[test]
+fn dark_records_are_left_out_and_their_pixels_take_lit_records_at_the_tail_accuracy() {
+    let (renderer, scene, mut cache, mut records, _) = cornell_cache_at(
+        &CacheSettings {
+            r_min_pixels: 8.0,
+            ..settings()
+        },
+        (48, 40),
+    );
+    // Every third record dark, as the reduction leaves a plane that saw no light: zero
+    // irradiance and gradients (its plane noise, the rotational gradient's w, kept).
+    for r in records.iter_mut().step_by(3) {
+        r.irradiance = [0.0; 3];
+        for c in 0..3 {
+            r.translation_gradient[c] = [0.0; 4];
+            for k in 0..3 {
+                r.rotation_gradient[c][k] = 0.0;
+            }
+        }
+    }
+    let dark = records.iter().filter(|r| r.is_dark()).count();
+    assert!(dark > 0 && dark < records.len());
+    cache
+        .records
+        .upload(&renderer.ctx, &records)
+        .expect("upload");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let (vis, gpu) = renderer
+        .splat_cache(&prepared, &scene.camera, &cache, true)
+        .expect("splat");
+    let settings = cache.settings();
+    let interpolation = settings.interpolation_accuracy();
+    let lit = lit_records(&records);
+    let cpu = splat_records_with_tail(&lit, &vis, interpolation, settings.tail_accuracy());
+    common::assert_splat_sums_match(&gpu, &cpu);
+    // The pixels only dark records reach at the interpolation accuracy: splatted, they
+    // would read exactly zero; left out, every one that a lit record reaches at the tail's
+    // accuracy has light.
+    let mut all = vec![[0.0f32; 4]; vis.len()];
+    splat_records(&records, 0, &vis, interpolation, &mut all);
+    let mut lit_only = vec![[0.0f32; 4]; vis.len()];
+    splat_records(&lit, 0, &vis, interpolation, &mut lit_only);
+    let dark_only: Vec<usize> = (0..vis.len())
+        .filter(|&i| all[i][3] > 0.0 && lit_only[i][3] == 0.0)
+        .collect();
+    let filled = dark_only
+        .iter()
+        .filter(|&&i| gpu[i][3] > 0.0 && gpu[i][0] + gpu[i][1] + gpu[i][2] > 0.0)
+        .count();
+    let reachable = dark_only.iter().filter(|&&i| cpu[i][3] > 0.0).count();
+    eprintln!(
+        "{dark} of {} records dark; {} pixels only dark records reach, {filled} filled \
+         ({reachable} reachable at the tail's accuracy)",
+        records.len(),
+        dark_only.len()
+    );
+    assert!(!dark_only.is_empty(), "no pixel only dark records reach");
+    assert!(filled > 0);
+    assert_eq!(filled, reachable);
+    assert!(
+        dark_only
+            .iter()
+            .all(|&i| all[i][0] + all[i][1] + all[i][2] == 0.0),
+        "splatted, the dark records leave those pixels black"
+    );
 }
 
 /// Tail fill: every visible pixel is still covered (at the tail's accuracy), the pixels no

@@ -72,7 +72,9 @@ pub(crate) struct SplatParams {
     count_coverage: u32,
     /// [`SplatSource::plateau`].
     plateau: f32,
-    _pad: [u32; 2],
+    /// [`SplatSource::leave_out_dark`], 1 or 0.
+    leave_out_dark: u32,
+    _pad: u32,
 }
 
 impl SplatParams {
@@ -235,6 +237,15 @@ pub struct SplatSource<'a> {
     /// Below this error a record's weight stops growing (`splat_weight`): 0 but in a
     /// gather widened for noisy records (`records::noise_widening::weight_plateau`).
     pub plateau: f32,
+    /// Dark records (E exactly 0: a plane that saw no light, even refined) add nothing to
+    /// the sums: a still frame's gather of plane records. P^2 rays that all miss a bright
+    /// patch of small solid angle are no evidence that the record's surroundings are dark,
+    /// and splatting their zeros drew floors of exactly zero indirect light where the
+    /// reference has some (docs/results.md, "Dark records left out of the gather"). A pixel
+    /// that only dark records reach stays empty for tail fill, which gives it the lit
+    /// records that reach it at the tail's accuracy. Placement's cover still counts them:
+    /// it must not place records again where dark ones lie.
+    pub leave_out_dark: bool,
 }
 
 pub struct SplatPass {
@@ -533,6 +544,7 @@ impl SplatPass {
             first,
             accuracy,
             plateau,
+            leave_out_dark,
         } = src;
         let (width, height) = (vis.width, vis.height);
         let tiles_x = width.div_ceil(TILE_SIZE);
@@ -558,7 +570,8 @@ impl SplatPass {
                 accumulate: into as u32,
                 count_coverage,
                 plateau,
-                _pad: [0; 2],
+                leave_out_dark: u32::from(leave_out_dark),
+                _pad: 0,
             },
         );
         let record_tiles = ctx.storage_buffer_sized("record tiles", u64::from(records) * 16)?;

@@ -17,6 +17,12 @@ pub fn splat_records(
     splat_records_widened(records, first, vis, accuracy, 0.0, sums);
 }
 
+/// The records a gather that leaves dark records out (`SplatSource::leave_out_dark`, a
+/// still frame's plane records) splats, in order: those with some irradiance.
+pub fn lit_records(records: &[Record]) -> Vec<Record> {
+    records.iter().filter(|r| !r.is_dark()).copied().collect()
+}
+
 /// [`splat_records`] with the weight's plateau of a widened gather ([`splat_weight`]).
 pub fn splat_records_widened(
     records: &[Record],

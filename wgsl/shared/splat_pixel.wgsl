@@ -58,6 +58,12 @@ fn pixel_error(s: PixelSum, r: Record) -> f32 {
 
 // Adds record k (r, fully loaded) with error err <= a to the pixel's sums.
 fn pixel_add(s: ptr<function, PixelSum>, k: u32, r: Record, err: f32) {
+    // A dark record (a plane that saw no light: E exactly 0) is no evidence of darkness
+    // where its gather leaves such records out: a pixel that only dark records reach stays
+    // empty for tail fill (SplatSource::leave_out_dark).
+    if params.leave_out_dark != 0u && all(r.irradiance == vec3f(0.0)) {
+        return;
+    }
     // w = 1 / err - 1 / a (Ward's weight less its value at the edge of the validity area,
     // Krivanek & Gautron 2009 section 2.2), capped where p is the record's own point: a
     // record fades out at its edge instead of dropping from 1 / a to 0, which drew its
