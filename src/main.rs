@@ -573,13 +573,20 @@ struct CacheArgs {
     /// their environment samples gave them: that part is noise), traced again
     /// with --plane-refine-split^2 rays each. Costs F x split^2 x P^2 more plane rays per
     /// record (F = 0.1, split 2: +40 %), and two passes; a plane that saw no light is
-    /// refined everywhere. 0: off. Temporal caching (`animate`) refines only with
-    /// --temporal-refine, and only irradiance records' planes.
+    /// refined everywhere (see --no-dark-plane-refine). 0: none by contrast. Temporal
+    /// caching (`animate`) refines by contrast only with --temporal-refine, and only
+    /// irradiance records' planes.
     #[arg(long, default_value_t = CacheSettings::default().plane_refine, value_parser = parse_fraction)]
     plane_refine: f32,
     /// Sub-samples per axis of a refined plane pixel (split x split strata), 1..=8.
     #[arg(long, default_value_t = CacheSettings::default().plane_refine_split, value_parser = parse_refine_split)]
     plane_refine_split: u32,
+    /// Do not refine planes that saw no light (by default every pixel of such a plane
+    /// gets --plane-refine-split^2 more rays, whatever --plane-refine says, in `animate`
+    /// too: P^2 rays miss small bright patches, and without it a sunlit interior's
+    /// animation showed floors of exactly zero indirect light).
+    #[arg(long)]
+    no_dark_plane_refine: bool,
 }
 
 // Value parsers of `CacheArgs`: clap reports their errors as "invalid value 'V' for
@@ -751,6 +758,7 @@ impl CacheArgs {
             },
             plane_refine: self.plane_refine,
             plane_refine_split: self.plane_refine_split,
+            dark_plane_refine: !self.no_dark_plane_refine,
             glossy_samples: self.glossy_samples,
             radiance: RadianceSettings {
                 order: self.radiance_order,

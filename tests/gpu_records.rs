@@ -464,6 +464,77 @@ fn gpu_refined_planes_and_records_match_the_cpu_reference() {
     ));
 }
 
+/// With refinement by contrast off (`plane_refine` 0, temporal caching's default), planes
+/// that saw no light are still refined everywhere (`CacheSettings::dark_plane_refine`):
+/// one selection slot each, the dark planes' refined as the CPU reference refines them, the
+/// lit planes' samples untouched bit for bit; and with `dark_plane_refine` off there is no
+/// refinement at all.
+#[test]
+fn gpu_dark_planes_alone_are_refined_when_refinement_by_contrast_is_off() {
+    let scene = common::load("cornell-box.toml", Some((32, 32)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = CacheSettings {
+        plane_resolution: 16,
+        plane_refine: 0.0,
+        ..CacheSettings::default()
+    };
+    assert!(settings.dark_plane_refine, "on by default");
+    assert_eq!(settings.refined_pixels(), 0);
+    let mut sites = sites(&scene, &renderer, &settings, 8);
+    let lit = sites.len();
+    // Facing up on top of the box (every ray misses) and inside the tall block (every ray
+    // hits an unlit surface): two planes without light.
+    for position in [[0.278, 0.7, 0.279], [0.3685, 0.1, 0.3515]] {
+        let mut site = sites[0];
+        site.position = position;
+        site.normal = [0.0, 1.0, 0.0];
+        site.geometric_normal = [0.0, 1.0, 0.0];
+        sites.push(site);
+    }
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    assert!(pass.refines());
+    let reference = RecordReference::new(&scene, &settings);
+    let gpu = pass
+        .trace_planes_refined(&renderer.ctx, &prepared.gpu, &sites)
+        .expect("refined planes");
+    renderer.ctx.check().expect("no wgpu errors");
+    let per = (settings.plane_resolution * settings.plane_resolution) as usize;
+    assert_eq!(gpu.selected.len(), sites.len(), "one slot a record");
+    let mut dark_changed = 0;
+    for (i, site) in sites.iter().enumerate() {
+        let coarse = &gpu.coarse[i * per..(i + 1) * per];
+        let refined = &gpu.refined[i * per..(i + 1) * per];
+        let (cpu, selected) = reference.refine(site, coarse, &gpu.noise[i * per..(i + 1) * per]);
+        if i < lit {
+            assert!(selected.is_empty(), "site {i}: a lit plane is not refined");
+            assert_ne!(gpu.selected[i], refine::DARK_PLANE, "site {i}");
+            assert!(refined == coarse, "site {i}: a lit plane's samples changed");
+            continue;
+        }
+        assert_eq!(selected, vec![refine::DARK_PLANE], "site {i}");
+        assert_eq!(gpu.selected[i], refine::DARK_PLANE, "site {i}");
+        for (p, (g, c)) in refined.iter().zip(&cpu).enumerate() {
+            dark_changed += usize::from(g.depth != coarse[p].depth);
+            let depth_err = (g.depth - c.depth).abs() / c.depth.abs().max(1e-3);
+            assert!(depth_err <= 1e-4, "site {i} pixel {p}: {g:?} against {c:?}");
+            assert!(g.radiance == [0.0; 3] && c.radiance == [0.0; 3]);
+        }
+    }
+    // Inside the block every ray hits: its pixels' depths are refined.
+    assert!(
+        dark_changed * 4 > per * 3,
+        "{dark_changed} dark samples refined"
+    );
+
+    let off = CacheSettings {
+        dark_plane_refine: false,
+        ..settings.clone()
+    };
+    let pass = RecordPass::new(&renderer.ctx, &off).expect("record pass");
+    assert!(!pass.refines(), "no refinement at all");
+}
+
 /// The same under five lights: refinement's sub-samples choose their lights as the
 /// plane's samples do.
 #[test]

@@ -13,12 +13,12 @@
 struct RefineParams {
     resolution: u32,
     count: u32,
-    refined: u32,           // K selected pixels per record
+    refined: u32,           // K selected pixels per record (0: dark planes alone)
     light_samples: u32,
     subsamples: u32,        // split^2
     centre_weight: f32,     // 1 / (1 + split^2)
     light_choices: u32,     // lights sampled per hit (`shadow_loop_start_chosen`)
-    _pad1: u32,
+    slots: u32,             // selection slots per record, max(K, 1)
 }
 
 // Every slot of a dark plane's selection (plane_refine_select.wgsl).
@@ -64,15 +64,15 @@ fn main(
     // the dispatch's L lanes of the record (K rounded up to whole workgroups): every lane
     // works, and one loop holds the tracing, so that it is compiled once (lavapipe inlines
     // every call of it).
-    let dark = selected[id.z * params.refined] == DARK_PLANE;
+    let dark = selected[id.z * params.slots] == DARK_PLANE;
     var k = id.x;
-    var step = ((params.refined + 63u) / 64u) * 64u;
+    var step = ((params.slots + 63u) / 64u) * 64u;
     var end = n;
     if !dark {
         if id.x >= params.refined {
             return;
         }
-        k = selected[id.z * params.refined + id.x];
+        k = selected[id.z * params.slots + id.x];
         step = n;
         end = k + 1u;
     }

@@ -23,8 +23,8 @@ const DARK_PLANE: u32 = 0xffffffffu;
 struct SelectParams {
     resolution: u32,
     count: u32,
-    refined: u32,       // K pixels to select per record (1 <= K <= P^2)
-    _pad: u32,
+    refined: u32,       // K pixels to select per record by contrast (0 <= K <= P^2)
+    slots: u32,         // selection slots per record, max(K, 1): a dark plane's flag
 }
 
 @group(1) @binding(0) var<uniform> params: SelectParams;
@@ -103,8 +103,17 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         if lane == 0u {
             atomicAdd(&dark_planes[0], 1u);
         }
-        for (var slot = lane; slot < params.refined; slot += THREADS) {
-            selected[record * params.refined + slot] = DARK_PLANE;
+        for (var slot = lane; slot < params.slots; slot += THREADS) {
+            selected[record * params.slots + slot] = DARK_PLANE;
+        }
+        return;
+    }
+    // Dark planes alone are refined (K = 0, CacheSettings::dark_plane_refine): a lit plane
+    // keeps its samples. Its slot says so (it may hold an earlier batch's flag), and
+    // plane_refine.wgsl refines none of its pixels.
+    if params.refined == 0u {
+        if lane == 0u {
+            selected[record * params.slots] = 0u;
         }
         return;
     }
@@ -211,7 +220,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     for (var k = first; k < last; k++) {
         let key = keys[base + k];
         if key > threshold || (key == threshold && rank < ties) {
-            selected[record * params.refined + slot] = k;
+            selected[record * params.slots + slot] = k;
             slot += 1u;
         }
         rank += u32(key == threshold);

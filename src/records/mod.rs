@@ -278,10 +278,19 @@ pub struct CacheSettings {
     /// Adaptive plane refinement (Radiance's `-as`, Ward's "adaptive super-sampling" of
     /// high-variance strata, algorithms.md 1.7): the fraction of each record's plane
     /// pixels, those of highest contrast, that get `plane_refine_split^2` more rays
-    /// ([`refine`]). 0 (the default) is off: the records are today's, byte for byte.
+    /// ([`refine`]). 0: none by contrast (dark planes still are, see
+    /// [`Self::dark_plane_refine`]).
     pub plane_refine: f32,
     /// Sub-samples per axis of a refined pixel (`split x split` strata).
     pub plane_refine_split: u32,
+    /// A plane that saw no light at all is refined everywhere (`split^2` more rays per
+    /// pixel, [`refine::select_pixels`]), whatever `plane_refine` says: P^2 centre rays
+    /// miss bright patches of small solid angle, and a record that saw none is no evidence
+    /// of darkness. On by default, for temporal caching's records too, whose planes are
+    /// otherwise unrefined (a sunlit hall walked through had floors of exactly zero
+    /// indirect light in every frame without it: docs/results.md, "Dark planes refined
+    /// under temporal caching").
+    pub dark_plane_refine: bool,
     /// Lobe directions per glossy pixel for its glossy indirect light ([`crate::glossy`]:
     /// importance-sampled Monte Carlo), for a lobe that is all of the material's
     /// reflectance; a pixel takes this times the lobe's share (at least 1).
@@ -378,6 +387,7 @@ impl Default for CacheSettings {
             },
             plane_refine: 0.1,
             plane_refine_split: 2,
+            dark_plane_refine: true,
             glossy_samples: 32,
             radiance: Default::default(),
             bounce: Default::default(),
@@ -1286,9 +1296,17 @@ impl RecordPass {
         Ok(rays)
     }
 
-    /// Whether this pass refines its planes ([`refine`]).
+    /// Whether this pass refines its planes ([`refine`]): by contrast, or dark planes alone.
     pub fn refines(&self) -> bool {
         self.refine.is_some()
+    }
+
+    /// Whether this pass refines lit planes too (by contrast, `plane_refine` > 0): only
+    /// then does a lit record differ from its plane as traced, which temporal caching's
+    /// tau must then be taken against (`temporal::Lookahead`). A plane refined because it
+    /// was dark has nothing for the estimate to compare with.
+    pub fn refines_by_contrast(&self) -> bool {
+        self.refine.as_ref().is_some_and(|r| r.refined() > 0)
     }
 
     /// The pass that computes tail fill's records ([`CacheSettings::tail_plane_resolution`]):
@@ -1796,7 +1814,8 @@ impl RecordPass {
     }
 
     /// Traces the planes of `sites` and refines them as the settings say: the traced
-    /// (coarse) planes, the refined ones and the K pixels refined per site (tests).
+    /// (coarse) planes, the refined ones and each site's `max(K, 1)` selection slots
+    /// (the K pixels refined by contrast, or `DARK_PLANE`; tests).
     /// Without refinement the refined planes are the coarse ones and no pixel is listed.
     pub fn trace_planes_refined(
         &self,
@@ -1843,7 +1862,7 @@ impl RecordPass {
         let mut refined: Vec<PlaneSample> = ctx.read_buffer(&samples)?;
         refined.truncate(coarse.len());
         let mut selected: Vec<u32> = ctx.read_buffer(&selected)?;
-        selected.truncate((n * r.refined()) as usize);
+        selected.truncate((n * r.slots()) as usize);
         Ok(RefinedPlanes {
             coarse,
             refined,

@@ -103,8 +103,8 @@ pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample], noise: &[
 /// The `refined` pixels of highest contrast ([`contrast_keys`]), in pixel order; ties go
 /// to the lower pixel index (the GPU's selection exactly).
 ///
-/// A plane without light anywhere has no contrast to rank; its `refined` slots all say
-/// [`DARK_PLANE`] and every pixel of it is refined ([`refined_pixels`]): P^2 centre rays
+/// A plane without light anywhere has no contrast to rank; its `refined` slots (at least
+/// one) all say [`DARK_PLANE`] and every pixel of it is refined ([`refined_pixels`]): P^2 centre rays
 /// can miss light of a small solid angle (Sponza's arcade floors see the sunlit court only
 /// between columns, a few degrees above their horizon), and a record that misses it
 /// spreads exact zeros over its footprint. Radiance's `-as` super-samples where the
@@ -116,7 +116,11 @@ pub fn select_pixels(
     refined: u32,
 ) -> Vec<u32> {
     if is_dark(plane, samples) {
-        return vec![DARK_PLANE; refined as usize];
+        // One slot at least: with `refined` 0 (dark planes alone refined) it flags them.
+        return vec![DARK_PLANE; refined.max(1) as usize];
+    }
+    if refined == 0 {
+        return Vec::new();
     }
     let keys = contrast_keys(plane, samples, noise);
     let mut order: Vec<u32> = (0..keys.len() as u32).collect();
@@ -182,7 +186,8 @@ struct SelectParams {
     resolution: u32,
     count: u32,
     refined: u32,
-    _pad: u32,
+    /// Selection slots per record: `max(refined, 1)` (a dark plane's flag needs one).
+    slots: u32,
 }
 
 #[repr(C)]
@@ -195,11 +200,11 @@ struct RefineParams {
     subsamples: u32,
     centre_weight: f32,
     light_choices: u32,
-    _pad: u32,
+    slots: u32,
 }
 
-/// The GPU passes of refinement for one [`CacheSettings`] (built only when
-/// `plane_refine` selects at least one pixel).
+/// The GPU passes of refinement for one [`CacheSettings`] (built when `plane_refine`
+/// selects at least one pixel or dark planes are refined, `dark_plane_refine`).
 pub struct RefinePass {
     select: ComputePass,
     refine: ComputePass,
@@ -225,7 +230,7 @@ impl RefinePass {
     ) -> Result<Option<Self>> {
         use Binding::*;
         let refined = settings.refined_pixels();
-        if refined == 0 {
+        if refined == 0 && !settings.dark_plane_refine {
             return Ok(None);
         }
         let plane = settings.plane(settings.plane_resolution);
@@ -272,9 +277,9 @@ impl RefinePass {
     }
 
     /// Records the refinement of the `count` planes in `samples` (traced for `sites`, P^2
-    /// each) in place; `selected` receives the K selected pixels per record, or K times
-    /// [`DARK_PLANE`] for a plane refined everywhere (a buffer of at least `count * K`
-    /// u32, see [`Self::selected_bytes`]). `noise` holds each sample's environment share
+    /// each) in place; `selected` receives the K selected pixels per record, or
+    /// `max(K, 1)` times [`DARK_PLANE`] for a plane refined everywhere (a buffer of
+    /// `count * max(K, 1)` u32, see [`Self::selected_bytes`]). `noise` holds each sample's environment share
     /// ([`contrast_keys`]; all zeros: plain contrast).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
@@ -299,7 +304,7 @@ impl RefinePass {
                 resolution: self.resolution,
                 count,
                 refined: self.refined,
-                _pad: 0,
+                slots: self.slots(),
             },
         );
         let bind = self.select.bind(
@@ -331,7 +336,7 @@ impl RefinePass {
                 subsamples: self.split * self.split,
                 centre_weight: centre_weight(self.split),
                 light_choices: self.light_choices,
-                _pad: 0,
+                slots: self.slots(),
             },
         );
         let bind = self.refine.bind(
@@ -353,7 +358,7 @@ impl RefinePass {
             enc,
             &scene.bind_group,
             &bind,
-            [self.refined.div_ceil(64), 1, count],
+            [self.slots().div_ceil(64), 1, count],
             timer.next("plane refinement"),
         );
         Ok(())
@@ -361,12 +366,17 @@ impl RefinePass {
 
     /// Bytes of the selection buffer for `count` records.
     pub fn selected_bytes(&self, count: u32) -> u64 {
-        u64::from(count) * u64::from(self.refined) * 4
+        u64::from(count) * u64::from(self.slots()) * 4
     }
 
-    /// Pixels refined per record (K).
+    /// Pixels refined per record by contrast (K; 0 where dark planes alone are refined).
     pub fn refined(&self) -> u32 {
         self.refined
+    }
+
+    /// Selection slots per record, `max(K, 1)`: a dark plane's flag needs one.
+    pub fn slots(&self) -> u32 {
+        self.refined.max(1)
     }
 
     /// Rays a plane refined everywhere traces beyond the `K split^2` of refinement.
@@ -395,7 +405,7 @@ pub fn refine_plane(
 ) -> (Vec<PlaneSample>, Vec<u32>) {
     let refined = settings.refined_pixels();
     let mut out = coarse.to_vec();
-    if refined == 0 {
+    if refined == 0 && !settings.dark_plane_refine {
         return (out, Vec::new());
     }
     let split = settings.plane_refine_split;
@@ -462,6 +472,24 @@ mod tests {
             vec![0, 1, 2]
         );
         assert_eq!(select_pixels(&plane, &samples, &[], 16).len(), 16);
+    }
+
+    /// With no pixel to refine by contrast (K = 0), a dark plane still takes one slot that
+    /// flags it, and every pixel of it is refined; a lit plane selects nothing.
+    #[test]
+    fn dark_planes_are_flagged_when_no_pixel_is_refined_by_contrast() {
+        let plane = plain_4x4();
+        let dark = vec![sample(0.0); 16];
+        assert_eq!(select_pixels(&plane, &dark, &[], 0), vec![DARK_PLANE]);
+        assert_eq!(select_pixels(&plane, &dark, &[], 3), vec![DARK_PLANE; 3]);
+        assert_eq!(
+            refined_pixels(4, &select_pixels(&plane, &dark, &[], 0)),
+            (0..16).collect::<Vec<u32>>()
+        );
+        let mut lit = dark.clone();
+        lit[5] = sample(1.0);
+        assert!(select_pixels(&plane, &lit, &[], 0).is_empty());
+        assert!(refined_pixels(4, &[]).is_empty());
     }
 
     #[test]

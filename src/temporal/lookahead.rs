@@ -195,10 +195,11 @@ impl RecordStage for Lookahead<'_> {
             }
         }
         // The subset at t: the samples the estimate was moved from (a stride), or the whole
-        // plane as traced when the record's own plane was refined, so that tau compares the
-        // estimate with the centre rays it moved, not with the refined record (whose
-        // sub-rays the estimate cannot move).
-        if self.reprojection.stride > 1 || pass.refines() {
+        // plane as traced when the record's own plane was refined by contrast, so that tau
+        // compares the estimate with the centre rays it moved, not with the refined record
+        // (whose sub-rays the estimate cannot move). A plane refined only because it was
+        // dark is compared as refined: its traced plane has no light to compare with.
+        if self.reprojection.stride > 1 || pass.refines_by_contrast() {
             // (At stride 1 the reprojection's table is the plane's own.)
             let samples = if self.reprojection.stride > 1 {
                 subset

@@ -618,7 +618,8 @@ pub struct TemporalCache {
 impl TemporalCache {
     /// The settings temporal caching computes its records with, from the user's: plane
     /// hits trace their shadow rays (light maps would need tracing again every frame, and
-    /// the re-shading at t+1 traces rays), planes are not refined (unless
+    /// the re-shading at t+1 traces rays), planes are refined only where they saw no light
+    /// (`CacheSettings::dark_plane_refine`; by contrast too where
     /// [`TemporalSettings::refine_planes`] says so, which the cache's own pass then
     /// applies), records are not neighbour-clamped nor tail-filled; planes keep the user's
     /// spacing (reprojection bins moved hits by its inverse) and field of view, except that
@@ -701,6 +702,11 @@ impl TemporalCache {
                         }
                         _ => 0.0,
                     },
+                    // Dark irradiance planes are refined as the user's settings say (by
+                    // default: CacheSettings::dark_plane_refine); radiance records' planes
+                    // stay as traced.
+                    dark_plane_refine: kind == RecordKind::Irradiance
+                        && user_settings.dark_plane_refine,
                     ..cache.clone()
                 },
                 kind,
@@ -1354,7 +1360,7 @@ impl TemporalCache {
             if has_next {
                 ranges.push((&self.next_records.buffer, range.clone()));
                 // The subset tau is taken against (`Lookahead::reduced`).
-                if self.reprojection.stride > 1 || self.pass.refines() {
+                if self.reprojection.stride > 1 || self.pass.refines_by_contrast() {
                     ranges.push((&self.subset_records.buffer, range));
                 }
             }
