@@ -1203,7 +1203,7 @@ impl Renderer {
                 records,
                 &pass.settings,
                 interpolation_factor,
-                !temporal || std::env::var("HACK_TDARK").is_ok(),
+                !temporal,
             );
             // Tail fill also gives the pixels that only dark records reach the lit records
             // that reach them at the tail's accuracy.
