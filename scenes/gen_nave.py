@@ -19,7 +19,7 @@ Deterministic (no randomness, fixed formatting): rerunning it reproduces the com
 
 Usage: python3 scenes/gen_nave.py   (from anywhere; writes next to this script)
        python3 scenes/gen_nave.py --bare --out DIR   (the hall without its piers and screen,
-       DIR/nave-bare.obj and .mtl: a variant benches/nave-variants renders)
+       DIR/nave-bare.obj and .mtl: a variant benches/variants renders)
 """
 
 import argparse

@@ -219,9 +219,9 @@ pub struct PhotonRecordStats {
 /// Every record of `records`, gathered at `factor` times the settings' accuracy with the
 /// weight plateau that factor takes (`records::noise_widening::weight_plateau`): a frame's
 /// gather, which the test helpers `Renderer::splat_cache*` repeat. A `still` frame of
-/// plane records leaves its dark records out (`SplatSource::leave_out_dark`); temporal
-/// caching's frames keep them (not measured there: its planes are not refined by default,
-/// so far more of its records are dark).
+/// plane records leaves the pixels only dark records reach to tail fill
+/// (`SplatSource::dark_only_empty`); temporal caching's first pass does not (the second
+/// pass of interpolated gradients renders as a still frame).
 fn frame_gather_source<'a>(
     scene: &'a PreparedScene,
     vis: &'a VisibilityBuffer,
@@ -239,7 +239,7 @@ fn frame_gather_source<'a>(
         first: 0,
         accuracy: settings.accuracy * factor,
         plateau: crate::records::noise_widening::weight_plateau(settings, factor),
-        leave_out_dark: still && settings.source == crate::records::RecordSource::Planes,
+        dark_only_empty: still && settings.source == crate::records::RecordSource::Planes,
     }
 }
 
@@ -967,7 +967,7 @@ impl Renderer {
             first: 0,
             accuracy: cache.pass.settings.accuracy,
             plateau: 0.0,
-            leave_out_dark: false,
+            dark_only_empty: false,
         };
         let sums = cache.splat.gather(ctx, splat_pass, src, &mut times)?;
         let sums = ctx.read_buffer(&sums)?;
@@ -1006,7 +1006,7 @@ impl Renderer {
                 first,
                 accuracy,
                 plateau: 0.0,
-                leave_out_dark: false,
+                dark_only_empty: false,
             };
             splat_pass.splat(ctx, src, &splat, true, &mut times)?;
             splat_pass.cover(ctx, src, &mask, &mut times)?;
@@ -1149,7 +1149,7 @@ impl Renderer {
             first: 0,
             accuracy,
             plateau: 0.0,
-            leave_out_dark: false,
+            dark_only_empty: false,
         };
         splat_pass.cover(ctx, held, &mask, &mut times)?;
         // Light-space visibility for the plane hits of new records, traced once per scene.
@@ -1205,9 +1205,9 @@ impl Renderer {
                 interpolation_factor,
                 !temporal,
             );
-            // Tail fill also gives the pixels that only dark records reach the lit records
-            // that reach them at the tail's accuracy.
-            let tail = placement.tail_from_record.is_some() || all.leave_out_dark;
+            // Tail fill also gives the pixels only dark records reach the lit records that
+            // reach them at the tail's accuracy.
+            let tail = placement.tail_from_record.is_some() || all.dark_only_empty;
             self.gather_with_tail(&pass.settings, all, tail, &splat, &mut times)?;
             widened_pixels = self
                 .check_widened(
@@ -1240,7 +1240,7 @@ impl Renderer {
                     first: 0,
                     accuracy,
                     plateau: 0.0,
-                    leave_out_dark: false,
+                    dark_only_empty: false,
                 };
                 splat_pass.cover(ctx, held, &need, &mut times)?;
                 // Placed in the placement-only pass too (the first pass of interpolated
@@ -1281,7 +1281,7 @@ impl Renderer {
                         first: 0,
                         accuracy,
                         plateau: 0.0,
-                        leave_out_dark: false,
+                        dark_only_empty: false,
                     };
                     Some(rf.splat.gather(ctx, splat_pass, all, &mut times)?)
                 };
@@ -1483,7 +1483,7 @@ impl Renderer {
             first: 0,
             accuracy,
             plateau: 0.0,
-            leave_out_dark: false,
+            dark_only_empty: false,
         };
         splat_pass.splat(ctx, src, &out, false, times)?;
         out.read_coverage(ctx)

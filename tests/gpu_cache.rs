@@ -9,7 +9,7 @@ use radsplat::placement::sequential::sequential_placement;
 use radsplat::records::{CacheSettings, Record, RecordRadius};
 use radsplat::scene::Scene;
 use radsplat::splat::reference::{
-    lit_records, record_coverage, splat_records, splat_records_with_tail,
+    empty_where_only_dark, record_coverage, splat_records, splat_records_with_tail,
 };
 use radsplat::visibility::GpuCamera;
 use radsplat::{Frame, IrradianceCache, Renderer};
@@ -100,9 +100,15 @@ fn check_splat_against_cpu(size: (u32, u32), interpolation_factor: f32) {
     // tail's 2 a).
     let interpolation = settings.interpolation_accuracy();
     assert!(interpolation < settings.tail_accuracy());
-    // A still frame's gather leaves dark records out (none on the Cornell box).
-    let records = lit_records(&records);
-    let cpu = splat_records_with_tail(&records, &vis, interpolation, settings.tail_accuracy());
+    // A still frame's gather leaves the pixels only dark records reach to tail fill (the
+    // Cornell box has none).
+    let cpu = splat_records_with_tail(
+        &records,
+        &vis,
+        interpolation,
+        settings.tail_accuracy(),
+        true,
+    );
     let mut strict = vec![[0.0f32; 4]; vis.len()];
     splat_records(&records, 0, &vis, interpolation, &mut strict);
     let tail_pixels = strict
@@ -124,14 +130,15 @@ fn check_splat_against_cpu(size: (u32, u32), interpolation_factor: f32) {
     }
 }
 
-/// Dark records (E = 0 in every channel: a plane whose P^2 rays all missed the light) add
-/// nothing to a still frame's gather, and the pixels that only dark records reach take the
-/// lit records that reach them at the tail's accuracy: the GPU gather matches the CPU
-/// splat with tail fill over the lit records alone. Splatted, the dark records' zeros made
-/// those pixels black, the floors of exactly zero indirect light issue 17 forbids
-/// (docs/results.md, "Dark records left out of the gather").
+/// A pixel that only dark records reach (E = 0 in every channel: planes whose rays all
+/// missed the light) keeps empty sums after a still frame's gather, and tail fill gives it
+/// the lit records that reach it at the tail's accuracy; where a lit record reaches too,
+/// the dark ones count as before. The GPU gather matches the CPU splat with tail fill under
+/// the same rule. Splatted alone, the dark records' zeros made those pixels black, the
+/// floors of exactly zero indirect light issue 17 forbids (docs/results.md, "Pixels only
+/// dark records reach").
 #[test]
-fn dark_records_are_left_out_and_their_pixels_take_lit_records_at_the_tail_accuracy() {
+fn pixels_only_dark_records_reach_take_lit_records_at_the_tail_accuracy() {
     let (renderer, scene, mut cache, mut records, _) = cornell_cache_at(
         &CacheSettings {
             r_min_pixels: 8.0,
@@ -162,19 +169,32 @@ fn dark_records_are_left_out_and_their_pixels_take_lit_records_at_the_tail_accur
         .expect("splat");
     let settings = cache.settings();
     let interpolation = settings.interpolation_accuracy();
-    let lit = lit_records(&records);
-    let cpu = splat_records_with_tail(&lit, &vis, interpolation, settings.tail_accuracy());
+    let cpu = splat_records_with_tail(
+        &records,
+        &vis,
+        interpolation,
+        settings.tail_accuracy(),
+        true,
+    );
     common::assert_splat_sums_match(&gpu, &cpu);
-    // The pixels only dark records reach at the interpolation accuracy: splatted, they
-    // would read exactly zero; left out, every one that a lit record reaches at the tail's
-    // accuracy has light.
+    // The plain splat of every record, and the pixels only dark records reach in it: it
+    // leaves them exactly black.
     let mut all = vec![[0.0f32; 4]; vis.len()];
     splat_records(&records, 0, &vis, interpolation, &mut all);
-    let mut lit_only = vec![[0.0f32; 4]; vis.len()];
-    splat_records(&lit, 0, &vis, interpolation, &mut lit_only);
+    let mut emptied = all.clone();
+    empty_where_only_dark(&records, &vis, interpolation, &mut emptied);
     let dark_only: Vec<usize> = (0..vis.len())
-        .filter(|&i| all[i][3] > 0.0 && lit_only[i][3] == 0.0)
+        .filter(|&i| all[i][3] > 0.0 && emptied[i][3] == 0.0)
         .collect();
+    assert!(!dark_only.is_empty(), "no pixel only dark records reach");
+    assert!(
+        dark_only
+            .iter()
+            .all(|&i| all[i][0] + all[i][1] + all[i][2] == 0.0),
+        "splatted alone, the dark records leave those pixels black"
+    );
+    // Now every one of them that a lit record reaches at the tail's accuracy has light,
+    // and every pixel a lit record reaches keeps the plain splat's sums.
     let filled = dark_only
         .iter()
         .filter(|&&i| gpu[i][3] > 0.0 && gpu[i][0] + gpu[i][1] + gpu[i][2] > 0.0)
@@ -186,14 +206,15 @@ fn dark_records_are_left_out_and_their_pixels_take_lit_records_at_the_tail_accur
         records.len(),
         dark_only.len()
     );
-    assert!(!dark_only.is_empty(), "no pixel only dark records reach");
     assert!(filled > 0);
     assert_eq!(filled, reachable);
-    assert!(
-        dark_only
-            .iter()
-            .all(|&i| all[i][0] + all[i][1] + all[i][2] == 0.0),
-        "splatted, the dark records leave those pixels black"
+    // (The GPU matches the CPU's sums above; on the CPU they are the plain splat's bits.)
+    let changed = (0..vis.len())
+        .filter(|&i| emptied[i][3] > 0.0 && cpu[i] != all[i])
+        .count();
+    assert_eq!(
+        changed, 0,
+        "pixels a lit record reaches changed from the plain splat"
     );
 }
 

@@ -44,5 +44,5 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
     if params.count_coverage == COUNT_NEEDED {
         count_needed(s, begin, end);
     }
-    splat[pixel] = s.sum;
+    splat[pixel] = pixel_sums(s);
 }

@@ -78,15 +78,15 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_id) local
         count_needed(d, begin, end);
     }
     if a.writes {
-        splat[a.pixel] = a.sum;
+        splat[a.pixel] = pixel_sums(a);
     }
     if b.writes {
-        splat[b.pixel] = b.sum;
+        splat[b.pixel] = pixel_sums(b);
     }
     if c.writes {
-        splat[c.pixel] = c.sum;
+        splat[c.pixel] = pixel_sums(c);
     }
     if d.writes {
-        splat[d.pixel] = d.sum;
+        splat[d.pixel] = pixel_sums(d);
     }
 }

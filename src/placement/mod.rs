@@ -316,7 +316,7 @@ impl PlacementPass {
                             first,
                             accuracy: cover_accuracy,
                             plateau: 0.0,
-                            leave_out_dark: false,
+                            dark_only_empty: false,
                         };
                         splat_pass.cover(ctx, new_records, mask, times)?;
                         stats.new_records += n;

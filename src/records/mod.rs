@@ -75,9 +75,9 @@ impl Record {
         self.rotation_gradient[0][3]
     }
 
-    /// Whether its plane saw no light (E = 0 in every channel). A still frame's gather leaves
-    /// such records out (`SplatSource::leave_out_dark`); where only they reach a pixel,
-    /// tail fill gives it the lit records that reach it at the tail's accuracy.
+    /// Whether its plane saw no light (E = 0 in every channel). Where only such records
+    /// reach a pixel of a still frame, tail fill gives it the lit records that reach it at
+    /// the tail's accuracy (`SplatSource::dark_only_empty`).
     pub fn is_dark(&self) -> bool {
         self.irradiance() == Vec3::ZERO
     }

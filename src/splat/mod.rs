@@ -72,8 +72,8 @@ pub(crate) struct SplatParams {
     count_coverage: u32,
     /// [`SplatSource::plateau`].
     plateau: f32,
-    /// [`SplatSource::leave_out_dark`], 1 or 0.
-    leave_out_dark: u32,
+    /// [`SplatSource::dark_only_empty`], 1 or 0.
+    dark_only_empty: u32,
     _pad: u32,
 }
 
@@ -237,15 +237,14 @@ pub struct SplatSource<'a> {
     /// Below this error a record's weight stops growing (`splat_weight`): 0 but in a
     /// gather widened for noisy records (`records::noise_widening::weight_plateau`).
     pub plateau: f32,
-    /// Dark records (E exactly 0: a plane that saw no light, even refined) add nothing to
-    /// the sums: a still frame's gather of plane records. P^2 rays that all miss a bright
-    /// patch of small solid angle are no evidence that the record's surroundings are dark,
-    /// and splatting their zeros drew floors of exactly zero indirect light where the
-    /// reference has some (docs/results.md, "Dark records left out of the gather"). A pixel
-    /// that only dark records reach stays empty for tail fill, which gives it the lit
-    /// records that reach it at the tail's accuracy. Placement's cover still counts them:
-    /// it must not place records again where dark ones lie.
-    pub leave_out_dark: bool,
+    /// A pixel that only dark records reach (E exactly 0: planes that saw no light, even
+    /// refined) keeps empty sums, for tail fill to give it the lit records that reach it
+    /// at the tail's accuracy: a still frame's gather of plane records. P^2 rays that all
+    /// miss a bright patch of small solid angle are no evidence that the record's
+    /// surroundings are dark, and splatting their zeros alone drew floors of exactly zero
+    /// indirect light where the reference has some (docs/results.md, "Pixels only dark
+    /// records reach"). Where a lit record reaches too, dark records count as before.
+    pub dark_only_empty: bool,
 }
 
 pub struct SplatPass {
@@ -544,7 +543,7 @@ impl SplatPass {
             first,
             accuracy,
             plateau,
-            leave_out_dark,
+            dark_only_empty,
         } = src;
         let (width, height) = (vis.width, vis.height);
         let tiles_x = width.div_ceil(TILE_SIZE);
@@ -570,7 +569,7 @@ impl SplatPass {
                 accumulate: into as u32,
                 count_coverage,
                 plateau,
-                leave_out_dark: u32::from(leave_out_dark),
+                dark_only_empty: u32::from(dark_only_empty),
                 _pad: 0,
             },
         );

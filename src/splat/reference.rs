@@ -17,10 +17,28 @@ pub fn splat_records(
     splat_records_widened(records, first, vis, accuracy, 0.0, sums);
 }
 
-/// The records a gather that leaves dark records out (`SplatSource::leave_out_dark`, a
-/// still frame's plane records) splats, in order: those with some irradiance.
-pub fn lit_records(records: &[Record]) -> Vec<Record> {
-    records.iter().filter(|r| !r.is_dark()).copied().collect()
+/// `SplatSource::dark_only_empty` (a still frame's plane records) on the `sums` a splat of
+/// `records` at `accuracy` gave: a pixel that no lit record reaches, only dark ones
+/// ([`Record::is_dark`]), gets empty sums, as `pixel_sums` in `shared/splat_pixel.wgsl`.
+pub fn empty_where_only_dark(
+    records: &[Record],
+    vis: &[VisSample],
+    accuracy: f32,
+    sums: &mut [[f32; 4]],
+) {
+    for (v, sum) in vis.iter().zip(sums.iter_mut()) {
+        if !v.is_hit() || sum[3] == 0.0 {
+            continue;
+        }
+        let p = Vec3::from(v.position);
+        let n = Vec3::from(v.shading_normal);
+        let lit = records
+            .iter()
+            .any(|r| !r.is_dark() && r.error_at(p, n) <= accuracy && r.in_front_of(p, n, accuracy));
+        if !lit {
+            *sum = [0.0; 4];
+        }
+    }
 }
 
 /// [`splat_records`] with the weight's plateau of a widened gather ([`splat_weight`]).
@@ -75,17 +93,24 @@ pub fn keep_consistent(wide: &mut [[f32; 4]], narrow: &[[f32; 4]], tolerance: f3
 
 /// Per-pixel sums with tail fill (`splat_gather.wgsl` with `accumulate` 2): every record
 /// at `accuracy`, as [`splat_records`]; then, where no record reaches the pixel, the records
-/// that reach it at `tail_accuracy`, weighted at that accuracy.
+/// that reach it at `tail_accuracy`, weighted at that accuracy. With `dark_only_empty`
+/// (a still frame's plane records), both tiers leave the pixels only dark records reach
+/// empty ([`empty_where_only_dark`]).
 pub fn splat_records_with_tail(
     records: &[Record],
     vis: &[VisSample],
     accuracy: f32,
     tail_accuracy: f32,
+    dark_only_empty: bool,
 ) -> Vec<[f32; 4]> {
     let mut sums = vec![[0.0f32; 4]; vis.len()];
     splat_records(records, 0, vis, accuracy, &mut sums);
     let mut tail = vec![[0.0f32; 4]; vis.len()];
     splat_records(records, 0, vis, tail_accuracy, &mut tail);
+    if dark_only_empty {
+        empty_where_only_dark(records, vis, accuracy, &mut sums);
+        empty_where_only_dark(records, vis, tail_accuracy, &mut tail);
+    }
     for (sum, t) in sums.iter_mut().zip(tail) {
         if sum[3] == 0.0 {
             *sum = t;

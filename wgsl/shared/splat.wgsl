@@ -24,7 +24,7 @@ struct SplatParams {
     count_coverage: u32, // 1: count the pixels each record contributes to; 2: only those
                          // no record outliving the frame contributes to (splat_gather.wgsl)
     plateau: f32,        // below this error a record's weight stops growing (splat_weight)
-    leave_out_dark: u32, // 1: records with E = 0 add nothing (SplatSource::leave_out_dark)
+    dark_only_empty: u32, // 1: a pixel only records with E = 0 reach stays empty (SplatSource)
     _pad1: u32,
 }
 

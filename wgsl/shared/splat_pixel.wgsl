@@ -26,10 +26,11 @@ struct PixelSum {
     n: vec3f,
     sum: vec4f,
     survivor: bool,  // a record that outlives this frame contributes here
+    lit: bool,       // a record with some irradiance contributes here
 }
 
 fn pixel_start(x: u32, y: u32) -> PixelSum {
-    var s = PixelSum(y * params.width + x, false, false, vec3f(0.0), vec3f(0.0), vec4f(0.0), false);
+    var s = PixelSum(y * params.width + x, false, false, vec3f(0.0), vec3f(0.0), vec4f(0.0), false, false);
     if x >= params.width || y >= params.height {
         return s;
     }
@@ -58,12 +59,8 @@ fn pixel_error(s: PixelSum, r: Record) -> f32 {
 
 // Adds record k (r, fully loaded) with error err <= a to the pixel's sums.
 fn pixel_add(s: ptr<function, PixelSum>, k: u32, r: Record, err: f32) {
-    // A dark record (a plane that saw no light: E exactly 0) is no evidence of darkness
-    // where its gather leaves such records out: a pixel that only dark records reach stays
-    // empty for tail fill (SplatSource::leave_out_dark).
-    if params.leave_out_dark != 0u && all(r.irradiance == vec3f(0.0)) {
-        return;
-    }
+    // Whether a record with some light reaches the pixel (pixel_sums).
+    (*s).lit = (*s).lit || any(r.irradiance != vec3f(0.0));
     // w = 1 / err - 1 / a (Ward's weight less its value at the edge of the validity area,
     // Krivanek & Gautron 2009 section 2.2), capped where p is the record's own point: a
     // record fades out at its edge instead of dropping from 1 / a to 0, which drew its
@@ -89,3 +86,14 @@ fn count_needed(s: PixelSum, begin: u32, end: u32) {
     }
 }
 
+
+// The sums a gather writes for pixel s. Where only dark records (E exactly 0: planes that
+// saw no light) reached it and the gather says so (params.dark_only_empty), none: such
+// records are no evidence of darkness, and the pixel is left to tail fill instead of
+// reading exactly zero (SplatSource::dark_only_empty).
+fn pixel_sums(s: PixelSum) -> vec4f {
+    if params.dark_only_empty != 0u && !s.lit {
+        return vec4f(0.0);
+    }
+    return s.sum;
+}
