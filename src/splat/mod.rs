@@ -424,6 +424,17 @@ impl SplatPass {
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<SplatStats> {
         let (bounds, empty) = self.fill_tile_bounds(ctx, src.scene, src.vis, out, times)?;
+        // Every still frame runs the fill (pixels only dark records reach are left to it,
+        // `SplatSource::dark_only_empty`); most have no empty pixel, and then nothing is
+        // binned.
+        let pixels = ctx
+            .read_buffer::<u32>(&empty.count)?
+            .first()
+            .copied()
+            .unwrap_or(0);
+        if pixels == 0 {
+            return Ok(SplatStats::default());
+        }
         let src = SplatSource {
             bounds: &bounds,
             ..src
@@ -436,12 +447,7 @@ impl SplatPass {
             true,
             times,
         )?;
-        let pixels = ctx
-            .read_buffer::<u32>(&empty.count)?
-            .first()
-            .copied()
-            .unwrap_or(0);
-        if bins.total == 0 || pixels == 0 {
+        if bins.total == 0 {
             return Ok(bins.stats());
         }
         let mut timer = PassTimer::new(ctx, 1);
