@@ -436,6 +436,49 @@ impl SceneBvh {
     pub fn tlas_root(&self) -> u32 {
         self.blas_nodes.len() as u32
     }
+
+    /// Where a GPU ray's traversal starts (`scene_info.tlas_root` and
+    /// `scene_info.root_in_blas` in `wgsl/shared/bvh.wgsl`). A one-instance TLAS is a root
+    /// with one leaf: visiting it cost every ray a node's four texel loads and its box
+    /// test, and entering the instance the loads of its transform (lavapipe loops over the
+    /// lanes for each), for nothing. So with a single instance rays start at its TLAS leaf,
+    /// and where its transform is the identity in the BLAS itself, in world space;
+    /// otherwise at the TLAS root. The same bytes; on lavapipe the nave's plane rays take
+    /// about 8 % less time, Sponza's and the conference room's the same within noise, the
+    /// Cornell box's about 4 % more (docs/results.md, "A one-instance scene's rays start in
+    /// its BLAS").
+    pub fn traversal_start(&self) -> TraversalStart {
+        match self.instances.as_slice() {
+            [only] if only.object_from_world == IDENTITY_ROWS => TraversalStart {
+                entry: only.blas_root,
+                in_blas: true,
+            },
+            [_] => TraversalStart {
+                entry: wide::entry(&wide::Child::Leaf { first: 0, count: 1 }, 0),
+                in_blas: false,
+            },
+            _ => TraversalStart {
+                entry: self.tlas_root(),
+                in_blas: false,
+            },
+        }
+    }
+}
+
+/// The rows of a 3x4 identity matrix ([`GpuInstance::object_from_world`]).
+const IDENTITY_ROWS: [[f32; 4]; 3] = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+];
+
+/// Where traversal starts ([`SceneBvh::traversal_start`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TraversalStart {
+    /// The first traversal entry: a node index or a leaf (`wide::entry`).
+    pub entry: u32,
+    /// The entry is in instance 0's BLAS, whose object space is world space.
+    pub in_blas: bool,
 }
 
 /// World-space bounds of every instance.
@@ -530,6 +573,43 @@ mod tests {
         // And back: nothing of the moved state is left over.
         bvh.update_instances(&scene);
         assert_same(&bvh, &SceneBvh::build(&scene));
+    }
+
+    /// A one-instance scene's rays start at the TLAS root's only entry, its leaf (so they
+    /// enter the instance's BLAS at once); with several instances at the TLAS root.
+    #[test]
+    fn traversal_starts_in_the_blas_of_a_single_instance() {
+        let mut scene = bundled("nave.toml");
+        let one = SceneBvh::build(&scene);
+        assert_eq!(one.instances.len(), 1);
+        // An identity transform: the BLAS root, in world space.
+        assert_eq!(
+            one.traversal_start(),
+            TraversalStart {
+                entry: one.instances[0].blas_root,
+                in_blas: true
+            }
+        );
+        // Moved: the TLAS root's only entry, its leaf.
+        scene.instances[0].transform = Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0));
+        let moved = SceneBvh::build(&scene);
+        let root = moved.tlas_nodes[0];
+        let entries: Vec<u32> = (12..16)
+            .map(|w| root.words[w])
+            .filter(|&e| e != wide::EMPTY)
+            .collect();
+        let start = moved.traversal_start();
+        assert_eq!(entries, vec![start.entry]);
+        assert!(!start.in_blas && start.entry & wide::LEAF_BIT != 0);
+        let two = SceneBvh::build(&bundled("cube-in-box.toml"));
+        assert!(two.instances.len() > 1);
+        assert_eq!(
+            two.traversal_start(),
+            TraversalStart {
+                entry: two.tlas_root(),
+                in_blas: false
+            }
+        );
     }
 
     #[test]

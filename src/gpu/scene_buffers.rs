@@ -160,7 +160,9 @@ pub struct GpuSceneInfo {
     pub light_count: u32,
     pub light_samples: u32,
     pub instance_count: u32,
-    /// Index of the TLAS root in the node array (see [`SceneBvh::gpu_nodes`]).
+    /// The traversal entry rays start from ([`SceneBvh::traversal_start`]): the TLAS root's
+    /// index in the node array ([`SceneBvh::gpu_nodes`]), a single instance's leaf, or its
+    /// BLAS root ([`GpuSceneInfo::root_in_blas`]).
     pub tlas_root: u32,
     /// Where the environment map starts in the texel table ([`NO_ENVIRONMENT_MAP`]: none):
     /// `3 width height` RGB floats (as bits), then its row CDF (`height + 1`) and its
@@ -170,6 +172,9 @@ pub struct GpuSceneInfo {
     pub env_height: u32,
     /// cos and sin of the map's rotation about +y.
     pub env_rotation: [f32; 2],
+    /// 1: `tlas_root` is in instance 0's BLAS, whose object space is world space.
+    pub root_in_blas: u32,
+    pub _pad: [u32; 3],
 }
 
 /// [`GpuSceneInfo::env_map`] of a scene without an environment map.
@@ -420,7 +425,9 @@ impl GpuScene {
             light_count: lights.len() as u32,
             light_samples: light_samples.max(1),
             instance_count: scene.instances.len() as u32,
-            tlas_root: bvh.tlas_root(),
+            tlas_root: bvh.traversal_start().entry,
+            root_in_blas: u32::from(bvh.traversal_start().in_blas),
+            _pad: [0; 3],
             env_map: environment_map_offset(scene),
             env_width: scene.environment_map.as_ref().map_or(0, |m| m.width),
             env_height: scene.environment_map.as_ref().map_or(0, |m| m.height),

@@ -111,7 +111,9 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
     }
     var sp = 0u;
     var tlas_sp = 0u;
-    var in_blas = false;
+    // A single instance placed as modelled is traversed from its BLAS root in world space
+    // (bvh::SceneBvh::traversal_start): its transform would change no bit of the ray.
+    var in_blas = scene_info.root_in_blas != 0u;
     var instance = 0u;
     var origin = ray.origin;
     var dir = ray.dir;

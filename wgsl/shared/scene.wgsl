@@ -69,10 +69,14 @@ struct SceneInfo {
     light_count: u32,
     light_samples: u32,
     instance_count: u32,
-    tlas_root: u32,   // index of the TLAS root node in `bvh_nodes` (after every BLAS)
+    tlas_root: u32,   // the entry traversal starts from: the TLAS root node in `bvh_nodes`
+                      // (after every BLAS), a single instance's TLAS leaf, or the BLAS
+                      // root of a single instance placed as modelled (root_in_blas;
+                      // bvh::SceneBvh::traversal_start)
     env_map: u32,     // start of the environment map in `texels` (shared/environment.wgsl)
     env_size: vec2u,  // its width and height
     env_rotation: vec2f, // cos and sin of its rotation about +y
+    root_in_blas: u32,   // 1: `tlas_root` is in instance 0's BLAS, in world space
 }
 
 // BVH nodes: every BLAS (one per mesh), then the TLAS, so traversal loads never branch on
