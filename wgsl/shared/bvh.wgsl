@@ -112,7 +112,8 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
     var sp = 0u;
     var tlas_sp = 0u;
     // A single instance placed as modelled is traversed from its BLAS root in world space
-    // (bvh::SceneBvh::traversal_start): its transform would change no bit of the ray.
+    // (bvh::SceneBvh::traversal_start): its identity transform would change at most the
+    // sign of a zero coordinate, which no box or triangle test tells apart.
     var in_blas = scene_info.root_in_blas != 0u;
     var instance = 0u;
     var origin = ray.origin;
