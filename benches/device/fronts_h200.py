@@ -108,8 +108,19 @@ def main():
         who = r.get("radsplat") or f"rpict {r['rpict']}"
         print(f"  rpict timed {r['rpict_timing']:6s} at {who:22s} {100 * r['error']:6.2f} %: "
               f"{r['wall_ratio']:6.2f}x wall, {r['cpu_ratio']:6.2f}x CPU")
+    # The defaults pair (issue 17 item 6): faster and no less accurate.
+    pair = None
+    rd = next((p for p in rad if p["label"] == "defaults"), None)
+    qd = next((p for p in rp if p["label"] == "defaults"), None)
+    if rd and qd:
+        wall = qd["wall_s"] if qd["wall_s"] is not None else qd["local_wall_s"]
+        pair = {"speed": wall / rd["wall_s"], "error_ratio": rd["error"] / qd["error"]}
+        ok = pair["speed"] > 1 and pair["error_ratio"] <= 1
+        print(f"defaults pair: radsplat {rd['wall_s']:.2f} s at {100 * rd['error']:.2f} %, rpict "
+              f"{wall:.2f} s at {100 * qd['error']:.2f} %: {pair['speed']:.2f}x faster, error "
+              f"ratio {pair['error_ratio']:.3f} -> {'PASS' if ok else 'FAIL'}")
     Path(out_json).write_text(json.dumps({"noise": noise, "radsplat": rad, "rpict": rp,
-                                          "ratios": rows}, indent=1))
+                                          "ratios": rows, "defaults_pair": pair}, indent=1))
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
