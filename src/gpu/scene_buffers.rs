@@ -420,13 +420,14 @@ impl GpuScene {
                 ]
             }
         };
+        let start = bvh.traversal_start();
         let info = GpuSceneInfo {
             environment: scene.environment.into(),
             light_count: lights.len() as u32,
             light_samples: light_samples.max(1),
             instance_count: scene.instances.len() as u32,
-            tlas_root: bvh.traversal_start().entry,
-            root_in_blas: u32::from(bvh.traversal_start().in_blas),
+            tlas_root: start.entry,
+            root_in_blas: u32::from(start.in_blas),
             _pad: [0; 3],
             env_map: environment_map_offset(scene),
             env_width: scene.environment_map.as_ref().map_or(0, |m| m.width),

@@ -92,6 +92,12 @@ impl Record {
         (p - self.position()).dot(n + self.normal()) * 0.5 >= -1.0e-2 * accuracy * self.radius
     }
 
+    /// Whether the record contributes at (p, n) at `accuracy`: Ward's error within it and
+    /// not behind (WGSL `reach_error` below `NOT_REACHED`).
+    pub fn reaches(&self, p: Vec3, n: Vec3, accuracy: f32) -> bool {
+        self.error_at(p, n) <= accuracy && self.in_front_of(p, n, accuracy)
+    }
+
     /// E_k extrapolated to (p, n) with the gradients, clamped at 0 (WGSL
     /// `record_irradiance_at`).
     pub fn irradiance_at(&self, p: Vec3, n: Vec3) -> Vec3 {

@@ -309,10 +309,10 @@ pub fn place(
             continue;
         };
         out.walked += 1;
-        let covered = grid.at(p).iter().any(|&k| {
-            let r = &records[k as usize];
-            r.error_at(p, n) <= a && r.in_front_of(p, n, a)
-        });
+        let covered = grid
+            .at(p)
+            .iter()
+            .any(|&k| records[k as usize].reaches(p, n, a));
         if covered {
             continue;
         }

@@ -144,8 +144,7 @@ pub fn reference_cover(records: &[Record], vis: &[VisSample], accuracy: f32) -> 
         .map(|v| {
             let p = Vec3::from(v.position);
             let n = Vec3::from(v.shading_normal);
-            let covers = |r: &Record| r.error_at(p, n) <= accuracy && r.in_front_of(p, n, accuracy);
-            u32::from(v.is_hit() && records.iter().any(covers))
+            u32::from(v.is_hit() && records.iter().any(|r| r.reaches(p, n, accuracy)))
         })
         .collect()
 }

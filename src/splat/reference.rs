@@ -34,7 +34,7 @@ pub fn empty_where_only_dark(
         let n = Vec3::from(v.shading_normal);
         let lit = records
             .iter()
-            .any(|r| !r.is_dark() && r.error_at(p, n) <= accuracy && r.in_front_of(p, n, accuracy));
+            .any(|r| !r.is_dark() && r.reaches(p, n, accuracy));
         if !lit {
             *sum = [0.0; 4];
         }
@@ -134,9 +134,12 @@ pub fn record_coverage(
         let p = Vec3::from(v.position);
         let n = Vec3::from(v.shading_normal);
         contributors.clear();
-        contributors.extend(records.iter().enumerate().filter_map(|(k, r)| {
-            (r.error_at(p, n) <= accuracy && r.in_front_of(p, n, accuracy)).then_some(k)
-        }));
+        contributors.extend(
+            records
+                .iter()
+                .enumerate()
+                .filter_map(|(k, r)| r.reaches(p, n, accuracy).then_some(k)),
+        );
         let counted = match expiring {
             Some(flags) => contributors
                 .iter()
