@@ -7,7 +7,7 @@ use crate::direct::{DirectLightPass, DirectOutput};
 use crate::glossy::GlossyIndirectPass;
 use crate::gpu::scene_buffers::GpuLight;
 use crate::gpu::timer::PassTimer;
-use crate::gpu::{GpuContext, GpuScene, LightKinds};
+use crate::gpu::{GpuContext, GpuScene, SceneFeatures};
 use crate::light_maps::{LightMapPass, LightMapSettings, LightMaps, MappedLights};
 use crate::placement::{PlacementPass, PlacementStats};
 use crate::records::kind::RadianceSettings;
@@ -357,7 +357,7 @@ impl RadianceCache {
         Ok(Some(Self {
             records: RecordCache::with_kind(ctx, kind)?,
             // Its plane pipelines compiled for the scene's kinds of light alone.
-            pass: RecordPass::for_lights(ctx, &record_settings, kind, scene.light_kinds)?,
+            pass: RecordPass::for_scene(ctx, &record_settings, kind, scene.features)?,
             splat: RadianceSplatPass::new(ctx, tables)?,
         }))
     }
@@ -694,18 +694,18 @@ impl Renderer {
         cache: Option<&CacheSettings>,
         threads: usize,
     ) -> Result<Option<IrradianceCache>> {
-        self.build_passes_for(cache, threads, &|| LightKinds::ALL)
+        self.build_passes_for(cache, threads, &|| SceneFeatures::ALL)
     }
 
     /// [`Self::build_passes_on`] with the record pass's plane pipelines compiled for the
-    /// light kinds `lights` returns ([`RecordPass::for_lights`]), which the thread building
-    /// the record pass asks for (once) when it starts: `radsplat render` hands over the
-    /// scene's kinds as soon as the scene has loaded, while the other passes build.
+    /// scene features `features` returns ([`RecordPass::for_scene`]), which the thread
+    /// building the record pass asks for (once) when it starts: `radsplat render` hands over
+    /// the scene's features as soon as the scene has loaded, while the other passes build.
     pub fn build_passes_for(
         &self,
         cache: Option<&CacheSettings>,
         threads: usize,
-        lights: &(dyn Fn() -> LightKinds + Sync),
+        features: &(dyn Fn() -> SceneFeatures + Sync),
     ) -> Result<Option<IrradianceCache>> {
         let cores = threads.max(1);
         type Build<'a> = Box<dyn Fn() -> Result<()> + Sync + 'a>;
@@ -730,7 +730,7 @@ impl Renderer {
             builds.insert(
                 0,
                 Box::new(move || {
-                    let cache = self.new_cache_for(settings, lights())?;
+                    let cache = self.new_cache_for(settings, features())?;
                     if tail {
                         cache.pass.tail_pass(&self.ctx)?;
                     }
@@ -766,26 +766,25 @@ impl Renderer {
     /// An empty irradiance cache with `settings` as a still frame uses them
     /// ([`CacheSettings::resolved`]).
     pub fn new_cache(&self, settings: &CacheSettings) -> Result<IrradianceCache> {
-        self.new_cache_for(settings, LightKinds::ALL)
+        self.new_cache_for(settings, SceneFeatures::ALL)
     }
 
-    /// [`Self::new_cache`] with its plane pipelines compiled for the light kinds `lights`
-    /// alone ([`RecordPass::for_lights`]; `LightKinds::of` a scene): less code for the
-    /// shader compiler and the plane rays (Sponza 400x400, a sun alone: plane pass 19 % and
-    /// refinement 23 % faster, the same bytes). A scene with another kind is refused by its
-    /// frames.
+    /// [`Self::new_cache`] with its plane pipelines compiled for the scene features
+    /// `features` alone ([`RecordPass::for_scene`]; `SceneFeatures::of` a scene): less code
+    /// for the shader compiler and the plane rays (the same bytes; figures in
+    /// `gpu::scene_features`). A scene with another feature is refused by its frames.
     pub fn new_cache_for(
         &self,
         settings: &CacheSettings,
-        lights: LightKinds,
+        features: SceneFeatures,
     ) -> Result<IrradianceCache> {
         Ok(IrradianceCache {
             records: RecordCache::new(&self.ctx)?,
-            pass: RecordPass::for_lights(
+            pass: RecordPass::for_scene(
                 &self.ctx,
                 &settings.resolved(false),
                 crate::records::RecordKind::Irradiance,
-                lights,
+                features,
             )?,
             radiance: None,
         })

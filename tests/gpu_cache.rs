@@ -669,20 +669,21 @@ fn neighbour_clamping_bounds_new_records_by_earlier_ones() {
     );
 }
 
-/// Record passes compiled for a scene's kinds of light alone (`RecordPass::for_lights`, what
-/// `radsplat render` builds: the other kinds' shading left out of the plane pipelines) give
-/// the bytes of the pass compiled for every kind, on a scene with a rect light, one with a
-/// sun and one with an environment map; and a pass compiled without a kind the scene has
-/// refuses it instead of leaving that light out.
+/// Record passes compiled for a scene's features alone (`RecordPass::for_scene`, what
+/// `radsplat render` builds: the other kinds' shading, and for a scene of one instance the
+/// instance transforms, left out of the plane pipelines) give the bytes of the pass compiled
+/// for everything, on a scene with a rect light, one with a sun (both one instance) and one
+/// with an environment map (three instances); and a pass compiled without a feature the
+/// scene has refuses it instead of leaving that light out or its instances unentered.
 #[test]
-fn record_passes_for_the_scenes_light_kinds_give_the_same_bytes() {
-    use radsplat::gpu::LightKinds;
+fn record_passes_for_the_scenes_features_give_the_same_bytes() {
+    use radsplat::gpu::SceneFeatures;
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let mut kinds_seen = Vec::new();
     for name in ["cornell-box.toml", "nave.toml", "env-sphere.toml"] {
         let scene = common::load(name, Some((24, 24)));
-        let kinds = LightKinds::of(&scene);
-        assert_ne!(kinds, LightKinds::ALL);
+        let kinds = SceneFeatures::of(&scene);
+        assert_ne!(kinds, SceneFeatures::ALL);
         kinds_seen.push(kinds);
         let mut generic = renderer.new_cache(&settings()).expect("cache");
         let mut special = renderer
@@ -715,4 +716,22 @@ fn record_passes_for_the_scenes_light_kinds_give_the_same_bytes() {
             Err(e) => e.to_string(),
         };
     assert!(err.contains("light kinds"), "{err}");
+    // The nave as two instances (the second moved out of the first's way) through the pass
+    // compiled for the nave's one: the same light, but its rays would never leave the
+    // first instance's BLAS.
+    let mut two = common::load("nave.toml", Some((24, 24)));
+    let mut second = two.instances[0].clone();
+    second.transform = glam::Mat4::from_translation(glam::Vec3::new(0.0, -100.0, 0.0));
+    two.instances.push(second);
+    let nave_features = kinds_seen[1];
+    assert!(!nave_features.contains(SceneFeatures::of(&two)));
+    let mut one_blas = renderer
+        .new_cache_for(&settings(), nave_features)
+        .expect("cache");
+    let prepared = renderer.prepare(&two).expect("prepare");
+    let err = match renderer.render_gi_frame(&prepared, &two.camera, &mut one_blas, None, |_| {}) {
+        Ok(_) => panic!("a scene of two instances through a one-BLAS pass was rendered"),
+        Err(e) => e.to_string(),
+    };
+    assert!(err.contains("instances"), "{err}");
 }

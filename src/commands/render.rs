@@ -2,7 +2,7 @@
 //! cache, written as EXR/PNG with a record map and stats.
 
 use super::{encode_png, load_scene_with, progress};
-use crate::gpu::{GpuContext, LightKinds};
+use crate::gpu::{GpuContext, SceneFeatures};
 use crate::output::{ImageFormat, OutputSet};
 use crate::records::CacheSettings;
 use crate::{Error, Renderer, Result};
@@ -60,25 +60,25 @@ pub fn render(args: RenderArgs) -> Result<()> {
     // The device starts on its own thread while the scene loads and its BVH is built
     // (neither needs the device): on an H200 machine the start took 170 ms and loading
     // Sponza 230 ms, one after the other. A scene error is reported before a device one.
-    // The scene's kinds of light go to the thread building the record pass as soon as the
-    // scene has loaded: its plane pipelines are compiled for those alone (the other passes
-    // build meanwhile). A scene that fails to load sends none; the pass is then built for
-    // every kind, and the scene's error is the one reported.
-    let (kinds_tx, kinds_rx) = std::sync::mpsc::channel::<LightKinds>();
+    // The scene's features (kinds of light, instances) go to the thread building the record
+    // pass as soon as the scene has loaded: its plane pipelines are compiled for those alone
+    // (the other passes build meanwhile). A scene that fails to load sends none; the pass is
+    // then built for every feature, and the scene's error is the one reported.
+    let (kinds_tx, kinds_rx) = std::sync::mpsc::channel::<SceneFeatures>();
     let kinds_rx = std::sync::Mutex::new(kinds_rx);
     let (loaded, started) = std::thread::scope(|s| {
         // The passes this frame runs are built there too, each on its own thread.
         let starting = s.spawn(|| {
             let renderer = Renderer::new(GpuContext::new()?)?;
             let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-            let lights = || {
+            let features = || {
                 kinds_rx
                     .lock()
                     .ok()
                     .and_then(|rx| rx.recv().ok())
-                    .unwrap_or(LightKinds::ALL)
+                    .unwrap_or(SceneFeatures::ALL)
             };
-            let gi_cache = renderer.build_passes_for(cache.as_ref(), cores, &lights)?;
+            let gi_cache = renderer.build_passes_for(cache.as_ref(), cores, &features)?;
             Ok::<_, Error>((renderer, gi_cache))
         });
         let loaded = (|| {
@@ -86,7 +86,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
             let scene = match scene {
                 Ok(scene) => {
                     // The receiver may be gone (a device error): nothing waits then.
-                    let _ = kinds_tx.send(LightKinds::of(&scene));
+                    let _ = kinds_tx.send(SceneFeatures::of(&scene));
                     scene
                 }
                 Err(e) => {

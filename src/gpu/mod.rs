@@ -3,14 +3,14 @@
 
 mod buffers;
 pub mod context;
-pub mod light_kinds;
 pub mod pipeline;
 pub mod prefix_sum;
 pub mod scene_buffers;
+pub mod scene_features;
 pub mod shader;
 pub mod timer;
 
 pub use context::{GpuContext, OPTIONAL_FEATURES, required_limits};
-pub use light_kinds::LightKinds;
 pub use pipeline::ComputePass;
 pub use scene_buffers::GpuScene;
+pub use scene_features::SceneFeatures;

@@ -279,8 +279,9 @@ pub struct GpuScene {
     pub diagonal: f32,
     /// The scene's world bounds (min, max corners).
     pub bounds: ([f32; 3], [f32; 3]),
-    /// The kinds of light the scene has (pipelines compiled for fewer refuse it).
-    pub light_kinds: super::LightKinds,
+    /// The scene's kinds of light and whether its rays enter instances (pipelines
+    /// compiled for fewer features refuse it).
+    pub features: super::SceneFeatures,
     /// Whether any material has a glossy lobe (passes for glossy pixels run only then).
     pub has_glossy: bool,
     /// Each material's glossy lobe (index: material), for the tables radiance records
@@ -479,7 +480,7 @@ impl GpuScene {
                 let (lo, hi) = bvh.world_bounds();
                 (lo.to_array(), hi.to_array())
             },
-            light_kinds: super::LightKinds::of(scene),
+            features: super::SceneFeatures::of(scene).with_traversal(start.in_blas),
             has_glossy: scene.materials.iter().any(|m| m.glossy.is_some()),
             glossy_lobes: scene.materials.iter().map(|m| m.glossy).collect(),
             bounce_cache: std::sync::Mutex::new(Self::empty_bounce_cache(ctx)?),

@@ -22,7 +22,7 @@ pub mod vpl_update;
 
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
-use crate::gpu::{GpuContext, LightKinds};
+use crate::gpu::{GpuContext, SceneFeatures};
 use crate::light_maps::{LightMapSettings, LightMaps};
 use crate::visibility::VisibilityBuffer;
 use crate::{Error, Result};
@@ -1122,8 +1122,8 @@ pub struct RecordPass {
     no_noise: wgpu::Buffer,
     /// The kind of records computed; radiance records also project their planes.
     pub kind: RecordKind,
-    /// The light kinds its plane hits are shaded for ([`Self::for_lights`]).
-    lights: LightKinds,
+    /// The scene features its plane pipelines are compiled for ([`Self::for_scene`]).
+    features: SceneFeatures,
     projection: Option<radiance_projection::RadianceProjectionPass>,
     /// The gather of VPL records ([`RecordSource::Vpl`]).
     vpl: Option<vpl_gather::VplGatherPass>,
@@ -1142,18 +1142,19 @@ impl RecordPass {
 
     /// A pass computing `kind` records: radiance records are irradiance records whose
     /// planes are also projected onto HSH (`radiance_project.wgsl`). Its plane hits are
-    /// shaded for every kind of light ([`Self::for_lights`] compiles fewer).
+    /// shaded for every kind of light ([`Self::for_scene`] compiles fewer).
     pub fn with_kind(ctx: &GpuContext, settings: &CacheSettings, kind: RecordKind) -> Result<Self> {
-        Self::for_lights(ctx, settings, kind, LightKinds::ALL)
+        Self::for_scene(ctx, settings, kind, SceneFeatures::ALL)
     }
 
-    /// [`Self::with_kind`] with the plane and refinement pipelines compiled for the light
-    /// kinds `lights` alone: a scene with others is refused by [`Self::check_lights`].
-    pub fn for_lights(
+    /// [`Self::with_kind`] with the plane and refinement pipelines compiled for the scene
+    /// features `features` alone (its kinds of light; instances or one BLAS): a scene with
+    /// others is refused by [`Self::check_features`].
+    pub fn for_scene(
         ctx: &GpuContext,
         settings: &CacheSettings,
         kind: RecordKind,
-        lights: LightKinds,
+        features: SceneFeatures,
     ) -> Result<Self> {
         settings.validate()?;
         // Photon records leave holes that plane records fill.
@@ -1185,13 +1186,13 @@ impl RecordPass {
         let (refine, built) = std::thread::scope(|s| {
             let refine = s.spawn(|| {
                 if planes {
-                    refine::RefinePass::new(ctx, settings, lights)
+                    refine::RefinePass::new(ctx, settings, features)
                 } else {
                     Ok(None)
                 }
             });
             let built =
-                Self::without_refinement(ctx, settings, kind, planes, projection, batch, lights);
+                Self::without_refinement(ctx, settings, kind, planes, projection, batch, features);
             let refine = refine
                 .join()
                 .unwrap_or_else(|_| Err(Error::Gpu("building the refinement panicked".into())));
@@ -1210,7 +1211,7 @@ impl RecordPass {
         planes: bool,
         projection: Option<radiance_projection::RadianceProjectionPass>,
         batch: u32,
-        lights: LightKinds,
+        features: SceneFeatures,
     ) -> Result<Self> {
         use Binding::*;
         Ok(Self {
@@ -1234,7 +1235,7 @@ impl RecordPass {
                     StorageRead,
                     StorageReadWrite,
                 ],
-                &[lights.constant()],
+                &[features.constant()],
             )?,
             // The Hessian's mesh sum only in the pipeline that uses it (lavapipe ran the
             // split-sphere reduction slower with the unused branch compiled in).
@@ -1267,7 +1268,7 @@ impl RecordPass {
             no_light_maps: LightMaps::none(ctx)?,
             no_noise: ctx.storage_buffer_sized("no plane noise", 16)?,
             kind,
-            lights,
+            features,
             projection,
             vpl: if planes {
                 None
@@ -1332,22 +1333,23 @@ impl RecordPass {
             plane_resolution: tail_resolution,
             ..self.settings.clone()
         };
-        let pass = Self::for_lights(ctx, &tail_settings, self.kind, self.lights)?;
+        let pass = Self::for_scene(ctx, &tail_settings, self.kind, self.features)?;
         Ok(self.tail.get_or_init(|| Box::new(pass)))
     }
 
-    /// Refuses a scene with a kind of light this pass's plane pipelines were not compiled
-    /// for ([`Self::for_lights`]): its hits would be shaded without that light.
-    pub fn check_lights(&self, scene: &GpuScene) -> Result<()> {
-        if self.lights.contains(scene.light_kinds) {
+    /// Refuses a scene with a feature this pass's plane pipelines were not compiled for
+    /// ([`Self::for_scene`]): its hits would be shaded without that light, or its rays
+    /// would not enter its instances.
+    pub fn check_features(&self, scene: &GpuScene) -> Result<()> {
+        if self.features.contains(scene.features) {
             Ok(())
         } else {
             Err(Error::Usage(format!(
-                "this record pass was compiled for the light kinds {:#x} and the scene has \
-                 {:#x}: build it for the scene's (`RecordPass::for_lights`, \
-                 `LightKinds::of`)",
-                self.lights.bits(),
-                scene.light_kinds.bits()
+                "this record pass was compiled for the scene features (light kinds, \
+                 instances) {:#x} and the scene has {:#x}: build it for the scene's \
+                 (`RecordPass::for_scene`, `SceneFeatures::of`)",
+                self.features.bits(),
+                scene.features.bits()
             )))
         }
     }
@@ -1420,7 +1422,7 @@ impl RecordPass {
         mut stage: Option<&mut (dyn RecordStage + '_)>,
         mut on_batch: impl FnMut(u32),
     ) -> Result<Vec<(&'static str, f64)>> {
-        self.check_lights(scene)?;
+        self.check_features(scene)?;
         let light_maps = light_maps.unwrap_or(&self.no_light_maps);
         if self.vpl.is_some() && stage.is_some() {
             return Err(Error::Usage(
@@ -1916,7 +1918,7 @@ impl RecordPass {
         noise: Option<&wgpu::Buffer>,
         then: impl FnOnce(&mut wgpu::CommandEncoder, &PlaneBatch<'_>) -> Result<T>,
     ) -> Result<(Vec<PlaneSample>, T)> {
-        self.check_lights(scene)?;
+        self.check_features(scene)?;
         let res = self.settings.plane_resolution;
         let n = sites.len() as u32;
         if n > self.batch {

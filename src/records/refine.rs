@@ -32,7 +32,7 @@ use super::{CacheSettings, HemispherePlane, PlaneSample, PlaneTable, RecordSite}
 use crate::Result;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
-use crate::gpu::{GpuContext, LightKinds};
+use crate::gpu::{GpuContext, SceneFeatures};
 use bytemuck::{Pod, Zeroable};
 
 /// The channel sum the contrast compares (not luminance: `(r + g) + b` has no product for
@@ -222,11 +222,11 @@ pub struct RefinePass {
 
 impl RefinePass {
     /// The passes and the sub-sample table for `settings`, its rays' hits shaded for the
-    /// light kinds `lights`; `None` when refinement is off.
+    /// scene features `features` (`RecordPass::for_scene`); `None` when refinement is off.
     pub fn new(
         ctx: &GpuContext,
         settings: &CacheSettings,
-        lights: LightKinds,
+        features: SceneFeatures,
     ) -> Result<Option<Self>> {
         use Binding::*;
         let refined = settings.refined_pixels();
@@ -264,7 +264,7 @@ impl RefinePass {
                     StorageRead,
                     StorageRead,
                 ],
-                &[lights.constant()],
+                &[features.constant()],
             )?,
             subs: ctx.storage_buffer("refine samples", &plane.refine_samples(split))?,
             dark_planes: ctx.storage_buffer("dark planes", &[0u32])?,

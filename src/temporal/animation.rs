@@ -147,15 +147,15 @@ pub fn render_animation(
             s.try_set_frame(t as f32)?;
             renderer.prepare_frame(s, &mut bvh, previous)
         };
-    // Record passes' plane pipelines compiled for this scene's kinds of light alone (the
-    // same bytes, less code to run per plane ray); the kinds hold over every frame.
-    let lights = crate::gpu::LightKinds::of(scene);
+    // Record passes' plane pipelines compiled for this scene's features alone (the same
+    // bytes, less code to run per plane ray); `SceneFeatures::of` holds over every frame.
+    let features = crate::gpu::SceneFeatures::of(scene);
     let mut temporal = match &options.temporal {
-        Some(settings) => Some(TemporalCache::for_lights(
+        Some(settings) => Some(TemporalCache::for_scene(
             &renderer.ctx,
             &options.cache,
             settings,
-            lights,
+            features,
         )?),
         None => None,
     };
@@ -228,7 +228,7 @@ pub fn render_animation(
                         }
                         cache
                     }
-                    None => per_frame.insert(renderer.new_cache_for(&options.cache, lights)?),
+                    None => per_frame.insert(renderer.new_cache_for(&options.cache, features)?),
                 };
                 let frame = renderer.render_gi_frame(
                     &prepared,

@@ -30,7 +30,7 @@ pub use reprojection::{NextFrame, ReprojectionPass};
 use crate::frame::{
     CachedFrameOptions, Frame, PreparedScene, RadianceCache, RadianceFrame, Renderer,
 };
-use crate::gpu::{GpuContext, LightKinds};
+use crate::gpu::{GpuContext, SceneFeatures};
 use crate::records::{
     CacheSettings, Record, RecordCache, RecordKind, RecordPass, RecordSite, RecordStage,
 };
@@ -550,7 +550,7 @@ impl RadianceTemporal {
                 &record_settings,
                 &settings,
                 tables.settings.kind(),
-                scene.light_kinds,
+                scene.features,
             )?,
             splat: RadianceSplatPass::new(ctx, tables)?,
         }))
@@ -659,18 +659,18 @@ impl TemporalCache {
         cache: &CacheSettings,
         settings: &TemporalSettings,
     ) -> Result<Self> {
-        Self::for_lights(ctx, cache, settings, LightKinds::ALL)
+        Self::for_scene(ctx, cache, settings, SceneFeatures::ALL)
     }
 
-    /// [`Self::new`] with its record pass's plane pipelines compiled for the light kinds
-    /// `lights` alone (`RecordPass::for_lights`; `LightKinds::of` the scene).
-    pub fn for_lights(
+    /// [`Self::new`] with its record pass's plane pipelines compiled for the scene
+    /// features `features` alone (`RecordPass::for_scene`; `SceneFeatures::of` the scene).
+    pub fn for_scene(
         ctx: &GpuContext,
         cache: &CacheSettings,
         settings: &TemporalSettings,
-        lights: LightKinds,
+        features: SceneFeatures,
     ) -> Result<Self> {
-        Self::with_kind(ctx, cache, settings, RecordKind::Irradiance, lights)
+        Self::with_kind(ctx, cache, settings, RecordKind::Irradiance, features)
     }
 
     /// A temporal cache of `kind` records (radiance records: one beside the irradiance
@@ -680,7 +680,7 @@ impl TemporalCache {
         cache: &CacheSettings,
         settings: &TemporalSettings,
         kind: RecordKind,
-        lights: LightKinds,
+        features: SceneFeatures,
     ) -> Result<Self> {
         settings.validate()?;
         let user_settings = cache.clone();
@@ -693,7 +693,7 @@ impl TemporalCache {
             // with that plane, `Lookahead::reduced`). Radiance records' never are: on
             // glossy Spheres refining them too lowered the error 1.11 -> 1.07 % at the time
             // per-frame recomputation takes for 0.87 % (docs/results.md, stop 43).
-            pass: RecordPass::for_lights(
+            pass: RecordPass::for_scene(
                 ctx,
                 &CacheSettings {
                     plane_refine: match kind {
@@ -710,7 +710,7 @@ impl TemporalCache {
                     ..cache.clone()
                 },
                 kind,
-                lights,
+                features,
             )?,
             reprojection: ReprojectionPass::new(
                 ctx,

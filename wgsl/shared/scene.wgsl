@@ -79,6 +79,12 @@ struct SceneInfo {
     root_in_blas: u32,   // 1: `tlas_root` is in instance 0's BLAS, in world space
 }
 
+// What a pipeline is compiled for (`gpu::SceneFeatures`): the kinds of light it shades (bits
+// 0-4, shared/shading.wgsl) and FEATURE_INSTANCES (shared/bvh.wgsl). Lavapipe runs both
+// sides of every branch, lanes masked off, so a pipeline built for one scene leaves out the
+// code that scene never takes. Everything unless the pass sets it (the plane passes do).
+override SCENE_FEATURES: u32 = 0xffffffffu;
+
 // BVH nodes: every BLAS (one per mesh), then the TLAS, so traversal loads never branch on
 // the level. 4-wide nodes of four texels each (layout: `GpuNode` in
 // src/bvh/gpu_layout.rs), read with `bvh_texel`. A texture, not a storage buffer: lavapipe

@@ -4,22 +4,21 @@
 //!include shared/sampling.wgsl
 //!include shared/environment.wgsl
 
-// The kinds of light a pipeline shades, bit `1 << kind` per kind (LIGHT_POINT .. LIGHT_SUN)
-// and ENVIRONMENT_KIND_BIT: a pipeline built for one scene (`gpu::LightKinds`, the plane
-// passes) leaves out the code of the kinds the scene has not, which lavapipe then neither
-// compiles nor carries (Sponza 400x400, a sun alone: plane pass 19 % and refinement 23 %
-// faster, the same bytes). Every kind unless the pass sets it.
-override SHADED_LIGHT_KINDS: u32 = 0xffffffffu;
+// The kinds of light a pipeline shades: bits `1 << kind` (LIGHT_POINT .. LIGHT_SUN) and
+// ENVIRONMENT_KIND_BIT of SCENE_FEATURES (shared/scene.wgsl). A pipeline built for one scene
+// (the plane passes) leaves out the code of the kinds the scene has not, which lavapipe then
+// neither compiles nor carries (Sponza 400x400, a sun alone: plane pass 19 % and refinement
+// 23 % faster, the same bytes).
 const ENVIRONMENT_KIND_BIT: u32 = 16u;
 
 // Whether this pipeline shades lights of `kind` (a LIGHT_* kind).
 fn shades_kind(kind: u32) -> bool {
-    return (SHADED_LIGHT_KINDS & (1u << kind)) != 0u;
+    return (SCENE_FEATURES & (1u << kind)) != 0u;
 }
 
 // Whether this pipeline shades the environment.
 fn shades_environment() -> bool {
-    return (SHADED_LIGHT_KINDS & ENVIRONMENT_KIND_BIT) != 0u;
+    return (SCENE_FEATURES & ENVIRONMENT_KIND_BIT) != 0u;
 }
 
 struct Surface {

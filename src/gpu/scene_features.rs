@@ -1,0 +1,102 @@
+//! What a scene's rays meet, for pipelines compiled for one scene: the plane passes leave out
+//! the shading of the kinds of light the scene has not, and the instance transforms of a
+//! scene whose rays never leave one BLAS (`SCENE_FEATURES` in `wgsl/shared/scene.wgsl`).
+//!
+//! Lavapipe (Mesa 22.3) runs both sides of every branch with lanes masked off, so code a
+//! scene never takes still costs its instructions on every pass through it: leaving the
+//! other light kinds out made Sponza's plane pass 19 % and its refinement 23 % faster (400x400,
+//! a sun alone), and leaving the TLAS leaf's instance loads out of the traversal loop traced
+//! the nave's incoherent rays 8 % and its primary rays 12 % faster; the same bytes both times
+//! (docs/results.md).
+
+use super::scene_buffers::{LIGHT_POINT, LIGHT_RECT, LIGHT_SPOT, LIGHT_SUN};
+use crate::scene::{Light, Scene};
+
+/// A set of scene features: bit `1 << kind` for each kind of light as the GPU numbers them
+/// (`scene_buffers::LIGHT_*`), one bit for the environment (a map, or a constant that is not
+/// black), and one for instances (rays may reach a TLAS leaf and enter an instance's object
+/// space).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SceneFeatures(u32);
+
+impl SceneFeatures {
+    /// Every feature: what a pipeline that does not know its scene is compiled for.
+    pub const ALL: SceneFeatures = SceneFeatures(u32::MAX);
+
+    /// The environment's bit (`ENVIRONMENT_KIND_BIT` in WGSL).
+    const ENVIRONMENT_BIT: u32 = 1 << 4;
+
+    /// The instances' bit (`FEATURE_INSTANCES` in WGSL): without it, traversal starts in the
+    /// BLAS of the scene's one instance, in world space, and never meets a TLAS leaf
+    /// (`bvh::SceneBvh::traversal_start`).
+    const INSTANCES_BIT: u32 = 1 << 5;
+
+    /// The features of `scene`, over every frame of its animation: its kinds of light (an
+    /// animation keeps them), and instances unless it is one instance placed as modelled
+    /// that no keyframe moves.
+    pub fn of(scene: &Scene) -> SceneFeatures {
+        let mut bits = 0;
+        for light in &scene.lights {
+            bits |= 1
+                << match light {
+                    Light::Point { .. } => LIGHT_POINT,
+                    Light::Spot { .. } => LIGHT_SPOT,
+                    Light::Rect { .. } => LIGHT_RECT,
+                    Light::Sun { .. } => LIGHT_SUN,
+                };
+        }
+        if scene.environment != glam::Vec3::ZERO || scene.environment_map.is_some() {
+            bits |= Self::ENVIRONMENT_BIT;
+        }
+        let one_still_instance = matches!(
+            scene.instances.as_slice(),
+            [only] if only.transform == glam::Mat4::IDENTITY
+        ) && scene.animation.is_none();
+        if !one_still_instance {
+            bits |= Self::INSTANCES_BIT;
+        }
+        SceneFeatures(bits)
+    }
+
+    /// These features, with instances added when the uploaded BVH's traversal does not start
+    /// in a BLAS (what the shaders will meet, whatever the scene description said).
+    pub fn with_traversal(self, starts_in_blas: bool) -> SceneFeatures {
+        if starts_in_blas {
+            self
+        } else {
+            SceneFeatures(self.0 | Self::INSTANCES_BIT)
+        }
+    }
+
+    /// The bits the shaders' `SCENE_FEATURES` takes.
+    pub fn bits(self) -> u32 {
+        self.0
+    }
+
+    /// Whether every feature in `other` is in this set.
+    pub fn contains(self, other: SceneFeatures) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    /// The pipeline-overridable constant that compiles a pass for these features.
+    pub fn constant(self) -> (&'static str, f64) {
+        ("SCENE_FEATURES", f64::from(self.0))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn instances_bit_follows_the_traversal_start() {
+        let f = SceneFeatures(1 << LIGHT_SUN);
+        assert_eq!(f.with_traversal(true), f);
+        assert!(f.with_traversal(false).contains(f));
+        assert_ne!(f.with_traversal(false), f);
+        // A pipeline without instances refuses a scene that has them, not the reverse.
+        assert!(!f.contains(f.with_traversal(false)));
+        assert!(f.with_traversal(false).contains(f));
+        assert!(SceneFeatures::ALL.contains(f.with_traversal(false)));
+    }
+}
