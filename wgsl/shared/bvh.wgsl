@@ -115,6 +115,13 @@ fn sort_pair(da: ptr<function, f32>, db: ptr<function, f32>, ea: ptr<function, u
 }
 
 // Traverses the scene. `any_hit`: stop at the first hit (shadow rays).
+//
+// Inner nodes run in a loop of their own until every lane holds a leaf or is done, then the
+// leaves ("while-while", Aila & Laine 2009). Lavapipe runs every branch of a loop body with
+// the lanes that do not take it masked off, and a loop's body at least once: with nodes and
+// leaves in one body, every node visit also paid a triangle test (three storage loads,
+// each a loop over the lanes). The same visits in the same order per ray, so the same hits;
+// the nave's incoherent rays 1.11x, primary 1.10x, shadow rays 1.25x as fast (stop 54).
 fn trace(ray: Ray, any_hit: bool) -> Hit {
     var hit = Hit(ray.tmax, NO_HIT, 0u, 0.0, 0.0);
     if scene_info.instance_count == 0u {
@@ -132,11 +139,15 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
     var inv_dir = safe_inverse(dir);
     var oid = origin * inv_dir;
     var entry = scene_info.tlas_root;
+    var done = false;
     loop {
-        if (entry & LEAF_BIT) == 0u {
+        // Inner nodes until this lane holds a leaf (or a TLAS leaf) or its stack runs out.
+        loop {
+            if (entry & LEAF_BIT) != 0u {
+                break;
+            }
             let e = bvh_texel(entry, 3u);
             let d = intersect_children(entry, e, inv_dir, oid, ray.tmin, hit.t);
-            // Nearest child next, the other hit children onto the stack, farthest deepest.
             var d0 = d.x;
             var d1 = d.y;
             var d2 = d.z;
@@ -151,7 +162,8 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
             sort_pair(&d1, &d3, &e1, &e3);
             sort_pair(&d1, &d2, &e1, &e2);
             if d0 != INF {
-                // Unconditional stores, conditional increments: no divergent branches.
+                // Nearest child next, the other hit children onto the stack, farthest
+                // deepest: unconditional stores, conditional increments.
                 bvh_stacks[bvh_stack_base + sp] = e3;
                 sp = min(sp + select(0u, 1u, d3 != INF), BVH_STACK_SIZE - 1u);
                 bvh_stacks[bvh_stack_base + sp] = e2;
@@ -161,7 +173,25 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
                 entry = e0;
                 continue;
             }
-        } else if in_blas || !traverses_instances() {
+            // Pop; leaving the BLAS when its part of the stack is used up.
+            if traverses_instances() && in_blas && sp == tlas_sp {
+                in_blas = false;
+                origin = ray.origin;
+                dir = ray.dir;
+                inv_dir = safe_inverse(dir);
+                oid = origin * inv_dir;
+            }
+            if sp == 0u {
+                done = true;
+                break;
+            }
+            sp -= 1u;
+            entry = bvh_stacks[bvh_stack_base + sp];
+        }
+        if done {
+            break;
+        }
+        if in_blas {
             let first = (entry >> 4u) & 0x07ffffffu;
             let count = (entry & 15u) + 1u;
             for (var i = 0u; i < count; i++) {
@@ -174,7 +204,7 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
                     }
                 }
             }
-        } else {
+        } else if traverses_instances() {
             // TLAS leaf: enter the instance's BLAS with the ray in object space. The
             // direction is not renormalised, so t keeps its meaning across instances.
             instance = (entry >> 4u) & 0x07ffffffu;
@@ -188,7 +218,6 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
             entry = inst.blas_root;
             continue;
         }
-        // Pop; leaving the BLAS when its part of the stack is used up.
         if traverses_instances() && in_blas && sp == tlas_sp {
             in_blas = false;
             origin = ray.origin;
