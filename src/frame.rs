@@ -357,7 +357,7 @@ impl RadianceCache {
         Ok(Some(Self {
             records: RecordCache::with_kind(ctx, kind)?,
             // Its plane pipelines compiled for the scene's kinds of light alone.
-            pass: RecordPass::for_scene(ctx, &record_settings, kind, scene.features)?,
+            pass: RecordPass::for_scene(ctx, &record_settings, kind, scene.features())?,
             splat: RadianceSplatPass::new(ctx, tables)?,
         }))
     }
@@ -518,7 +518,7 @@ impl Renderer {
             if slot.take().is_some() {
                 scene
                     .gpu
-                    .set_bounce_cache(GpuScene::empty_bounce_cache(&self.ctx)?);
+                    .set_bounce_cache(GpuScene::empty_bounce_cache(&self.ctx)?, false);
             }
             return Ok(None);
         }

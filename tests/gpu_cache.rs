@@ -734,4 +734,41 @@ fn record_passes_for_the_scenes_features_give_the_same_bytes() {
         Err(e) => e.to_string(),
     };
     assert!(err.contains("instances"), "{err}");
+    // Two bounces: the pass compiled for the Cornell box's features reflects the bounce
+    // cache its settings make (`SceneFeatures::with_bounce_cache`), the same bytes as the
+    // pass compiled for everything; one compiled for one bounce refuses a frame whose
+    // scene holds a bounce cache instead of leaving the second bounce out.
+    let two_bounces = CacheSettings {
+        bounce: radsplat::bounce::BounceSettings {
+            bounces: 2,
+            ..Default::default()
+        },
+        ..settings()
+    };
+    let mut generic = renderer.new_cache(&two_bounces).expect("cache");
+    let mut special = renderer
+        .new_cache_for(&two_bounces, kinds_seen[0])
+        .expect("cache for the Cornell box");
+    let a = render(&renderer, &cornell, &mut generic);
+    let b = render(&renderer, &cornell, &mut special);
+    assert!(
+        a.beauty == b.beauty && a.indirect == b.indirect,
+        "two bounces: the pass for the Cornell box's features changed the image"
+    );
+    let one_bounce_pass = radsplat::records::RecordPass::for_scene(
+        &renderer.ctx,
+        &settings().resolved(false),
+        radsplat::records::RecordKind::Irradiance,
+        kinds_seen[0],
+    )
+    .expect("pass");
+    let prepared = renderer.prepare(&cornell).expect("prepare");
+    renderer
+        .scene_bounce_cache(&prepared, &two_bounces.resolved(false), &mut Vec::new())
+        .expect("bounce cache");
+    let err = one_bounce_pass
+        .check_features(&prepared.gpu)
+        .expect_err("a one-bounce pass accepted a scene with a bounce cache")
+        .to_string();
+    assert!(err.contains("bounce cache"), "{err}");
 }

@@ -274,7 +274,7 @@ impl BouncePass {
         let ms: f64 = timer.read(ctx)?.iter().map(|(_, t)| t).sum();
         ctx.check()?;
         times.push(("bounce cache", ms));
-        scene.set_bounce_cache(cache.clone());
+        scene.set_bounce_cache(cache.clone(), true);
         Ok(BounceCache {
             buffer: cache,
             stats: BounceStats {

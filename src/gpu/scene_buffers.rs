@@ -279,9 +279,9 @@ pub struct GpuScene {
     pub diagonal: f32,
     /// The scene's world bounds (min, max corners).
     pub bounds: ([f32; 3], [f32; 3]),
-    /// The scene's kinds of light and whether its rays enter instances (pipelines
-    /// compiled for fewer features refuse it).
-    pub features: super::SceneFeatures,
+    /// The scene's kinds of light, whether its rays enter instances and whether it has
+    /// textures ([`Self::features`] adds the bounce cache).
+    static_features: super::SceneFeatures,
     /// Whether any material has a glossy lobe (passes for glossy pixels run only then).
     pub has_glossy: bool,
     /// Each material's glossy lobe (index: material), for the tables radiance records
@@ -290,7 +290,8 @@ pub struct GpuScene {
     /// The surface bounce cache the passes that shade secondary hits bind (laid out by the
     /// bounce module, a layer above; 16 zero bytes, the empty cache, until one is set): the
     /// indirect light of this scene's surfaces, so it belongs to the scene, not to a pass.
-    bounce_cache: std::sync::Mutex<wgpu::Buffer>,
+    /// The surface bounce cache passes bind, and whether it holds anything.
+    bounce_cache: std::sync::Mutex<(wgpu::Buffer, bool)>,
     /// The virtual point lights traced for this scene (instant caching's record source,
     /// laid out by the vpl module, a layer above), when a cache gathers from them.
     vpls: std::sync::Mutex<Option<SceneVpls>>,
@@ -480,10 +481,10 @@ impl GpuScene {
                 let (lo, hi) = bvh.world_bounds();
                 (lo.to_array(), hi.to_array())
             },
-            features: super::SceneFeatures::of(scene).with_traversal(start.in_blas),
+            static_features: super::SceneFeatures::of(scene).with_traversal(start.in_blas),
             has_glossy: scene.materials.iter().any(|m| m.glossy.is_some()),
             glossy_lobes: scene.materials.iter().map(|m| m.glossy).collect(),
-            bounce_cache: std::sync::Mutex::new(Self::empty_bounce_cache(ctx)?),
+            bounce_cache: std::sync::Mutex::new((Self::empty_bounce_cache(ctx)?, false)),
             vpls: std::sync::Mutex::new(None),
         })
     }
@@ -496,17 +497,28 @@ impl GpuScene {
     /// The surface bounce cache to bind (a handle: the buffer itself is shared).
     pub fn bounce_cache(&self) -> wgpu::Buffer {
         match self.bounce_cache.lock() {
-            Ok(b) => b.clone(),
-            Err(poisoned) => poisoned.into_inner().clone(),
+            Ok(b) => b.0.clone(),
+            Err(poisoned) => poisoned.into_inner().0.clone(),
         }
     }
 
-    /// Sets the surface bounce cache later passes bind (the bounce module's gather).
-    pub fn set_bounce_cache(&self, cache: wgpu::Buffer) {
+    /// Sets the surface bounce cache later passes bind (the bounce module's gather), and
+    /// whether it holds anything (`filled`; false for [`Self::empty_bounce_cache`]).
+    pub fn set_bounce_cache(&self, cache: wgpu::Buffer, filled: bool) {
         match self.bounce_cache.lock() {
-            Ok(mut b) => *b = cache,
-            Err(poisoned) => *poisoned.into_inner() = cache,
+            Ok(mut b) => *b = (cache, filled),
+            Err(poisoned) => *poisoned.into_inner() = (cache, filled),
         }
+    }
+
+    /// What the scene's rays meet now: its kinds of light, instances and textures, and the
+    /// bounce cache when one is set (pipelines compiled for fewer features refuse it).
+    pub fn features(&self) -> super::SceneFeatures {
+        let filled = match self.bounce_cache.lock() {
+            Ok(b) => b.1,
+            Err(poisoned) => poisoned.into_inner().1,
+        };
+        self.static_features.with_bounce_cache(filled)
     }
 
     /// The scene's virtual point lights (None until a VPL set is traced for it).

@@ -1,21 +1,24 @@
 //! What a scene's rays meet, for pipelines compiled for one scene: the plane passes leave out
-//! the shading of the kinds of light the scene has not, and the instance transforms of a
-//! scene whose rays never leave one BLAS (`SCENE_FEATURES` in `wgsl/shared/scene.wgsl`).
+//! the shading of the kinds of light the scene has not, the instance transforms of a scene
+//! whose rays never leave one BLAS, the texture lookup of a scene without textures and the
+//! bounce cache's lookup when there is one bounce (`SCENE_FEATURES` in
+//! `wgsl/shared/scene.wgsl`).
 //!
 //! Lavapipe (Mesa 22.3) runs both sides of every branch with lanes masked off, so code a
-//! scene never takes still costs its instructions on every pass through it: leaving the
+//! scene never takes still costs its instructions on every pass through it. Leaving the
 //! other light kinds out made Sponza's plane pass 19 % and its refinement 23 % faster (400x400,
-//! a sun alone), and leaving the TLAS leaf's instance loads out of the traversal loop traced
-//! the nave's incoherent rays 8 % and its primary rays 12 % faster; the same bytes both times
-//! (docs/results.md).
+//! a sun alone); leaving the TLAS leaf's instance loads out of the traversal loop, the nave's
+//! planes and refinement 9 %; the texture and bounce-cache lookups, a further 9 %. The same
+//! bytes every time (docs/results.md).
 
 use super::scene_buffers::{LIGHT_POINT, LIGHT_RECT, LIGHT_SPOT, LIGHT_SUN};
 use crate::scene::{Light, Scene};
 
 /// A set of scene features: bit `1 << kind` for each kind of light as the GPU numbers them
 /// (`scene_buffers::LIGHT_*`), one bit for the environment (a map, or a constant that is not
-/// black), and one for instances (rays may reach a TLAS leaf and enter an instance's object
-/// space).
+/// black), one for instances (rays may reach a TLAS leaf and enter an instance's object
+/// space), one for textured materials, and one for a surface bounce cache (`--bounces`
+/// above 1: hits reflect more than their direct light).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SceneFeatures(u32);
 
@@ -31,9 +34,17 @@ impl SceneFeatures {
     /// (`bvh::SceneBvh::traversal_start`).
     const INSTANCES_BIT: u32 = 1 << 5;
 
+    /// The textures' bit (`FEATURE_TEXTURES` in WGSL): some material's albedo is a texture.
+    const TEXTURES_BIT: u32 = 1 << 6;
+
+    /// The bounce cache's bit (`FEATURE_BOUNCE_CACHE` in WGSL): the frame's surface bounce
+    /// cache is not empty, so hits look their indirect irradiance up in it.
+    const BOUNCE_CACHE_BIT: u32 = 1 << 7;
+
     /// The features of `scene`, over every frame of its animation: its kinds of light (an
-    /// animation keeps them), and instances unless it is one instance placed as modelled
-    /// that no keyframe moves.
+    /// animation keeps them), instances unless it is one instance placed as modelled that no
+    /// keyframe moves, and textures if a material has one. Not the bounce cache, which the
+    /// render settings make ([`Self::with_bounce_cache`]).
     pub fn of(scene: &Scene) -> SceneFeatures {
         let mut bits = 0;
         for light in &scene.lights {
@@ -55,7 +66,20 @@ impl SceneFeatures {
         if !one_still_instance {
             bits |= Self::INSTANCES_BIT;
         }
+        if scene.materials.iter().any(|m| m.albedo_texture.is_some()) {
+            bits |= Self::TEXTURES_BIT;
+        }
         SceneFeatures(bits)
+    }
+
+    /// These features, with the bounce cache added when `reflects` (hits reflect a cache
+    /// that is not empty: more than one bounce).
+    pub fn with_bounce_cache(self, reflects: bool) -> SceneFeatures {
+        if reflects {
+            SceneFeatures(self.0 | Self::BOUNCE_CACHE_BIT)
+        } else {
+            self
+        }
     }
 
     /// These features, with instances added when the uploaded BVH's traversal does not start
@@ -98,5 +122,12 @@ mod tests {
         assert!(!f.contains(f.with_traversal(false)));
         assert!(f.with_traversal(false).contains(f));
         assert!(SceneFeatures::ALL.contains(f.with_traversal(false)));
+        // The same for the bounce cache, which settings add and never remove.
+        assert!(!f.contains(f.with_bounce_cache(true)));
+        assert_eq!(f.with_bounce_cache(false), f);
+        assert_eq!(
+            SceneFeatures::ALL.with_bounce_cache(true),
+            SceneFeatures::ALL
+        );
     }
 }

@@ -1157,6 +1157,8 @@ impl RecordPass {
         features: SceneFeatures,
     ) -> Result<Self> {
         settings.validate()?;
+        // Its plane hits reflect the bounce cache its settings make (none with one bounce).
+        let features = features.with_bounce_cache(settings.bounce.levels() > 0);
         // Photon records leave holes that plane records fill.
         let planes = settings.source != RecordSource::Vpl;
         if settings.source != RecordSource::Planes && kind != RecordKind::Irradiance {
@@ -1341,15 +1343,15 @@ impl RecordPass {
     /// ([`Self::for_scene`]): its hits would be shaded without that light, or its rays
     /// would not enter its instances.
     pub fn check_features(&self, scene: &GpuScene) -> Result<()> {
-        if self.features.contains(scene.features) {
+        if self.features.contains(scene.features()) {
             Ok(())
         } else {
             Err(Error::Usage(format!(
                 "this record pass was compiled for the scene features (light kinds, \
-                 instances) {:#x} and the scene has {:#x}: build it for the scene's \
+                 instances, textures, bounce cache) {:#x} and the scene has {:#x}: build it for the scene's \
                  (`RecordPass::for_scene`, `SceneFeatures::of`)",
                 self.features.bits(),
-                scene.features.bits()
+                scene.features().bits()
             )))
         }
     }

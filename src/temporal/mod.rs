@@ -550,7 +550,7 @@ impl RadianceTemporal {
                 &record_settings,
                 &settings,
                 tables.settings.kind(),
-                scene.features,
+                scene.features(),
             )?,
             splat: RadianceSplatPass::new(ctx, tables)?,
         }))

@@ -30,9 +30,17 @@ fn bounce_cell(u: f32, v: f32, n: u32) -> u32 {
     return bounce_row_base(j, n) + 2u * i + select(0u, 1u, upper);
 }
 
+// Bit of SCENE_FEATURES (shared/scene.wgsl; `gpu::SceneFeatures`): the frame's bounce cache
+// may hold something. A pipeline compiled without it (one bounce) leaves the lookup's eight
+// storage loads out, which lavapipe would run for every hit even on an empty cache.
+const FEATURE_BOUNCE_CACHE: u32 = 128u;
+
 // Indirect irradiance at `hit` on the side `front` (Surface::front_face); zero without a
 // cache or outside it.
 fn bounce_irradiance(hit: Hit, front: bool) -> vec3f {
+    if (SCENE_FEATURES & FEATURE_BOUNCE_CACHE) == 0u {
+        return vec3f(0.0);
+    }
     let count = bounce_cache[0];
     if hit.instance >= count {
         return vec3f(0.0);

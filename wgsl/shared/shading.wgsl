@@ -106,9 +106,14 @@ fn sample_texture(index: u32, uv: vec2f) -> vec3f {
     return mix(top, bottom, fy);
 }
 
+// Bit of SCENE_FEATURES (shared/scene.wgsl; `gpu::SceneFeatures`): some material has an
+// albedo texture. Without it the texture lookup (five storage loads and twelve sRGB decodes,
+// run by lavapipe for every hit, lanes masked off) is left out of the pipeline.
+const FEATURE_TEXTURES: u32 = 64u;
+
 fn surface_albedo(s: Surface) -> vec3f {
     let m = materials[s.material];
-    if m.texture == NO_TEXTURE {
+    if (SCENE_FEATURES & FEATURE_TEXTURES) == 0u || m.texture == NO_TEXTURE {
         return m.albedo;
     }
     return m.albedo * sample_texture(m.texture, s.uv);
