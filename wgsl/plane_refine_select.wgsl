@@ -176,9 +176,26 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             }
         }
         workgroupBarrier();
+        // The bin of the K-th largest key, from the top: the highest bin where the keys in
+        // it and above reach `remaining` (bin 0 if none). Each thread sums its four bins
+        // first, so thread 0 walks 64 sums and then four bins, not up to 256 bins (on
+        // lavapipe each of its loads is a loop over the lanes: the walk was a third of
+        // this pass on the nave). The same bin and count as the walk over every bin.
+        let group = (THREADS - 1u - lane) * 4u;   // 252 for thread 0: the top bins first
+        counts[lane] = atomicLoad(&histogram[group]) + atomicLoad(&histogram[group + 1u])
+            + atomicLoad(&histogram[group + 2u]) + atomicLoad(&histogram[group + 3u]);
+        workgroupBarrier();
         if lane == 0u {
             var above = 0u;
-            var bin = 255u;
+            var t = 0u;
+            loop {
+                if above + counts[t] >= remaining || t == THREADS - 1u {
+                    break;
+                }
+                above += counts[t];
+                t += 1u;
+            }
+            var bin = (THREADS - 1u - t) * 4u + 3u;
             loop {
                 let h = atomicLoad(&histogram[bin]);
                 if above + h >= remaining || bin == 0u {
