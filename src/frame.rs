@@ -356,7 +356,7 @@ impl RadianceCache {
         let kind = tables.settings.kind();
         Ok(Some(Self {
             records: RecordCache::with_kind(ctx, kind)?,
-            // Its plane pipelines compiled for the scene's kinds of light alone.
+            // Its plane pipelines compiled for the scene's features alone.
             pass: RecordPass::for_scene(ctx, &record_settings, kind, scene.features())?,
             splat: RadianceSplatPass::new(ctx, tables)?,
         }))

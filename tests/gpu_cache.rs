@@ -693,7 +693,7 @@ fn record_passes_for_the_scenes_features_give_the_same_bytes() {
         let b = render(&renderer, &scene, &mut special);
         assert!(
             a.beauty == b.beauty && a.indirect == b.indirect,
-            "{name}: the pass for its light kinds changed the image"
+            "{name}: the pass for its features changed the image"
         );
         assert!(
             a.indirect

@@ -60,19 +60,20 @@ pub fn render(args: RenderArgs) -> Result<()> {
     // The device starts on its own thread while the scene loads and its BVH is built
     // (neither needs the device): on an H200 machine the start took 170 ms and loading
     // Sponza 230 ms, one after the other. A scene error is reported before a device one.
-    // The scene's features (kinds of light, instances) go to the thread building the record
-    // pass as soon as the scene has loaded: its plane pipelines are compiled for those alone
-    // (the other passes build meanwhile). A scene that fails to load sends none; the pass is
-    // then built for every feature, and the scene's error is the one reported.
-    let (kinds_tx, kinds_rx) = std::sync::mpsc::channel::<SceneFeatures>();
-    let kinds_rx = std::sync::Mutex::new(kinds_rx);
+    // The scene's features (kinds of light, instances, textures) go to the thread building
+    // the record pass as soon as the scene has loaded: its plane pipelines are compiled for
+    // those alone (the other passes build meanwhile). A scene that fails to load sends
+    // none; the pass is then built for every feature, and the scene's error is the one
+    // reported.
+    let (features_tx, features_rx) = std::sync::mpsc::channel::<SceneFeatures>();
+    let features_rx = std::sync::Mutex::new(features_rx);
     let (loaded, started) = std::thread::scope(|s| {
         // The passes this frame runs are built there too, each on its own thread.
         let starting = s.spawn(|| {
             let renderer = Renderer::new(GpuContext::new()?)?;
             let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
             let features = || {
-                kinds_rx
+                features_rx
                     .lock()
                     .ok()
                     .and_then(|rx| rx.recv().ok())
@@ -86,11 +87,11 @@ pub fn render(args: RenderArgs) -> Result<()> {
             let scene = match scene {
                 Ok(scene) => {
                     // The receiver may be gone (a device error): nothing waits then.
-                    let _ = kinds_tx.send(SceneFeatures::of(&scene));
+                    let _ = features_tx.send(SceneFeatures::of(&scene));
                     scene
                 }
                 Err(e) => {
-                    drop(kinds_tx);
+                    drop(features_tx);
                     return Err(e);
                 }
             };

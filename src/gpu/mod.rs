@@ -14,3 +14,10 @@ pub use context::{GpuContext, OPTIONAL_FEATURES, required_limits};
 pub use pipeline::ComputePass;
 pub use scene_buffers::GpuScene;
 pub use scene_features::SceneFeatures;
+
+/// The name [`SceneFeatures`] had while it held only the kinds of light.
+#[deprecated(
+    note = "renamed `SceneFeatures`: it also says whether rays enter instances, \
+                     textures and the bounce cache"
+)]
+pub type LightKinds = SceneFeatures;

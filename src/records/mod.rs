@@ -1148,8 +1148,9 @@ impl RecordPass {
     }
 
     /// [`Self::with_kind`] with the plane and refinement pipelines compiled for the scene
-    /// features `features` alone (its kinds of light; instances or one BLAS): a scene with
-    /// others is refused by [`Self::check_features`].
+    /// features `features` alone (its kinds of light, instances or one BLAS, textures; the
+    /// bounce cache its settings make is added): a scene with others is refused by
+    /// [`Self::check_features`].
     pub fn for_scene(
         ctx: &GpuContext,
         settings: &CacheSettings,
@@ -1337,6 +1338,23 @@ impl RecordPass {
         };
         let pass = Self::for_scene(ctx, &tail_settings, self.kind, self.features)?;
         Ok(self.tail.get_or_init(|| Box::new(pass)))
+    }
+
+    /// The name [`Self::for_scene`] had while the features were only kinds of light.
+    #[deprecated(note = "renamed `for_scene`")]
+    pub fn for_lights(
+        ctx: &GpuContext,
+        settings: &CacheSettings,
+        kind: RecordKind,
+        features: SceneFeatures,
+    ) -> Result<Self> {
+        Self::for_scene(ctx, settings, kind, features)
+    }
+
+    /// The name [`Self::check_features`] had while the features were only kinds of light.
+    #[deprecated(note = "renamed `check_features`")]
+    pub fn check_lights(&self, scene: &GpuScene) -> Result<()> {
+        self.check_features(scene)
     }
 
     /// Refuses a scene with a feature this pass's plane pipelines were not compiled for

@@ -673,6 +673,17 @@ impl TemporalCache {
         Self::with_kind(ctx, cache, settings, RecordKind::Irradiance, features)
     }
 
+    /// The name [`Self::for_scene`] had while the features were only kinds of light.
+    #[deprecated(note = "renamed `for_scene`")]
+    pub fn for_lights(
+        ctx: &GpuContext,
+        cache: &CacheSettings,
+        settings: &TemporalSettings,
+        features: SceneFeatures,
+    ) -> Result<Self> {
+        Self::for_scene(ctx, cache, settings, features)
+    }
+
     /// A temporal cache of `kind` records (radiance records: one beside the irradiance
     /// cache, [`RadianceTemporal`]; they have none of their own).
     fn with_kind(

@@ -80,7 +80,8 @@ struct SceneInfo {
 }
 
 // What a pipeline is compiled for (`gpu::SceneFeatures`): the kinds of light it shades (bits
-// 0-4, shared/shading.wgsl) and FEATURE_INSTANCES (shared/bvh.wgsl). Lavapipe runs both
+// 0-4, shared/shading.wgsl), FEATURE_INSTANCES (shared/bvh.wgsl), FEATURE_TEXTURES
+// (shared/shading.wgsl) and FEATURE_BOUNCE_CACHE (shared/bounce_cache.wgsl). Lavapipe runs both
 // sides of every branch, lanes masked off, so a pipeline built for one scene leaves out the
 // code that scene never takes. Everything unless the pass sets it (the plane passes do).
 override SCENE_FEATURES: u32 = 0xffffffffu;
