@@ -36,12 +36,12 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
             }
             r = records[k];
             pixel_add(&s, k, r, err);
-            if params.count_coverage == COUNT_ALL {
+            if COUNTS_COVERAGE && params.count_coverage == COUNT_ALL {
                 atomicAdd(&coverage[k], 1u);
             }
         }
     }
-    if params.count_coverage == COUNT_NEEDED {
+    if COUNTS_COVERAGE && params.count_coverage == COUNT_NEEDED {
         count_needed(s, begin, end);
     }
     splat[pixel] = pixel_sums(s);

@@ -66,12 +66,12 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_id) local
                 pixel_add(&d, k, r, err_d);
                 covered += 1u;
             }
-            if params.count_coverage == COUNT_ALL {
+            if COUNTS_COVERAGE && params.count_coverage == COUNT_ALL {
                 atomicAdd(&coverage[k], covered);
             }
         }
     }
-    if params.count_coverage == COUNT_NEEDED {
+    if COUNTS_COVERAGE && params.count_coverage == COUNT_NEEDED {
         count_needed(a, begin, end);
         count_needed(b, begin, end);
         count_needed(c, begin, end);

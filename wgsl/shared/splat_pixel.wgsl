@@ -12,6 +12,12 @@
 @group(1) @binding(6) var<storage, read_write> coverage: array<atomic<u32>>;
 @group(1) @binding(7) var<storage, read> expiring: array<u32>;   // 1: expires after this frame
 
+// Whether this pipeline counts coverage (`count_coverage` 1 or 2). A still frame counts
+// nothing, and its gathers are compiled without the count (src/splat, `GatherPipelines`):
+// lavapipe runs a branch on a uniform like any other, lanes masked off, and the count's
+// loads and atomic for every record of a tile's list were a fifth of Sponza's gather.
+override COUNTS_COVERAGE: bool = true;
+
 const ACCUMULATE: u32 = 1u;
 const FILL_EMPTY: u32 = 2u;
 const COUNT_ALL: u32 = 1u;
@@ -68,7 +74,7 @@ fn pixel_add(s: ptr<function, PixelSum>, k: u32, r: Record, err: f32) {
     // so that a pixel at the edge of its only record still takes that record's irradiance.
     let w = splat_weight(err, params.accuracy, params.plateau);
     (*s).sum += vec4f(w * record_irradiance_at(r, (*s).p, (*s).n), w);
-    if params.count_coverage == COUNT_NEEDED {
+    if COUNTS_COVERAGE && params.count_coverage == COUNT_NEEDED {
         (*s).survivor = (*s).survivor || expiring[k] == 0u;
     }
 }
