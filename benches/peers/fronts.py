@@ -14,7 +14,9 @@ every image is compared with a brute-force reference, and the script prints:
     front's error range: log(time) of rpict's front interpolated linearly in error between
     the two bracketing front points, divided by radsplat's time (wall and CPU seconds);
   * the defaults pair: radsplat's defaults against rpict's defaults (faster and no less
-    accurate, or not).
+    accurate, or not); with --pair-alternate N also timed in N alternating pairs (the
+    median of the per-pair ratios), which this machine's drift between the two sides'
+    points cannot bias.
 
 The error is the relative RMSE of the indirect light after an N x N box filter (default 4):
 radsplat's `indirect.*` AOV; rpict's `-ab 1` image minus its `-ab 0` image (`radsplat compare
@@ -287,6 +289,9 @@ def main():
     ap.add_argument("--fresh", action="store_true", help="rerender every cached point")
     ap.add_argument("--repeat", type=int, default=1,
                     help="runs per point, median wall and CPU time (default 1)")
+    ap.add_argument("--pair-alternate", type=int, default=0,
+                    help="also time the defaults pair in N alternating runs of each side "
+                         "(median of per-pair ratios); 0: off")
     ap.add_argument("--allow-noisy", action="store_true",
                     help="exit 0 even when the reference noise is not under a fifth of the "
                          "smallest error compared")
@@ -398,11 +403,15 @@ def main():
     warm = out / "radsplat-warm-up.exr"
     run([radsplat, "render", notex, "-o", warm, "--size", "64x64", "--quiet"], env)
     rad_pts = []
+
+    def rad_cmd(label, flags):
+        img = out / f"radsplat-{slug(label)}.exr"
+        stats = out / f"radsplat-{slug(label)}-stats.json"
+        return [radsplat, "render", notex, "-o", img, "--stats", stats] + flags + common, img, stats
+
     for label, flags in rad_settings:
         def render(label=label, flags=flags):
-            img = out / f"radsplat-{slug(label)}.exr"
-            stats = out / f"radsplat-{slug(label)}-stats.json"
-            cmd = [radsplat, "render", notex, "-o", img, "--stats", stats] + flags + common
+            cmd, img, stats = rad_cmd(label, flags)
             wall, cpu = timed(cmd, env, args.repeat)
             records = json.loads(stats.read_text())["frame"]["cache"]["records"]
             return {"command": " ".join(map(str, cmd)), "flags": flags, "wall_s": wall,
@@ -428,11 +437,15 @@ def main():
     ab0 = cached("rpict", "ab0", key_of("rpict-ab0", *rp_key_base), render_ab0)
     rp_settings = [("defaults", [])] + [tuple(s) for s in cfg["rpict"]]
     rp_pts = []
+
+    def rp_cmd(label, flags):
+        img = out / f"rpict-{slug(label)}.hdr"
+        amb = out / f"rpict-{slug(label)}.amb"
+        return rp + ["-ab", str(ab)] + flags + ["-af", str(amb), str(oct_path)], img, amb
+
     for label, flags in rp_settings:
         def render(label=label, flags=flags):
-            img = out / f"rpict-{slug(label)}.hdr"
-            amb = out / f"rpict-{slug(label)}.amb"
-            cmd = rp + ["-ab", str(ab)] + flags + ["-af", str(amb), str(oct_path)]
+            cmd, img, amb = rp_cmd(label, flags)
             wall, cpu = timed(cmd, env, args.repeat, stdout_path=img,
                               before=lambda: amb.unlink() if amb.exists() else None)
             return {"command": " ".join(cmd), "flags": flags, "wall_s": wall, "cpu_s": cpu,
@@ -509,6 +522,38 @@ def main():
         f"(CPU), error ratio {rd['error'] / pd['error']:.3f}: "
         f"{'faster' if faster else 'SLOWER'}, {'no less accurate' if accurate else 'LESS ACCURATE'}"
         f" -> {verdict}")
+    alternating = None
+    if args.pair_alternate > 0:
+        # The two defaults in turn (who goes first alternates): each pair's runs are seconds
+        # apart, so the machine's drift over the minutes between the two sides' points above
+        # does not enter the ratio. The images are the points' own (the same bytes).
+        rcmd, _, _ = rad_cmd("defaults", [])
+        pcmd, pimg, pamb = rp_cmd("defaults", [])
+        rad_t, rp_t = [], []
+        for i in range(args.pair_alternate):
+            for side in (("rad", "rp") if i % 2 == 0 else ("rp", "rad")):
+                if side == "rad":
+                    wall, cpu = timed(rcmd, env, 1)
+                    rad_t.append((wall, cpu))
+                else:
+                    wall, cpu = timed(pcmd, env, 1, stdout_path=pimg,
+                                      before=lambda: pamb.unlink() if pamb.exists() else None)
+                    rp_t.append((wall, cpu))
+        wall_ratios = [p[0] / r[0] for r, p in zip(rad_t, rp_t)]
+        cpu_ratios = [p[1] / r[1] for r, p in zip(rad_t, rp_t)]
+        alternating = {
+            "pairs": args.pair_alternate,
+            "radsplat_wall_s": [r[0] for r in rad_t], "rpict_wall_s": [p[0] for p in rp_t],
+            "wall_ratio": statistics.median(wall_ratios),
+            "cpu_ratio": statistics.median(cpu_ratios),
+            "verdict": "PASS" if statistics.median(wall_ratios) > 1 and accurate else "FAIL",
+        }
+        say(f"defaults pair, {args.pair_alternate} alternating pairs: rpict / radsplat wall "
+            f"{alternating['wall_ratio']:.2f}x (per pair "
+            f"{' '.join(f'{x:.2f}' for x in wall_ratios)}), CPU {alternating['cpu_ratio']:.2f}x;"
+            f" radsplat median {statistics.median(alternating['radsplat_wall_s']):.2f} s, "
+            f"rpict {statistics.median(alternating['rpict_wall_s']):.2f} s -> "
+            f"{alternating['verdict']}")
     smallest = min(p["error"] for p in rad_pts + rp_pts)
     noisy = not noise < smallest / 5
     if noisy:
@@ -545,7 +590,8 @@ def main():
         "rpict_front": [p["label"] for p in rp_front],
         "ratios": ratios,
         "defaults_pair": {"radsplat": rd, "rpict": pd, "faster": faster,
-                          "no_less_accurate": accurate, "verdict": verdict},
+                          "no_less_accurate": accurate, "verdict": verdict,
+                          "alternating": alternating},
         "conversion_check_relative_rmse": conv, "plot": str(plot_path),
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
