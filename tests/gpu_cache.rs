@@ -672,9 +672,10 @@ fn neighbour_clamping_bounds_new_records_by_earlier_ones() {
 /// Record passes compiled for a scene's features alone (`RecordPass::for_scene`, what
 /// `radsplat render` builds: the other kinds' shading, and for a scene of one instance the
 /// instance transforms, left out of the plane pipelines) give the bytes of the pass compiled
-/// for everything, on a scene with a rect light, one with a sun (both one instance) and one
-/// with an environment map (three instances); and a pass compiled without a feature the
-/// scene has refuses it instead of leaving that light out or its instances unentered.
+/// for everything, on a scene with a rect light (whose quad is a second instance), one with
+/// a sun (one instance placed as modelled: the one-BLAS traversal) and one with an
+/// environment map (three instances); and a pass compiled without a feature the scene has
+/// refuses it instead of leaving that light out or its instances unentered.
 #[test]
 fn record_passes_for_the_scenes_features_give_the_same_bytes() {
     use radsplat::gpu::SceneFeatures;

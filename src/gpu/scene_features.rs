@@ -112,6 +112,68 @@ impl SceneFeatures {
 mod tests {
     use super::*;
 
+    fn bundled(name: &str) -> Scene {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(name);
+        crate::scene::load_scene(&path).unwrap_or_else(|e| panic!("{name}: {e}"))
+    }
+
+    /// What `of` says of a scene decides which code its plane pipelines leave out: a wrong
+    /// "no" would shade without that code (and be refused only where the GPU scene says
+    /// otherwise), so each rule is checked on its own.
+    #[test]
+    fn a_scenes_features_follow_its_instances_animation_and_textures() {
+        let has = |f: SceneFeatures, bit: u32| f.0 & bit != 0;
+        // The nave: one OBJ placed as modelled, lit by the sun. (A rect light's quad is an
+        // instance of its own: the Cornell box has two.)
+        let nave = bundled("nave.toml");
+        let plain = SceneFeatures::of(&nave);
+        assert!(
+            !has(plain, SceneFeatures::INSTANCES_BIT),
+            "one instance placed as modelled"
+        );
+        assert!(!has(plain, SceneFeatures::TEXTURES_BIT));
+        assert!(!has(plain, SceneFeatures::BOUNCE_CACHE_BIT));
+        assert!(has(plain, 1 << LIGHT_SUN));
+        assert!(!has(plain, 1 << LIGHT_RECT));
+        let cornell = bundled("cornell-box.toml");
+        assert_eq!(cornell.instances.len(), 2);
+        assert!(has(
+            SceneFeatures::of(&cornell),
+            SceneFeatures::INSTANCES_BIT
+        ));
+
+        let mut moved = nave.clone();
+        moved.instances[0].transform = glam::Mat4::from_translation(glam::Vec3::X);
+        assert!(has(SceneFeatures::of(&moved), SceneFeatures::INSTANCES_BIT));
+
+        let mut two = nave.clone();
+        two.instances.push(two.instances[0].clone());
+        assert!(has(SceneFeatures::of(&two), SceneFeatures::INSTANCES_BIT));
+
+        // An animation may move its one instance at a later frame.
+        let mut animated = nave.clone();
+        animated.animation = bundled("cube-in-box-anim.toml").animation;
+        assert!(animated.animation.is_some());
+        assert!(has(
+            SceneFeatures::of(&animated),
+            SceneFeatures::INSTANCES_BIT
+        ));
+
+        let mut textured = nave.clone();
+        textured.materials[0].albedo_texture = Some(0);
+        assert!(has(
+            SceneFeatures::of(&textured),
+            SceneFeatures::TEXTURES_BIT
+        ));
+
+        assert!(has(
+            plain.with_bounce_cache(true),
+            SceneFeatures::BOUNCE_CACHE_BIT
+        ));
+    }
+
     #[test]
     fn instances_bit_follows_the_traversal_start() {
         let f = SceneFeatures(1 << LIGHT_SUN);
