@@ -669,6 +669,33 @@ fn neighbour_clamping_bounds_new_records_by_earlier_ones() {
     );
 }
 
+/// `scene` rendered through caches `a` and `b`: panics unless both give the same beauty and
+/// indirect bytes, and returns the indirect light.
+fn same_frames(
+    renderer: &Renderer,
+    scene: &Scene,
+    a: &mut IrradianceCache,
+    b: &mut IrradianceCache,
+    what: &str,
+) -> Option<Vec<[f32; 4]>> {
+    let fa = render(renderer, scene, a);
+    let fb = render(renderer, scene, b);
+    assert!(
+        fa.beauty == fb.beauty && fa.indirect == fb.indirect,
+        "{what}: the pass for its features changed the image"
+    );
+    fa.indirect
+}
+
+/// The error a frame of `scene` through `cache` is refused with (panics if it renders).
+fn refusal(renderer: &Renderer, scene: &Scene, cache: &mut IrradianceCache, what: &str) -> String {
+    let prepared = renderer.prepare(scene).expect("prepare");
+    match renderer.render_gi_frame(&prepared, &scene.camera, cache, None, |_| {}) {
+        Ok(_) => panic!("{what} was rendered"),
+        Err(e) => e.to_string(),
+    }
+}
+
 /// Record passes compiled for a scene's features alone (`RecordPass::for_scene`, what
 /// `radsplat render` builds: the other kinds' shading, and for a scene of one instance the
 /// instance transforms, left out of the plane pipelines) give the bytes of the pass compiled
@@ -690,14 +717,9 @@ fn record_passes_for_the_scenes_features_give_the_same_bytes() {
         let mut special = renderer
             .new_cache_for(&settings(), kinds)
             .expect("cache for the scene's lights");
-        let a = render(&renderer, &scene, &mut generic);
-        let b = render(&renderer, &scene, &mut special);
+        let indirect = same_frames(&renderer, &scene, &mut generic, &mut special, name);
         assert!(
-            a.beauty == b.beauty && a.indirect == b.indirect,
-            "{name}: the pass for its features changed the image"
-        );
-        assert!(
-            a.indirect
+            indirect
                 .as_ref()
                 .is_some_and(|ind| ind.iter().any(|p| p[0] > 0.0)),
             "{name}: no indirect light to compare"
@@ -710,12 +732,12 @@ fn record_passes_for_the_scenes_features_give_the_same_bytes() {
     let mut sun_only = renderer
         .new_cache_for(&settings(), kinds_seen[1])
         .expect("cache");
-    let prepared = renderer.prepare(&cornell).expect("prepare");
-    let err =
-        match renderer.render_gi_frame(&prepared, &cornell.camera, &mut sun_only, None, |_| {}) {
-            Ok(_) => panic!("a rect light through a sun-only pass was rendered"),
-            Err(e) => e.to_string(),
-        };
+    let err = refusal(
+        &renderer,
+        &cornell,
+        &mut sun_only,
+        "a rect light through a sun-only pass",
+    );
     assert!(err.contains("light kinds"), "{err}");
     // The nave as two instances (the second moved out of the first's way) through the pass
     // compiled for the nave's one: the same light, but its rays would never leave the
@@ -729,11 +751,12 @@ fn record_passes_for_the_scenes_features_give_the_same_bytes() {
     let mut one_blas = renderer
         .new_cache_for(&settings(), nave_features)
         .expect("cache");
-    let prepared = renderer.prepare(&two).expect("prepare");
-    let err = match renderer.render_gi_frame(&prepared, &two.camera, &mut one_blas, None, |_| {}) {
-        Ok(_) => panic!("a scene of two instances through a one-BLAS pass was rendered"),
-        Err(e) => e.to_string(),
-    };
+    let err = refusal(
+        &renderer,
+        &two,
+        &mut one_blas,
+        "a scene of two instances through a one-BLAS pass",
+    );
     assert!(err.contains("instances"), "{err}");
     // Two bounces: the pass compiled for the Cornell box's features reflects the bounce
     // cache its settings make (`SceneFeatures::with_bounce_cache`), the same bytes as the
@@ -750,11 +773,12 @@ fn record_passes_for_the_scenes_features_give_the_same_bytes() {
     let mut special = renderer
         .new_cache_for(&two_bounces, kinds_seen[0])
         .expect("cache for the Cornell box");
-    let a = render(&renderer, &cornell, &mut generic);
-    let b = render(&renderer, &cornell, &mut special);
-    assert!(
-        a.beauty == b.beauty && a.indirect == b.indirect,
-        "two bounces: the pass for the Cornell box's features changed the image"
+    same_frames(
+        &renderer,
+        &cornell,
+        &mut generic,
+        &mut special,
+        "two bounces on the Cornell box",
     );
     let one_bounce_pass = radsplat::records::RecordPass::for_scene(
         &renderer.ctx,

@@ -57,19 +57,8 @@ const GATHER_BINDINGS: &[Binding] = &[
     Binding::StorageRead,
 ];
 
-/// Bindings of `splat_fill.wgsl`: the gather's and the empty pixels' list and count.
-const FILL_BINDINGS: &[Binding] = &[
-    Binding::Uniform,
-    Binding::StorageRead,
-    Binding::StorageRead,
-    Binding::StorageRead,
-    Binding::StorageRead,
-    Binding::StorageReadWrite,
-    Binding::StorageReadWrite,
-    Binding::StorageRead,
-    Binding::StorageRead,
-    Binding::StorageRead,
-];
+/// Bindings `splat_fill.wgsl` adds after the gather's: the empty pixels' list and count.
+const FILL_EXTRA_BINDINGS: &[Binding] = &[Binding::StorageRead, Binding::StorageRead];
 
 /// A gather compiled twice: without coverage counting (`COUNTS_COVERAGE` false in
 /// `wgsl/shared/splat_pixel.wgsl`), for still frames, which count nothing; and with it,
@@ -78,17 +67,17 @@ const FILL_BINDINGS: &[Binding] = &[
 /// 400x400 the gather without them took 0.80 of its time, the same bytes.
 struct GatherPipelines {
     name: &'static str,
-    bindings: &'static [Binding],
+    bindings: Vec<Binding>,
     plain: ComputePass,
     counting: std::sync::OnceLock<ComputePass>,
 }
 
 impl GatherPipelines {
-    fn new(ctx: &GpuContext, name: &'static str, bindings: &'static [Binding]) -> Result<Self> {
+    fn new(ctx: &GpuContext, name: &'static str, bindings: Vec<Binding>) -> Result<Self> {
         Ok(Self {
             name,
+            plain: ComputePass::with_constants(ctx, name, &bindings, &[("COUNTS_COVERAGE", 0.0)])?,
             bindings,
-            plain: ComputePass::with_constants(ctx, name, bindings, &[("COUNTS_COVERAGE", 0.0)])?,
             counting: std::sync::OnceLock::new(),
         })
     }
@@ -102,7 +91,7 @@ impl GatherPipelines {
         if let Some(pass) = self.counting.get() {
             return Ok(pass);
         }
-        let pass = ComputePass::new(ctx, self.name, self.bindings)?;
+        let pass = ComputePass::new(ctx, self.name, &self.bindings)?;
         Ok(self.counting.get_or_init(|| pass))
     }
 }
@@ -373,8 +362,12 @@ impl SplatPass {
                 "splat_bin_sort.wgsl",
                 &[Uniform, StorageRead, StorageRead, StorageReadWrite],
             )?,
-            gather: GatherPipelines::new(ctx, "splat_gather.wgsl", GATHER_BINDINGS)?,
-            fill: GatherPipelines::new(ctx, "splat_fill.wgsl", FILL_BINDINGS)?,
+            gather: GatherPipelines::new(ctx, "splat_gather.wgsl", GATHER_BINDINGS.to_vec())?,
+            fill: GatherPipelines::new(
+                ctx,
+                "splat_fill.wgsl",
+                [GATHER_BINDINGS, FILL_EXTRA_BINDINGS].concat(),
+            )?,
             cover: ComputePass::new(
                 ctx,
                 "splat_cover.wgsl",
