@@ -535,6 +535,69 @@ fn gpu_dark_planes_alone_are_refined_when_refinement_by_contrast_is_off() {
     assert!(!pass.refines(), "no refinement at all");
 }
 
+/// With refinement by contrast on (the default fraction) and `dark_plane_refine` off,
+/// planes that saw no light are left as traced, bit for bit, their selection saying
+/// `NO_PIXELS` (they have no contrast to rank either), while lit planes are refined as the
+/// CPU mirror refines them. The flag was ignored whenever any pixel was refined by
+/// contrast.
+#[test]
+fn gpu_dark_planes_are_left_unrefined_when_dark_plane_refinement_is_off() {
+    let scene = common::load("cornell-box.toml", Some((32, 32)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = CacheSettings {
+        plane_resolution: 16,
+        dark_plane_refine: false,
+        ..CacheSettings::default()
+    };
+    let k = settings.refined_pixels() as usize;
+    assert!(k > 0, "refinement by contrast on");
+    let mut sites = sites(&scene, &renderer, &settings, 6);
+    let lit = sites.len();
+    // Facing up on top of the box and inside the tall block: two planes without light.
+    for position in [[0.278, 0.7, 0.279], [0.3685, 0.1, 0.3515]] {
+        let mut site = sites[0];
+        site.position = position;
+        site.normal = [0.0, 1.0, 0.0];
+        site.geometric_normal = [0.0, 1.0, 0.0];
+        sites.push(site);
+    }
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    let reference = RecordReference::new(&scene, &settings);
+    let gpu = pass
+        .trace_planes_refined(&renderer.ctx, &prepared.gpu, &sites)
+        .expect("refined planes");
+    renderer.ctx.check().expect("no wgpu errors");
+    let per = (settings.plane_resolution * settings.plane_resolution) as usize;
+    assert_eq!(gpu.selected.len(), sites.len() * k, "K slots a record");
+    let mut lit_changed = 0;
+    for (i, site) in sites.iter().enumerate() {
+        let coarse = &gpu.coarse[i * per..(i + 1) * per];
+        let refined = &gpu.refined[i * per..(i + 1) * per];
+        let noise = &gpu.noise[i * per..(i + 1) * per];
+        let (cpu, selected) = reference.refine(site, coarse, noise);
+        if i >= lit {
+            assert!(
+                selected.is_empty(),
+                "site {i}: the CPU refines a dark plane"
+            );
+            assert_eq!(gpu.selected[i * k], refine::NO_PIXELS, "site {i}");
+            assert!(
+                refined == coarse,
+                "site {i}: a dark plane's samples changed"
+            );
+            continue;
+        }
+        assert_eq!(&gpu.selected[i * k..(i + 1) * k], &selected[..], "site {i}");
+        for (p, (g, c)) in refined.iter().zip(&cpu).enumerate() {
+            lit_changed += usize::from(g.depth != coarse[p].depth);
+            let depth_err = (g.depth - c.depth).abs() / c.depth.abs().max(1e-3);
+            assert!(depth_err <= 1e-4, "site {i} pixel {p}: {g:?} against {c:?}");
+        }
+    }
+    assert!(lit_changed > 0, "the lit planes were refined");
+}
+
 /// The same under five lights: refinement's sub-samples choose their lights as the
 /// plane's samples do.
 #[test]
@@ -579,7 +642,7 @@ fn gpu_refinement_under_an_environment_discounts_its_samples_as_the_cpu() {
         let noise = &gpu.noise[i * per..(i + 1) * per];
         assert_eq!(
             &gpu.selected[i * k..(i + 1) * k],
-            &refine::select_pixels(&reference.plane, coarse, noise, k as u32)[..],
+            &refine::select_pixels(&reference.plane, coarse, noise, k as u32, true)[..],
             "site {i}: selected pixels"
         );
     }

@@ -23,6 +23,8 @@ struct RefineParams {
 
 // Every slot of a dark plane's selection (plane_refine_select.wgsl).
 const DARK_PLANE: u32 = 0xffffffffu;
+// A selection that refines nothing (records::refine::NO_PIXELS).
+const NO_PIXELS: u32 = 0xfffffffeu;
 
 // Rust: records::plane::RefineSample.
 struct RefineSample {
@@ -64,7 +66,11 @@ fn main(
     // the dispatch's L lanes of the record (K rounded up to whole workgroups): every lane
     // works, and one loop holds the tracing, so that it is compiled once (lavapipe inlines
     // every call of it).
-    let dark = selected[id.z * params.slots] == DARK_PLANE;
+    let first_slot = selected[id.z * params.slots];
+    if first_slot == NO_PIXELS {
+        return;     // a dark plane, dark planes not refined
+    }
+    let dark = first_slot == DARK_PLANE;
     var k = id.x;
     var step = ((params.slots + 63u) / 64u) * 64u;
     var end = n;

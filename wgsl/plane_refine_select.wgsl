@@ -19,12 +19,18 @@
 const THREADS: u32 = 64u;
 // Every slot of a dark plane's selection (records::refine::DARK_PLANE).
 const DARK_PLANE: u32 = 0xffffffffu;
+// The first slot of a selection that refines nothing (records::refine::NO_PIXELS).
+const NO_PIXELS: u32 = 0xfffffffeu;
 
 struct SelectParams {
     resolution: u32,
     count: u32,
     refined: u32,       // K pixels to select per record by contrast (0 <= K <= P^2)
     slots: u32,         // selection slots per record, max(K, 1): a dark plane's flag
+    dark_planes: u32,   // 1: dark planes are refined everywhere (dark_plane_refine)
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: SelectParams;
@@ -100,6 +106,14 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         plane_dark = u32(atomicLoad(&lit) == 0u);
     }
     if workgroupUniformLoad(&plane_dark) != 0u {
+        if params.dark_planes == 0u {
+            // Not refined (nor ranked: it has no contrast), however many pixels lit
+            // planes refine.
+            if lane == 0u {
+                selected[record * params.slots] = NO_PIXELS;
+            }
+            return;
+        }
         if lane == 0u {
             atomicAdd(&dark_planes[0], 1u);
         }

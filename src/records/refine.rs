@@ -45,6 +45,12 @@ fn channel_sum(s: &PlaneSample) -> f32 {
 /// everywhere (`DARK_PLANE` in `plane_refine_select.wgsl` and `plane_refine.wgsl`).
 pub const DARK_PLANE: u32 = u32::MAX;
 
+/// The first slot of a selection that refines nothing: a dark plane when dark planes are
+/// not refined (`CacheSettings::dark_plane_refine` off) but some pixels are by contrast,
+/// whose other slots hold nothing meaningful (`NO_PIXELS` in `plane_refine_select.wgsl`
+/// and `plane_refine.wgsl`; on the CPU an empty selection).
+pub const NO_PIXELS: u32 = u32::MAX - 1;
+
 /// Whether no sample of the plane has light (its record's irradiance would be exactly
 /// zero).
 pub fn is_dark(plane: &HemispherePlane, samples: &[PlaneSample]) -> bool {
@@ -108,14 +114,20 @@ pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample], noise: &[
 /// can miss light of a small solid angle (Sponza's arcade floors see the sunlit court only
 /// between columns, a few degrees above their horizon), and a record that misses it
 /// spreads exact zeros over its footprint. Radiance's `-as` super-samples where the
-/// samples disagree; a dark plane is where they cannot tell.
+/// samples disagree; a dark plane is where they cannot tell. With `dark_planes` false
+/// (`CacheSettings::dark_plane_refine` off) a dark plane selects nothing: its pixels have
+/// no contrast to rank either.
 pub fn select_pixels(
     plane: &HemispherePlane,
     samples: &[PlaneSample],
     noise: &[f32],
     refined: u32,
+    dark_planes: bool,
 ) -> Vec<u32> {
     if is_dark(plane, samples) {
+        if !dark_planes {
+            return Vec::new();
+        }
         // One slot at least: with `refined` 0 (dark planes alone refined) it flags them.
         return vec![DARK_PLANE; refined.max(1) as usize];
     }
@@ -188,6 +200,9 @@ struct SelectParams {
     refined: u32,
     /// Selection slots per record: `max(refined, 1)` (a dark plane's flag needs one).
     slots: u32,
+    /// 1: dark planes are refined everywhere (`CacheSettings::dark_plane_refine`).
+    dark_planes: u32,
+    _pad: [u32; 3],
 }
 
 #[repr(C)]
@@ -218,6 +233,8 @@ pub struct RefinePass {
     split: u32,
     light_samples: u32,
     light_choices: u32,
+    /// Dark planes are refined everywhere (`CacheSettings::dark_plane_refine`).
+    dark_planes_refined: bool,
 }
 
 impl RefinePass {
@@ -273,6 +290,7 @@ impl RefinePass {
             split,
             light_samples: settings.plane_light_samples,
             light_choices: settings.plane_light_choices,
+            dark_planes_refined: settings.dark_plane_refine,
         }))
     }
 
@@ -305,6 +323,8 @@ impl RefinePass {
                 count,
                 refined: self.refined,
                 slots: self.slots(),
+                dark_planes: u32::from(self.dark_planes_refined),
+                _pad: [0; 3],
             },
         );
         let bind = self.select.bind(
@@ -411,7 +431,7 @@ pub fn refine_plane(
     let split = settings.plane_refine_split;
     let subs = plane.refine_samples(split);
     let m = split * split;
-    let selected = select_pixels(plane, coarse, noise, refined);
+    let selected = select_pixels(plane, coarse, noise, refined, settings.dark_plane_refine);
     for k in refined_pixels(plane.resolution, &selected) {
         let mine = &subs[(k * m) as usize..((k + 1) * m) as usize];
         let traced: Vec<(PlaneSample, f32)> = mine
@@ -464,14 +484,14 @@ mod tests {
         }));
         // The plain plane's centre pixels (6, 9) weigh more than its edge ones (1, 4),
         // which tie: the lower index.
-        let chosen = select_pixels(&plane, &samples, &[], 3);
+        let chosen = select_pixels(&plane, &samples, &[], 3, true);
         assert_eq!(chosen, vec![1, 6, 9]);
         // All equal: the lowest indices.
         assert_eq!(
-            select_pixels(&plane, &vec![sample(0.5); 16], &[], 3),
+            select_pixels(&plane, &vec![sample(0.5); 16], &[], 3, true),
             vec![0, 1, 2]
         );
-        assert_eq!(select_pixels(&plane, &samples, &[], 16).len(), 16);
+        assert_eq!(select_pixels(&plane, &samples, &[], 16, true).len(), 16);
     }
 
     /// With no pixel to refine by contrast (K = 0), a dark plane still takes one slot that
@@ -480,15 +500,18 @@ mod tests {
     fn dark_planes_are_flagged_when_no_pixel_is_refined_by_contrast() {
         let plane = plain_4x4();
         let dark = vec![sample(0.0); 16];
-        assert_eq!(select_pixels(&plane, &dark, &[], 0), vec![DARK_PLANE]);
-        assert_eq!(select_pixels(&plane, &dark, &[], 3), vec![DARK_PLANE; 3]);
+        assert_eq!(select_pixels(&plane, &dark, &[], 0, true), vec![DARK_PLANE]);
         assert_eq!(
-            refined_pixels(4, &select_pixels(&plane, &dark, &[], 0)),
+            select_pixels(&plane, &dark, &[], 3, true),
+            vec![DARK_PLANE; 3]
+        );
+        assert_eq!(
+            refined_pixels(4, &select_pixels(&plane, &dark, &[], 0, true)),
             (0..16).collect::<Vec<u32>>()
         );
         let mut lit = dark.clone();
         lit[5] = sample(1.0);
-        assert!(select_pixels(&plane, &lit, &[], 0).is_empty());
+        assert!(select_pixels(&plane, &lit, &[], 0, true).is_empty());
         assert!(refined_pixels(4, &[]).is_empty());
     }
 
@@ -531,8 +554,11 @@ mod tests {
         assert!((f32::from_bits(keys[6]) - expected).abs() < 1e-6);
         // Pixel 10's neighbours (6, 9, 11, 14) share that contrast, the centre ones first;
         // without the environment shares pixel 5's neighbours come first.
-        assert_eq!(select_pixels(&plane, &samples, &noise, 3), vec![6, 9, 11]);
-        assert_eq!(select_pixels(&plane, &samples, &[], 1), vec![6]);
+        assert_eq!(
+            select_pixels(&plane, &samples, &noise, 3, true),
+            vec![6, 9, 11]
+        );
+        assert_eq!(select_pixels(&plane, &samples, &[], 1, true), vec![6]);
     }
 
     #[test]
