@@ -336,9 +336,12 @@ pub fn module(device: &wgpu::Device, name: &str) -> Result<wgpu::ShaderModule> {
     )
     .validate(&parsed)
     .map_err(|e| Error::Gpu(format!("{name}: {}", e.emit_to_string(&text))))?;
+    // The parsed module itself, not its text: wgpu would parse the text again (the WGSL
+    // front end is most of naga's share of a run's start; wgpu still validates it against
+    // the device's own capabilities).
     Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(name),
-        source: wgpu::ShaderSource::Wgsl(text.into()),
+        source: wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(parsed)),
     }))
 }
 
