@@ -463,6 +463,16 @@ impl Renderer {
         self.light_maps.get(|| LightMapPass::new(&self.ctx))
     }
 
+    /// The light maps of `scene` for `settings` (every light mapped), as a frame traces
+    /// them: for tests and tools that trace planes with them.
+    pub fn traced_light_maps(
+        &self,
+        scene: &PreparedScene,
+        settings: &LightMapSettings,
+    ) -> Result<std::sync::Arc<LightMaps>> {
+        self.scene_light_maps(scene, settings, MappedLights::All, &mut Vec::new())
+    }
+
     /// The light maps of `scene` for `settings` and `mapped`: traced on first use and kept
     /// with the scene, traced again only for other settings.
     fn scene_light_maps(

@@ -587,6 +587,11 @@ struct CacheArgs {
     /// animation showed floors of exactly zero indirect light).
     #[arg(long)]
     no_dark_plane_refine: bool,
+    /// Refine a plane that saw no light everywhere, not only at the pixels whose rays can
+    /// land near a lit surface (by default, where the light maps see every lit surface:
+    /// every light mapped, no environment, no emitters of their own, one bounce)
+    #[arg(long)]
+    dark_planes_everywhere: bool,
 }
 
 // Value parsers of `CacheArgs`: clap reports their errors as "invalid value 'V' for
@@ -759,6 +764,7 @@ impl CacheArgs {
             plane_refine: self.plane_refine,
             plane_refine_split: self.plane_refine_split,
             dark_plane_refine: !self.no_dark_plane_refine,
+            dark_plane_guide: !self.dark_planes_everywhere,
             glossy_samples: self.glossy_samples,
             radiance: RadianceSettings {
                 order: self.radiance_order,

@@ -598,6 +598,119 @@ fn gpu_dark_planes_are_left_unrefined_when_dark_plane_refinement_is_off() {
     assert!(lit_changed > 0, "the lit planes were refined");
 }
 
+/// Dark planes refined near lit surfaces alone (`CacheSettings::dark_plane_guide`), on the
+/// nave: a low sun through small windows, every light mapped, so the light maps see every
+/// lit surface. The GPU's lit grid is the pyramid of its own finest level; a dark plane's
+/// selection says `DARK_GUIDED`, the pixels the CPU's guided selection leaves out keep their
+/// traced samples bit for bit and the ones it lists get the CPU's refined depths; and the
+/// guided planes find the light that refining every pixel finds, for fewer rays.
+#[test]
+fn gpu_dark_planes_refine_near_lit_surfaces_as_the_cpu() {
+    use radsplat::records::refine::{DarkGuide, is_dark};
+    let scene = common::load("nave.toml", Some((48, 48)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = CacheSettings::default();
+    assert!(settings.dark_plane_guide, "on by default");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let maps = renderer
+        .traced_light_maps(&prepared, &settings.light_maps)
+        .expect("light maps");
+    assert!(
+        maps.see_every_lit_surface(&prepared.gpu),
+        "the nave's sun is mapped"
+    );
+    let grid = maps.lit_grid.params;
+    let mut voxels: Vec<u32> = renderer
+        .ctx
+        .read_buffer(&maps.lit_grid.voxels)
+        .expect("grid");
+    voxels.truncate(grid.voxels() as usize);
+    let finest = grid.offsets[1] as usize;
+    assert!(voxels[..finest].iter().any(|&v| v != 0), "lit voxels");
+    let mut pyramid = voxels.clone();
+    pyramid[finest..].fill(0);
+    grid.reduce(&mut pyramid);
+    assert_eq!(pyramid, voxels, "the coarser levels are the CPU's pyramid");
+
+    let sites = sites(&scene, &renderer, &settings, 160);
+    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    let reference = RecordReference::new(&scene, &settings);
+    let gpu = pass
+        .trace_planes_refined_with(&renderer.ctx, &prepared.gpu, &sites, &maps)
+        .expect("refined planes");
+    let everywhere_pass = RecordPass::new(
+        &renderer.ctx,
+        &CacheSettings {
+            dark_plane_guide: false,
+            ..settings.clone()
+        },
+    )
+    .expect("record pass");
+    let everywhere = everywhere_pass
+        .trace_planes_refined_with(&renderer.ctx, &prepared.gpu, &sites, &maps)
+        .expect("refined planes");
+    renderer.ctx.check().expect("no wgpu errors");
+    let per = (settings.plane_resolution * settings.plane_resolution) as usize;
+    let slots = pass.refine_slots() as usize;
+    let (mut dark, mut listed, mut flag_mismatch, mut compared) = (0, 0, 0, 0);
+    let (mut lit_everywhere, mut lit_guided) = (0, 0);
+    for (i, site) in sites.iter().enumerate() {
+        let coarse = &gpu.coarse[i * per..(i + 1) * per];
+        if !is_dark(&reference.plane, coarse) {
+            continue;
+        }
+        dark += 1;
+        assert_eq!(gpu.selected[i * slots], refine::DARK_GUIDED, "site {i}");
+        let refined = &gpu.refined[i * per..(i + 1) * per];
+        let noise = &gpu.noise[i * per..(i + 1) * per];
+        let guide = DarkGuide {
+            grid: &grid,
+            voxels: &voxels,
+            site,
+        };
+        let (cpu, list) = reference.refine_guided(site, coarse, noise, Some(&guide));
+        listed += list.len();
+        for p in 0..per {
+            let (g, c) = (&refined[p], &cpu[p]);
+            if list.binary_search(&(p as u32)).is_err() {
+                if g != &coarse[p] {
+                    flag_mismatch += 1; // the GPU refined a pixel the CPU left
+                }
+                continue;
+            }
+            compared += 1;
+            let depth_err = (g.depth - c.depth).abs() / c.depth.abs().max(1e-3);
+            if depth_err > 1e-4 {
+                flag_mismatch += 1;
+            }
+        }
+        let light = |s: &[radsplat::records::PlaneSample]| {
+            s.iter().any(|x| x.radiance.iter().any(|&v| v > 0.0))
+        };
+        lit_everywhere += usize::from(light(&everywhere.refined[i * per..(i + 1) * per]));
+        lit_guided += usize::from(light(refined));
+    }
+    eprintln!(
+        "{dark} dark planes: {listed} of {} pixels listed, {flag_mismatch} differ; light found \
+         by {lit_guided} guided and {lit_everywhere} refined everywhere",
+        dark * per
+    );
+    assert!(dark >= 4, "only {dark} dark planes");
+    assert!(
+        compared > 0 && listed < dark * per * 9 / 10,
+        "{listed} listed"
+    );
+    // Edge cases of the hit points' rounding (a voxel or face boundary) may flip a pixel.
+    assert!(
+        flag_mismatch * 200 <= dark * per,
+        "{flag_mismatch} pixels differ"
+    );
+    assert!(
+        lit_guided * 10 >= lit_everywhere * 9,
+        "guided refinement found light in {lit_guided} planes, everywhere in {lit_everywhere}"
+    );
+}
+
 /// The same under five lights: refinement's sub-samples choose their lights as the
 /// plane's samples do.
 #[test]
@@ -642,7 +755,7 @@ fn gpu_refinement_under_an_environment_discounts_its_samples_as_the_cpu() {
         let noise = &gpu.noise[i * per..(i + 1) * per];
         assert_eq!(
             &gpu.selected[i * k..(i + 1) * k],
-            &refine::select_pixels(&reference.plane, coarse, noise, k as u32, true)[..],
+            &refine::select_pixels(&reference.plane, coarse, noise, k as u32, true, None)[..],
             "site {i}: selected pixels"
         );
     }

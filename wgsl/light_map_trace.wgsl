@@ -2,9 +2,13 @@
 // the distance to the first hit (MAP_NO_HIT on a miss). z indexes the map.
 //!include shared/bvh.wgsl
 //!include shared/light_map.wgsl
+//!include shared/lit_grid.wgsl
 
 @group(1) @binding(0) var<storage, read> maps: array<LightMap>;
 @group(1) @binding(1) var<storage, read_write> depths: array<f32>;
+// Level 0 of the lit grid: the voxel of every first hit is marked.
+@group(1) @binding(2) var<uniform> lit_grid_params: LitGridParams;
+@group(1) @binding(3) var<storage, read_write> lit_grid: array<atomic<u32>>;
 
 @compute @workgroup_size(8, 8)
 fn main(
@@ -16,6 +20,21 @@ fn main(
     if id.x >= m.resolution || id.y >= m.resolution {
         return;
     }
-    let hit = trace_closest(light_map_ray(m, id.xy));
+    let ray = light_map_ray(m, id.xy);
+    let hit = trace_closest(ray);
     depths[m.offset + id.y * m.resolution + id.x] = select(MAP_NO_HIT, hit.t, hit.instance != NO_HIT);
+    if hit.instance != NO_HIT && lit_grid_params.levels > 0u {
+        let p = lit_grid_params;
+        let q = (ray.origin + hit.t * ray.dir - p.lo) / p.cell;
+        let c = vec3u(clamp(vec3i(floor(q)), vec3i(0), vec3i(p.dims) - vec3i(1)));
+        // The lit side's normal (facing the light), by its dominant axis: bit 2 axis + (0
+        // for +, 1 for -) of the voxel's mask (lit_grid.wgsl).
+        let tri = triangles[hit.triangle];
+        let inst = instances[hit.instance];
+        var n = transform_vector(inst.normal_to_world, cross(tri.e1.xyz, tri.e2.xyz));
+        if dot(n, ray.dir) > 0.0 {
+            n = -n;
+        }
+        atomicOr(&lit_grid[lit_grid_voxel(p, 0u, c)], lit_face_bit(n));
+    }
 }

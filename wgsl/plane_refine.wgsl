@@ -25,6 +25,8 @@ struct RefineParams {
 const DARK_PLANE: u32 = 0xffffffffu;
 // A selection that refines nothing (records::refine::NO_PIXELS).
 const NO_PIXELS: u32 = 0xfffffffeu;
+// A dark plane refined only where its select flagged pixels (radiance.x = -1).
+const DARK_GUIDED: u32 = 0xfffffffdu;
 
 // Rust: records::plane::RefineSample.
 struct RefineSample {
@@ -70,7 +72,8 @@ fn main(
     if first_slot == NO_PIXELS {
         return;     // a dark plane, dark planes not refined
     }
-    let dark = first_slot == DARK_PLANE;
+    let guided = first_slot == DARK_GUIDED;
+    let dark = first_slot == DARK_PLANE || guided;
     var k = id.x;
     var step = ((params.slots + 63u) / 64u) * 64u;
     var end = n;
@@ -84,7 +87,10 @@ fn main(
     }
     for (; k < end; k += step) {
         let centre = samples[base + k];
-        var radiance = centre.radiance * params.centre_weight;
+        if guided && centre.radiance.x >= 0.0 {
+            continue;
+        }
+        var radiance = select(centre.radiance, vec3f(0.0), guided) * params.centre_weight;
         var inv_depth = select(0.0, params.centre_weight / centre.depth, centre.depth > 0.0);
         for (var q = 0u; q < params.subsamples; q++) {
             let sub = subs[k * params.subsamples + q];

@@ -12,6 +12,7 @@
 // has no contrast to rank: its K slots all say DARK_PLANE, and plane_refine.wgsl then
 // refines every pixel of it. The CPU mirror is records::refine::select_pixels.
 //!include shared/records.wgsl
+//!include shared/lit_grid_query.wgsl
 
 // 64 threads: a 24x24 plane gives each 9 pixels. On lavapipe a workgroup's threads run as
 // SIMD loops split at every barrier, so the select's dozen barriers cost per thread: 256
@@ -28,14 +29,14 @@ struct SelectParams {
     refined: u32,       // K pixels to select per record by contrast (0 <= K <= P^2)
     slots: u32,         // selection slots per record, max(K, 1): a dark plane's flag
     dark_planes: u32,   // 1: dark planes are refined everywhere (dark_plane_refine)
-    _pad0: u32,
+    guided: u32,        // 1: a dark plane refines only pixels near a lit voxel
     _pad1: u32,
     _pad2: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: SelectParams;
 @group(1) @binding(1) var<storage, read> plane: array<PlanePixel>;
-@group(1) @binding(2) var<storage, read> samples: array<PlaneSample>;
+@group(1) @binding(2) var<storage, read_write> samples: array<PlaneSample>;
 @group(1) @binding(3) var<storage, read_write> keys: array<u32>;
 @group(1) @binding(4) var<storage, read_write> selected: array<u32>;
 // Planes refined everywhere, for the frame's ray count (RecordPass::take_dark_plane_rays).
@@ -43,6 +44,23 @@ struct SelectParams {
 // Per sample: what its environment samples gave it (hemisphere_plane.wgsl `noise`; zeros
 // where the plane pass did not write them).
 @group(1) @binding(6) var<storage, read> noise: array<f32>;
+@group(1) @binding(7) var<storage, read> sites: array<RecordSite>;
+@group(1) @binding(8) var<uniform> lit_grid_params: LitGridParams;
+@group(1) @binding(9) var<storage, read> lit_grid: array<u32>;
+
+// The first slot of a dark plane refined only where its rays can land near a lit surface
+// (records::refine::DARK_GUIDED): the selection flags those pixels in the samples
+// themselves, radiance.x = -1 (a dark plane's radiances are all zero), for plane_refine.wgsl.
+const DARK_GUIDED: u32 = 0xfffffffdu;
+
+// Hit point of pixel k of the plane at `base` (w: 0 on a miss).
+fn plane_hit_point(frame: mat3x3f, origin: vec3f, base: u32, k: u32) -> vec4f {
+    let z = samples[base + k].depth;
+    if z <= 0.0 {
+        return vec4f(0.0);
+    }
+    return vec4f(origin + frame * vec3f(plane[k].rot_center.zw, 1.0) * z, 1.0);
+}
 
 var<workgroup> histogram: array<atomic<u32>, 256>;
 var<workgroup> lit: atomic<u32>;   // any sample of the plane has light
@@ -111,6 +129,60 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             // planes refine.
             if lane == 0u {
                 selected[record * params.slots] = NO_PIXELS;
+            }
+            return;
+        }
+        if params.guided != 0u {
+            // Only the pixels whose sub-rays can land near a lit surface
+            // (records::refine::guided_pixels): the ball around the pixel's hit that
+            // reaches its 4-neighbours' hits (the pixel's footprint, and across an edge
+            // the farther surface) must touch a lit voxel whose lit side the pixel's
+            // direction can see. A pixel that missed is refined where a neighbour hit (an
+            // edge). The light maps see every lit surface of such a scene (every light
+            // mapped, no environment, no emitters of their own, one bounce: the caller's
+            // rule), so the other pixels' sub-rays could only find darkness.
+            let site = sites[record];
+            let frame = record_frame(site);
+            var mine = 0u;
+            for (var k = first; k < last; k++) {
+                let i = k % res;
+                let p = plane_hit_point(frame, site.position, base, k);
+                var radius = 0.0;
+                var missed = p.w == 0.0;
+                var any_hit = p.w != 0.0;
+                var nb: array<u32, 4>;
+                var m = 0u;
+                if i > 0u { nb[m] = k - 1u; m++; }
+                if i + 1u < res { nb[m] = k + 1u; m++; }
+                if k >= res { nb[m] = k - res; m++; }
+                if k + res < n { nb[m] = k + res; m++; }
+                for (var a = 0u; a < m; a++) {
+                    let q = plane_hit_point(frame, site.position, base, nb[a]);
+                    if q.w == 0.0 {
+                        missed = true;
+                    } else {
+                        any_hit = true;
+                        if p.w != 0.0 {
+                            radius = max(radius, length(q.xyz - p.xyz));
+                        }
+                    }
+                }
+                var refine = false;
+                if missed {
+                    refine = any_hit;   // an edge against a miss: refine it
+                } else {
+                    let d = normalize(frame * vec3f(plane[k].rot_center.zw, 1.0));
+                    refine = lit_near(p.xyz, radius, lit_faces_seen(d));
+                }
+                if refine {
+                    samples[base + k].radiance.x = -1.0;
+                    mine += 1u;
+                }
+            }
+            atomicAdd(&dark_planes[1], mine);
+            if lane == 0u {
+                atomicAdd(&dark_planes[2], 1u);
+                selected[record * params.slots] = DARK_GUIDED;
             }
             return;
         }

@@ -284,6 +284,9 @@ pub struct GpuScene {
     static_features: super::SceneFeatures,
     /// Whether any material has a glossy lobe (passes for glossy pixels run only then).
     pub has_glossy: bool,
+    /// Whether some material emits light that no light samples (an emitter that is not a
+    /// rect light's quad): plane rays can find light there that no light map shows.
+    pub unsampled_emission: bool,
     /// Each material's glossy lobe (index: material), for the tables radiance records
     /// are splatted with.
     pub glossy_lobes: Vec<Option<crate::scene::GlossyLobe>>,
@@ -483,6 +486,10 @@ impl GpuScene {
             },
             static_features: super::SceneFeatures::of(scene).with_traversal(start.in_blas),
             has_glossy: scene.materials.iter().any(|m| m.glossy.is_some()),
+            unsampled_emission: scene
+                .materials
+                .iter()
+                .any(|m| !m.sampled_light && m.emission.max_element() > 0.0),
             glossy_lobes: scene.materials.iter().map(|m| m.glossy).collect(),
             bounce_cache: std::sync::Mutex::new((Self::empty_bounce_cache(ctx)?, false)),
             vpls: std::sync::Mutex::new(None),

@@ -92,6 +92,16 @@ impl SceneFeatures {
         }
     }
 
+    /// Whether hits are lit by an environment (a map, or a constant that is not black).
+    pub fn has_environment(self) -> bool {
+        self.0 & Self::ENVIRONMENT_BIT != 0
+    }
+
+    /// Whether hits reflect a surface bounce cache (more than one bounce).
+    pub fn has_bounce_cache(self) -> bool {
+        self.0 & Self::BOUNCE_CACHE_BIT != 0
+    }
+
     /// The bits the shaders' `SCENE_FEATURES` takes.
     pub fn bits(self) -> u32 {
         self.0

@@ -149,6 +149,18 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/shared/light_map_lookup.wgsl"),
     ),
     (
+        "shared/lit_grid.wgsl",
+        include_str!("../../wgsl/shared/lit_grid.wgsl"),
+    ),
+    (
+        "shared/lit_grid_query.wgsl",
+        include_str!("../../wgsl/shared/lit_grid_query.wgsl"),
+    ),
+    (
+        "lit_grid_reduce.wgsl",
+        include_str!("../../wgsl/lit_grid_reduce.wgsl"),
+    ),
+    (
         "light_map_trace.wgsl",
         include_str!("../../wgsl/light_map_trace.wgsl"),
     ),

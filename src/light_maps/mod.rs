@@ -13,6 +13,8 @@
 //! pixels' direct light keeps exact shadow rays too: maps only feed the indirect light,
 //! which averages their error over a record's plane.
 
+pub mod lit_grid;
+
 use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
@@ -76,6 +78,8 @@ pub struct LightMaps {
     pub maps_buffer: wgpu::Buffer,
     pub depths: wgpu::Buffer,
     pub first_buffer: wgpu::Buffer,
+    /// Where the maps' lights reach (every texel's first hit), coarsely.
+    pub lit_grid: lit_grid::LitGrid,
 }
 
 impl LightMaps {
@@ -87,7 +91,23 @@ impl LightMaps {
             maps_buffer: ctx.storage_buffer("light maps", &[GpuLightMap::default()])?,
             depths: ctx.storage_buffer_sized("light map depths", 16)?,
             first_buffer: ctx.storage_buffer("light map table", &[0u32; 4])?,
+            lit_grid: lit_grid::LitGrid::none(ctx)?,
         })
+    }
+
+    /// Whether these maps see every surface a plane ray can find light on in `scene`: every
+    /// light has a map, and nothing else lights a hit (no environment, no emitters that
+    /// are not sampled lights, no bounce cache). Only then may a plane that saw no light
+    /// skip the pixels the lit grid rules out (`records::refine::guided_pixels`).
+    pub fn see_every_lit_surface(&self, scene: &GpuScene) -> bool {
+        let features = scene.features();
+        let mapped = self.first.first().is_some_and(|&maps| maps > 0)
+            && self.first.iter().skip(1).step_by(2).all(|&m| m != NO_MAP);
+        mapped
+            && self.lit_grid.params.levels > 0
+            && !scene.unsampled_emission
+            && !features.has_environment()
+            && !features.has_bounce_cache()
     }
 
     /// Texels over all maps (rays traced to build them).
@@ -206,6 +226,7 @@ pub fn layout(
 /// The trace pass (`wgsl/light_map_trace.wgsl`).
 pub struct LightMapPass {
     trace: ComputePass,
+    lit_grid: lit_grid::LitGridReducePass,
 }
 
 impl LightMapPass {
@@ -214,8 +235,14 @@ impl LightMapPass {
             trace: ComputePass::new(
                 ctx,
                 "light_map_trace.wgsl",
-                &[Binding::StorageRead, Binding::StorageReadWrite],
+                &[
+                    Binding::StorageRead,
+                    Binding::StorageReadWrite,
+                    Binding::Uniform,
+                    Binding::StorageReadWrite,
+                ],
             )?,
+            lit_grid: lit_grid::LitGridReducePass::new(ctx)?,
         })
     }
 
@@ -240,7 +267,11 @@ impl LightMapPass {
         let depths = ctx.storage_buffer_sized("light map depths", texels * 4)?;
         let first_buffer = ctx.storage_buffer("light map table", &first)?;
         let max_res = layout.iter().map(|m| m.resolution).max().unwrap_or(8);
-        let bind = self.trace.bind(ctx, &[&maps_buffer, &depths]);
+        let grid = lit_grid::LitGrid::over(ctx, bounds)?;
+        let bind = self.trace.bind(
+            ctx,
+            &[&maps_buffer, &depths, &grid.params_buffer, &grid.voxels],
+        );
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         self.trace.record(
@@ -254,6 +285,7 @@ impl LightMapPass {
             ],
             timer.next("light maps"),
         );
+        self.lit_grid.record(ctx, &mut enc, scene, &grid);
         timer.resolve(&mut enc);
         ctx.queue.submit([enc.finish()]);
         times.extend(timer.read(ctx)?);
@@ -263,6 +295,7 @@ impl LightMapPass {
             maps_buffer,
             depths,
             first_buffer,
+            lit_grid: grid,
         })
     }
 }

@@ -297,6 +297,13 @@ pub struct CacheSettings {
     /// indirect light in every frame without it: docs/results.md, "Dark planes refined
     /// under temporal caching").
     pub dark_plane_refine: bool,
+    /// A dark plane refines only the pixels whose rays can land near a lit surface, where
+    /// the frame's light maps see every lit surface (every light mapped, no environment,
+    /// no emitters of their own, one bounce: `LightMaps::see_every_lit_surface`); the
+    /// light maps' lit grid says where those surfaces are (`light_maps::lit_grid`,
+    /// [`refine::guided_pixels`]). Elsewhere, and with this off, a dark plane is refined
+    /// everywhere. On by default (docs/results.md, "Dark planes refined near light").
+    pub dark_plane_guide: bool,
     /// Lobe directions per glossy pixel for its glossy indirect light ([`crate::glossy`]:
     /// importance-sampled Monte Carlo), for a lobe that is all of the material's
     /// reflectance; a pixel takes this times the lobe's share (at least 1).
@@ -394,6 +401,7 @@ impl Default for CacheSettings {
             plane_refine: 0.1,
             plane_refine_split: 2,
             dark_plane_refine: true,
+            dark_plane_guide: true,
             glossy_samples: 32,
             radiance: Default::default(),
             bounce: Default::default(),
@@ -1300,10 +1308,21 @@ impl RecordPass {
         let mut rays = 0;
         for (r, count) in refines.iter().zip(&counts) {
             rays += u64::from(count.first().copied().unwrap_or(0)) * r.extra_rays_per_dark_plane();
+            // Guided dark planes: their flagged pixels instead of the K by contrast.
+            let flagged = u64::from(count.get(1).copied().unwrap_or(0));
+            let guided = u64::from(count.get(2).copied().unwrap_or(0));
+            rays += flagged * r.rays_per_guided_pixel();
+            rays = rays.saturating_sub(guided * u64::from(r.refined()) * r.rays_per_guided_pixel());
             ctx.queue
-                .write_buffer(r.dark_planes(), 0, bytemuck::bytes_of(&0u32));
+                .write_buffer(r.dark_planes(), 0, bytemuck::bytes_of(&[0u32; 3]));
         }
         Ok(rays)
+    }
+
+    /// Selection slots per record of its refinement (`max(K, 1)`; 0 without refinement):
+    /// how [`RefinedPlanes::selected`] is laid out.
+    pub fn refine_slots(&self) -> u32 {
+        self.refine.as_ref().map_or(0, |r| r.slots())
     }
 
     /// Whether this pass refines its planes ([`refine`]): by contrast, or dark planes alone.
@@ -1851,6 +1870,18 @@ impl RecordPass {
         scene: &GpuScene,
         sites: &[RecordSite],
     ) -> Result<RefinedPlanes> {
+        self.trace_planes_refined_with(ctx, scene, sites, &self.no_light_maps)
+    }
+
+    /// [`Self::trace_planes_refined`] with the plane hits shadowed by `light_maps` (and
+    /// dark planes refined near their lit grid's lit surfaces where it sees them all).
+    pub fn trace_planes_refined_with(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        sites: &[RecordSite],
+        light_maps: &LightMaps,
+    ) -> Result<RefinedPlanes> {
         let Some(r) = &self.refine else {
             let coarse = self.trace_planes(ctx, scene, sites)?;
             return Ok(RefinedPlanes {
@@ -1864,8 +1895,15 @@ impl RecordPass {
         let n = sites.len() as u32;
         let samples_len = (n * res * res) as usize;
         let noise = ctx.storage_buffer_sized("plane noise", (samples_len as u64 * 4).max(16))?;
-        let (coarse, ()) =
-            self.trace_planes_with(ctx, scene, sites, false, Some(&noise), |_, _| Ok(()))?;
+        let (coarse, ()) = self.trace_planes_with(
+            ctx,
+            scene,
+            sites,
+            false,
+            Some(&noise),
+            light_maps,
+            |_, _| Ok(()),
+        )?;
         let mut noise_values: Vec<f32> = ctx.read_buffer(&noise)?;
         noise_values.truncate(samples_len);
         let sites_buf = ctx.storage_buffer("record sites", sites)?;
@@ -1883,7 +1921,7 @@ impl RecordPass {
             &selected,
             &noise,
             n,
-            &self.no_light_maps,
+            light_maps,
             &mut timer,
         )?;
         ctx.queue.submit([enc.finish()]);
@@ -1924,11 +1962,20 @@ impl RecordPass {
         record_hits: bool,
         then: impl FnOnce(&mut wgpu::CommandEncoder, &PlaneBatch<'_>) -> Result<T>,
     ) -> Result<(Vec<PlaneSample>, T)> {
-        self.trace_planes_with(ctx, scene, sites, record_hits, None, then)
+        self.trace_planes_with(
+            ctx,
+            scene,
+            sites,
+            record_hits,
+            None,
+            &self.no_light_maps,
+            then,
+        )
     }
 
     /// [`Self::trace_planes_then`], with `noise` also receiving each sample's
     /// environment-sampled share (`hemisphere_plane.wgsl`).
+    #[allow(clippy::too_many_arguments)]
     fn trace_planes_with<T>(
         &self,
         ctx: &GpuContext,
@@ -1936,6 +1983,7 @@ impl RecordPass {
         sites: &[RecordSite],
         record_hits: bool,
         noise: Option<&wgpu::Buffer>,
+        light_maps: &LightMaps,
         then: impl FnOnce(&mut wgpu::CommandEncoder, &PlaneBatch<'_>) -> Result<T>,
     ) -> Result<(Vec<PlaneSample>, T)> {
         self.check_features(scene)?;
@@ -1969,7 +2017,7 @@ impl RecordPass {
             &batch,
             record_hits,
             noise,
-            &self.no_light_maps,
+            light_maps,
             None,
         );
         let out = then(&mut enc, &batch)?;

@@ -260,6 +260,7 @@ pub fn plane_error_table(
                     site,
                     &samples,
                     &noise,
+                    None,
                     |s, xy, seed| base.trace_ray(s, xy, seed),
                 );
                 let e = plane_irradiance(&planes[2], &refined);

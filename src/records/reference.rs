@@ -143,12 +143,25 @@ impl<'a> RecordReference<'a> {
         coarse: &[PlaneSample],
         noise: &[f32],
     ) -> (Vec<PlaneSample>, Vec<u32>) {
+        self.refine_guided(site, coarse, noise, None)
+    }
+
+    /// [`Self::refine`] with a dark plane refined only near the lit surfaces of `guide`'s
+    /// lit grid ([`super::refine::guided_pixels`]; `None`: everywhere).
+    pub fn refine_guided(
+        &self,
+        site: &RecordSite,
+        coarse: &[PlaneSample],
+        noise: &[f32],
+        guide: Option<&super::refine::DarkGuide>,
+    ) -> (Vec<PlaneSample>, Vec<u32>) {
         super::refine::refine_plane(
             &self.plane,
             &self.settings,
             site,
             coarse,
             noise,
+            guide,
             |s, xy, seed| self.trace_ray(s, xy, seed),
         )
     }

@@ -33,7 +33,9 @@ use crate::Result;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::{GpuContext, SceneFeatures};
+use crate::light_maps::lit_grid::{self, LitGridParams};
 use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
 
 /// The channel sum the contrast compares (not luminance: `(r + g) + b` has no product for
 /// a GPU to fuse, so the GPU and the CPU compute the same bits).
@@ -50,6 +52,85 @@ pub const DARK_PLANE: u32 = u32::MAX;
 /// whose other slots hold nothing meaningful (`NO_PIXELS` in `plane_refine_select.wgsl`
 /// and `plane_refine.wgsl`; on the CPU an empty selection).
 pub const NO_PIXELS: u32 = u32::MAX - 1;
+
+/// The first slot of a dark plane refined only where its rays can land near a lit surface
+/// ([`guided_pixels`]; `DARK_GUIDED` in `plane_refine_select.wgsl` and
+/// `plane_refine.wgsl`, where the selection flags those pixels in the samples themselves).
+/// On the CPU the selection is the list of those pixels.
+pub const DARK_GUIDED: u32 = u32::MAX - 2;
+
+/// Where the lit surfaces are, for refining a dark plane near them alone: the frame's lit
+/// grid (`light_maps::lit_grid`), read back, and the site whose plane it is.
+#[derive(Clone, Copy)]
+pub struct DarkGuide<'a> {
+    pub grid: &'a LitGridParams,
+    pub voxels: &'a [u32],
+    pub site: &'a RecordSite,
+}
+
+/// The pixels of a dark plane whose rays can land near a lit surface (the GPU's guided
+/// selection, `plane_refine_select.wgsl`): the ball around the pixel's hit that reaches
+/// its 4-neighbours' hits (its footprint, and across an edge the farther surface) touches
+/// a lit voxel whose lit side the pixel's direction can see
+/// ([`LitGridParams::near`], [`lit_grid::faces_seen`]); a pixel that missed is refined
+/// where a neighbour hit. In pixel order.
+pub fn guided_pixels(
+    plane: &HemispherePlane,
+    samples: &[PlaneSample],
+    guide: &DarkGuide,
+) -> Vec<u32> {
+    let site = guide.site;
+    let frame = crate::sampling::record_frame(Vec3::from(site.normal), site.seed);
+    let origin = Vec3::from(site.position);
+    let res = plane.resolution;
+    let n = res * res;
+    let point = |k: u32| {
+        let z = samples[k as usize].depth;
+        let c = plane.pixels[k as usize].center;
+        (z > 0.0).then(|| origin + frame * Vec3::new(c[0], c[1], 1.0) * z)
+    };
+    (0..n)
+        .filter(|&k| {
+            let i = k % res;
+            let p = point(k);
+            let mut neighbours = Vec::with_capacity(4);
+            if i > 0 {
+                neighbours.push(k - 1);
+            }
+            if i + 1 < res {
+                neighbours.push(k + 1);
+            }
+            if k >= res {
+                neighbours.push(k - res);
+            }
+            if k + res < n {
+                neighbours.push(k + res);
+            }
+            let (mut radius, mut missed, mut any_hit) = (0.0f32, p.is_none(), p.is_some());
+            for q in neighbours.into_iter().map(point) {
+                match (q, p) {
+                    (None, _) => missed = true,
+                    (Some(q), Some(p)) => {
+                        any_hit = true;
+                        radius = radius.max((q - p).length());
+                    }
+                    (Some(_), None) => any_hit = true,
+                }
+            }
+            match p {
+                _ if missed => any_hit,
+                Some(p) => {
+                    let c = plane.pixels[k as usize].center;
+                    let d = (frame * Vec3::new(c[0], c[1], 1.0)).normalize();
+                    guide
+                        .grid
+                        .near(guide.voxels, p, radius, lit_grid::faces_seen(d))
+                }
+                None => false,
+            }
+        })
+        .collect()
+}
 
 /// Whether no sample of the plane has light (its record's irradiance would be exactly
 /// zero).
@@ -116,17 +197,22 @@ pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample], noise: &[
 /// spreads exact zeros over its footprint. Radiance's `-as` super-samples where the
 /// samples disagree; a dark plane is where they cannot tell. With `dark_planes` false
 /// (`CacheSettings::dark_plane_refine` off) a dark plane selects nothing: its pixels have
-/// no contrast to rank either.
+/// no contrast to rank either. With a `guide` (the frame's light maps see every lit
+/// surface) a dark plane selects only the pixels [`guided_pixels`] lists.
 pub fn select_pixels(
     plane: &HemispherePlane,
     samples: &[PlaneSample],
     noise: &[f32],
     refined: u32,
     dark_planes: bool,
+    guide: Option<&DarkGuide>,
 ) -> Vec<u32> {
     if is_dark(plane, samples) {
         if !dark_planes {
             return Vec::new();
+        }
+        if let Some(guide) = guide {
+            return guided_pixels(plane, samples, guide);
         }
         // One slot at least: with `refined` 0 (dark planes alone refined) it flags them.
         return vec![DARK_PLANE; refined.max(1) as usize];
@@ -202,7 +288,9 @@ struct SelectParams {
     slots: u32,
     /// 1: dark planes are refined everywhere (`CacheSettings::dark_plane_refine`).
     dark_planes: u32,
-    _pad: [u32; 3],
+    /// 1: a dark plane refines only its pixels near a lit voxel (`light_maps::lit_grid`).
+    guided: u32,
+    _pad: [u32; 2],
 }
 
 #[repr(C)]
@@ -235,6 +323,8 @@ pub struct RefinePass {
     light_choices: u32,
     /// Dark planes are refined everywhere (`CacheSettings::dark_plane_refine`).
     dark_planes_refined: bool,
+    /// ... only near lit surfaces where the light maps allow (`CacheSettings::dark_plane_guide`).
+    dark_plane_guide: bool,
 }
 
 impl RefinePass {
@@ -259,10 +349,13 @@ impl RefinePass {
                 &[
                     Uniform,
                     StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                    StorageReadWrite,
                     StorageRead,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                    StorageReadWrite,
+                    StorageRead,
+                    Uniform,
                     StorageRead,
                 ],
             )?,
@@ -284,13 +377,14 @@ impl RefinePass {
                 &[features.constant()],
             )?,
             subs: ctx.storage_buffer("refine samples", &plane.refine_samples(split))?,
-            dark_planes: ctx.storage_buffer("dark planes", &[0u32])?,
+            dark_planes: ctx.storage_buffer("dark planes", &[0u32; 3])?,
             resolution: settings.plane_resolution,
             refined,
             split,
             light_samples: settings.plane_light_samples,
             light_choices: settings.plane_light_choices,
             dark_planes_refined: settings.dark_plane_refine,
+            dark_plane_guide: settings.dark_plane_guide,
         }))
     }
 
@@ -316,6 +410,11 @@ impl RefinePass {
     ) -> Result<()> {
         let n = u64::from(self.resolution).pow(2);
         let keys = ctx.storage_buffer_sized("refine keys", u64::from(count) * n * 4)?;
+        // A dark plane refines only its pixels near lit surfaces where the light maps see
+        // every lit surface (`CacheSettings::dark_plane_guide`).
+        let guided = self.dark_planes_refined
+            && self.dark_plane_guide
+            && light_maps.see_every_lit_surface(scene);
         let select_params = ctx.uniform_buffer(
             "refine select params",
             &SelectParams {
@@ -324,7 +423,8 @@ impl RefinePass {
                 refined: self.refined,
                 slots: self.slots(),
                 dark_planes: u32::from(self.dark_planes_refined),
-                _pad: [0; 3],
+                guided: u32::from(guided),
+                _pad: [0; 2],
             },
         );
         let bind = self.select.bind(
@@ -337,6 +437,9 @@ impl RefinePass {
                 selected,
                 &self.dark_planes,
                 noise,
+                sites,
+                &light_maps.lit_grid.params_buffer,
+                &light_maps.lit_grid.voxels,
             ],
         );
         self.select.record(
@@ -399,6 +502,11 @@ impl RefinePass {
         self.refined.max(1)
     }
 
+    /// Rays a guided dark plane's refined pixel traces.
+    pub fn rays_per_guided_pixel(&self) -> u64 {
+        u64::from(self.split.pow(2))
+    }
+
     /// Rays a plane refined everywhere traces beyond the `K split^2` of refinement.
     pub fn extra_rays_per_dark_plane(&self) -> u64 {
         u64::from(self.resolution.pow(2) - self.refined) * u64::from(self.split.pow(2))
@@ -414,13 +522,15 @@ impl RefinePass {
 /// The refined plane of `site` from its traced `coarse` plane (and its samples'
 /// environment shares `noise`, [`contrast_keys`]), with `trace(dir_xy, seed)`
 /// tracing one sub-sample through plane coordinates `dir_xy` with the light-sample seed
-/// index (CPU reference); also returns the selected pixels.
+/// index (CPU reference); also returns the selected pixels. `guide`: where the lit
+/// surfaces are, when the frame's light maps see them all ([`guided_pixels`]).
 pub fn refine_plane(
     plane: &HemispherePlane,
     settings: &CacheSettings,
     site: &RecordSite,
     coarse: &[PlaneSample],
     noise: &[f32],
+    guide: Option<&DarkGuide>,
     mut trace: impl FnMut(&RecordSite, [f32; 2], u32) -> PlaneSample,
 ) -> (Vec<PlaneSample>, Vec<u32>) {
     let refined = settings.refined_pixels();
@@ -431,7 +541,15 @@ pub fn refine_plane(
     let split = settings.plane_refine_split;
     let subs = plane.refine_samples(split);
     let m = split * split;
-    let selected = select_pixels(plane, coarse, noise, refined, settings.dark_plane_refine);
+    let guide = guide.filter(|_| settings.dark_plane_guide);
+    let selected = select_pixels(
+        plane,
+        coarse,
+        noise,
+        refined,
+        settings.dark_plane_refine,
+        guide,
+    );
     for k in refined_pixels(plane.resolution, &selected) {
         let mine = &subs[(k * m) as usize..((k + 1) * m) as usize];
         let traced: Vec<(PlaneSample, f32)> = mine
@@ -484,14 +602,17 @@ mod tests {
         }));
         // The plain plane's centre pixels (6, 9) weigh more than its edge ones (1, 4),
         // which tie: the lower index.
-        let chosen = select_pixels(&plane, &samples, &[], 3, true);
+        let chosen = select_pixels(&plane, &samples, &[], 3, true, None);
         assert_eq!(chosen, vec![1, 6, 9]);
         // All equal: the lowest indices.
         assert_eq!(
-            select_pixels(&plane, &vec![sample(0.5); 16], &[], 3, true),
+            select_pixels(&plane, &vec![sample(0.5); 16], &[], 3, true, None),
             vec![0, 1, 2]
         );
-        assert_eq!(select_pixels(&plane, &samples, &[], 16, true).len(), 16);
+        assert_eq!(
+            select_pixels(&plane, &samples, &[], 16, true, None).len(),
+            16
+        );
     }
 
     /// With no pixel to refine by contrast (K = 0), a dark plane still takes one slot that
@@ -500,18 +621,21 @@ mod tests {
     fn dark_planes_are_flagged_when_no_pixel_is_refined_by_contrast() {
         let plane = plain_4x4();
         let dark = vec![sample(0.0); 16];
-        assert_eq!(select_pixels(&plane, &dark, &[], 0, true), vec![DARK_PLANE]);
         assert_eq!(
-            select_pixels(&plane, &dark, &[], 3, true),
+            select_pixels(&plane, &dark, &[], 0, true, None),
+            vec![DARK_PLANE]
+        );
+        assert_eq!(
+            select_pixels(&plane, &dark, &[], 3, true, None),
             vec![DARK_PLANE; 3]
         );
         assert_eq!(
-            refined_pixels(4, &select_pixels(&plane, &dark, &[], 0, true)),
+            refined_pixels(4, &select_pixels(&plane, &dark, &[], 0, true, None)),
             (0..16).collect::<Vec<u32>>()
         );
         let mut lit = dark.clone();
         lit[5] = sample(1.0);
-        assert!(select_pixels(&plane, &lit, &[], 0, true).is_empty());
+        assert!(select_pixels(&plane, &lit, &[], 0, true, None).is_empty());
         assert!(refined_pixels(4, &[]).is_empty());
     }
 
@@ -555,10 +679,10 @@ mod tests {
         // Pixel 10's neighbours (6, 9, 11, 14) share that contrast, the centre ones first;
         // without the environment shares pixel 5's neighbours come first.
         assert_eq!(
-            select_pixels(&plane, &samples, &noise, 3, true),
+            select_pixels(&plane, &samples, &noise, 3, true, None),
             vec![6, 9, 11]
         );
-        assert_eq!(select_pixels(&plane, &samples, &[], 1, true), vec![6]);
+        assert_eq!(select_pixels(&plane, &samples, &[], 1, true, None), vec![6]);
     }
 
     #[test]
