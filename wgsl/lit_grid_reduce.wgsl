@@ -1,5 +1,5 @@
-// Lit grid, coarser levels (src/light_maps/lit_grid.rs): voxel c of `level` is 1 where any
-// of its 2x2x2 children at level - 1 is. One invocation per voxel.
+// Lit grid, coarser levels (src/light_maps/lit_grid.rs): voxel c of `level` holds the OR of
+// its 2x2x2 children's face bits at level - 1. One invocation per voxel.
 //!include shared/lit_grid.wgsl
 
 struct ReduceLevel {

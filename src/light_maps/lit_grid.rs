@@ -1,7 +1,8 @@
 //! Where lit surfaces are, coarsely: a pyramid of voxel grids over the scene's bounds
-//! (`wgsl/shared/lit_grid.wgsl`). The light-map trace marks the voxel of every texel's
-//! first hit (a surface its light reaches); each coarser level is the OR of its 2x2x2
-//! children (`lit_grid_reduce.wgsl`). A hemisphere plane that saw no light then refines
+//! (`wgsl/shared/lit_grid.wgsl`). The light-map trace marks, in the voxel of every texel's
+//! first hit (a surface its light reaches), the face bit of that surface's lit side
+//! ([`face_bit`]); each coarser level is the OR of its 2x2x2 children
+//! (`lit_grid_reduce.wgsl`). A hemisphere plane that saw no light then refines
 //! only the pixels whose rays could land near a lit surface (`plane_refine_select.wgsl`).
 
 use crate::Result;
@@ -34,6 +35,8 @@ impl LitGridParams {
     pub fn over(bounds: (Vec3, Vec3)) -> Self {
         let (lo, hi) = bounds;
         let extent = (hi - lo).max(Vec3::splat(1e-6));
+        // A hair wider than FINEST cells along the longest side, so that its far end lies
+        // inside the last voxel (marks are clamped to the grid too).
         let cell = extent.max_element() / FINEST as f32 * 1.0001;
         let dims = (extent / cell).ceil().as_uvec3().max(glam::UVec3::ONE);
         let mut offsets = [0u32; 8];
@@ -105,6 +108,7 @@ pub struct LitGridReducePass {
 }
 
 impl LitGridReducePass {
+    /// Compiles the pass.
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         Ok(Self {
             reduce: ComputePass::new(
@@ -233,7 +237,7 @@ impl LitGridParams {
                 for y in 0..d[1] {
                     for x in 0..d[0] {
                         let mut any = 0;
-                        for (dx, dy, dz) in itertools_cube() {
+                        for (dx, dy, dz) in cube_corners() {
                             let f = [2 * x + dx, 2 * y + dy, 2 * z + dz];
                             if (0..3).all(|a| f[a] < fine[a]) {
                                 any |= voxels[self.voxel(level - 1, f)];
@@ -249,7 +253,7 @@ impl LitGridParams {
 }
 
 /// The eight corners of a unit cube, x fastest.
-fn itertools_cube() -> impl Iterator<Item = (u32, u32, u32)> {
+fn cube_corners() -> impl Iterator<Item = (u32, u32, u32)> {
     (0..8).map(|i| (i & 1, (i >> 1) & 1, i >> 2))
 }
 

@@ -343,6 +343,8 @@ impl RefinePass {
         let plane = settings.plane(settings.plane_resolution);
         let split = settings.plane_refine_split;
         Ok(Some(Self {
+            // Eight storage buffers: with the scene's seven, 15 of the 16 a stage may bind
+            // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
             select: ComputePass::new(
                 ctx,
                 "plane_refine_select.wgsl",

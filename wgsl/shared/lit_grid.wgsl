@@ -1,9 +1,9 @@
 // Where lit surfaces are, coarsely (src/light_maps/lit_grid.rs): a pyramid of voxel grids
-// over the scene's bounds, a voxel 1 where some light-map texel's first hit (a surface the
-// light reaches) lies in it, each coarser level the OR of its 2x2x2 children. Lets a plane
-// that saw no light refine only the pixels whose rays could land near a lit surface. The
-// including pass declares `lit_grid_params: LitGridParams` and `lit_grid: array<u32>`
-// (or atomics, for marking).
+// over the scene's bounds. A voxel holds the face bits (`lit_face_bit`) of the lit sides of
+// the light-map texels' first hits (surfaces a light reaches) that lie in it; each coarser
+// level is the OR of its 2x2x2 children. Lets a plane that saw no light refine only the
+// pixels whose rays could land near a lit surface. The including pass declares
+// `lit_grid_params: LitGridParams` and `lit_grid: array<u32>` (or atomics, for marking).
 
 struct LitGridParams {
     lo: vec3f,
@@ -25,7 +25,6 @@ fn lit_grid_voxel(p: LitGridParams, level: u32, c: vec3u) -> u32 {
     let d = lit_grid_dims(p, level);
     return lit_grid_offset(p, level) + (c.z * d.y + c.y) * d.x + c.x;
 }
-
 
 // The face bit of a lit surface's normal `n` (facing its light): its dominant axis and sign.
 fn lit_face_bit(n: vec3f) -> u32 {
