@@ -137,8 +137,9 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             // (records::refine::guided_pixels): the ball around the pixel's hit that
             // reaches its 4-neighbours' hits (the pixel's footprint, and across an edge
             // the farther surface) must touch a lit voxel whose lit side the pixel's
-            // direction can see. A pixel that missed is refined where a neighbour hit (an
-            // edge). The light maps see every lit surface of such a scene (every light
+            // direction can see, and where all four neighbours lie on the pixel's own
+            // plane, a lit side facing as that surface does. A pixel that missed is
+            // refined where a neighbour hit (an edge). The light maps see every lit surface of such a scene (every light
             // mapped, no environment, no emitters of their own, one bounce: the caller's
             // rule), so the other pixels' sub-rays could only find darkness.
             let site = sites[record];
@@ -156,8 +157,10 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
                 if i + 1u < res { nb[m] = k + 1u; m++; }
                 if k >= res { nb[m] = k - res; m++; }
                 if k + res < n { nb[m] = k + res; m++; }
+                var qs: array<vec3f, 4>;
                 for (var a = 0u; a < m; a++) {
                     let q = plane_hit_point(frame, site.position, base, nb[a]);
+                    qs[a] = q.xyz;
                     if q.w == 0.0 {
                         missed = true;
                     } else {
@@ -172,7 +175,29 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
                     refine = any_hit;   // an edge against a miss: refine it
                 } else {
                     let d = normalize(frame * vec3f(plane[k].rot_center.zw, 1.0));
-                    refine = lit_near(p.xyz, radius, lit_faces_seen(d));
+                    var faces = lit_faces_seen(d);
+                    if m == 4u {
+                        // All four neighbours on the pixel's own plane: its sub-rays land on
+                        // that surface, whose lit side is one of the faces its normal is
+                        // near (facing the record).
+                        var sn = cross(qs[1] - qs[0], qs[3] - qs[2]);
+                        let len = length(sn);
+                        if len > 0.0 {
+                            sn = sn / len;
+                            if dot(sn, d) > 0.0 {
+                                sn = -sn;
+                            }
+                            var flat = true;
+                            for (var a = 0u; a < 4u; a++) {
+                                let e = qs[a] - p.xyz;
+                                flat = flat && abs(dot(e, sn)) <= 0.02 * length(e);
+                            }
+                            if flat {
+                                faces &= lit_faces_near(sn);
+                            }
+                        }
+                    }
+                    refine = lit_near(p.xyz, radius, faces);
                 }
                 if refine {
                     samples[base + k].radiance.x = -1.0;

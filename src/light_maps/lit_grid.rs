@@ -186,6 +186,23 @@ pub fn faces_seen(d: Vec3) -> u32 {
     mask
 }
 
+/// The face bits whose cones come within about 10 degrees of the unit normal `n` (WGSL
+/// `lit_faces_near`): a surface's lit side, if it is lit, is marked with one of them
+/// ([`face_bit`] of its own normal, which rounding may tip to a neighbouring face near a
+/// cone's edge).
+pub fn faces_near(n: Vec3) -> u32 {
+    let mut mask = 0;
+    for axis in 0..3 {
+        if n[axis] > 0.43 {
+            mask |= 1 << (2 * axis);
+        }
+        if -n[axis] > 0.43 {
+            mask |= 1 << (2 * axis + 1);
+        }
+    }
+    mask
+}
+
 impl LitGridParams {
     /// Index of voxel `c` of `level` (WGSL `lit_grid_voxel`).
     pub fn voxel(&self, level: u32, c: [u32; 3]) -> usize {
@@ -291,6 +308,15 @@ mod tests {
             excluded += (!faces_seen(d)).count_ones() - 26;
         }
         assert!(checked > 9_000);
+        // A surface's own face is among those near its normal, for normals turned by up
+        // to 10 degrees from it.
+        for k in 0..5_000 {
+            let (n, t) = (unit(k, 3), unit(k, 4));
+            let turned = (n + 0.17 * (t - t.dot(n) * n)).normalize();
+            if n.dot(turned) > 0.9848 {
+                assert_ne!(faces_near(n) & face_bit(turned), 0, "{n:?} {turned:?}");
+            }
+        }
         // And it does rule faces out: about one face for every two directions (a ray near
         // an axis rules out the face opposite it).
         assert!(excluded > 6_000, "{excluded}");

@@ -72,8 +72,10 @@ pub struct DarkGuide<'a> {
 /// selection, `plane_refine_select.wgsl`): the ball around the pixel's hit that reaches
 /// its 4-neighbours' hits (its footprint, and across an edge the farther surface) touches
 /// a lit voxel whose lit side the pixel's direction can see
-/// ([`LitGridParams::near`], [`lit_grid::faces_seen`]); a pixel that missed is refined
-/// where a neighbour hit. In pixel order.
+/// ([`LitGridParams::near`], [`lit_grid::faces_seen`]) and, where all four neighbours lie
+/// on the pixel's own plane (so its sub-rays land on that surface), a lit side facing as
+/// that surface does ([`lit_grid::faces_near`]); a pixel that missed is refined where a
+/// neighbour hit. In pixel order.
 pub fn guided_pixels(
     plane: &HemispherePlane,
     samples: &[PlaneSample],
@@ -107,7 +109,8 @@ pub fn guided_pixels(
                 neighbours.push(k + res);
             }
             let (mut radius, mut missed, mut any_hit) = (0.0f32, p.is_none(), p.is_some());
-            for q in neighbours.into_iter().map(point) {
+            let qs: Vec<Option<Vec3>> = neighbours.into_iter().map(point).collect();
+            for &q in &qs {
                 match (q, p) {
                     (None, _) => missed = true,
                     (Some(q), Some(p)) => {
@@ -122,9 +125,27 @@ pub fn guided_pixels(
                 Some(p) => {
                     let c = plane.pixels[k as usize].center;
                     let d = (frame * Vec3::new(c[0], c[1], 1.0)).normalize();
-                    guide
-                        .grid
-                        .near(guide.voxels, p, radius, lit_grid::faces_seen(d))
+                    let mut faces = lit_grid::faces_seen(d);
+                    // All four neighbours on the pixel's own plane: its sub-rays land on that
+                    // surface, whose lit side faces as it does.
+                    if let [Some(l), Some(r), Some(b), Some(t)] = qs[..] {
+                        let sn = (r - l).cross(t - b);
+                        let len = sn.length();
+                        if len > 0.0 {
+                            let mut sn = sn / len;
+                            if sn.dot(d) > 0.0 {
+                                sn = -sn;
+                            }
+                            let flat = [l, r, b, t].iter().all(|&q| {
+                                let e = q - p;
+                                e.dot(sn).abs() <= 0.02 * e.length()
+                            });
+                            if flat {
+                                faces &= lit_grid::faces_near(sn);
+                            }
+                        }
+                    }
+                    guide.grid.near(guide.voxels, p, radius, faces)
                 }
                 None => false,
             }

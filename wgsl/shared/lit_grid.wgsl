@@ -58,3 +58,19 @@ fn lit_faces_seen(d: vec3f) -> u32 {
     }
     return mask;
 }
+
+// The face bits whose cones come within about 10 degrees of the unit normal `n` (a
+// surface's lit side, if lit, is marked with one of them: `lit_face_bit` of its own
+// normal, which rounding may tip to a neighbouring face near a cone's edge).
+fn lit_faces_near(n: vec3f) -> u32 {
+    var mask = 0u;
+    for (var axis = 0u; axis < 3u; axis++) {
+        if n[axis] > 0.43 {
+            mask |= 1u << (2u * axis);
+        }
+        if -n[axis] > 0.43 {
+            mask |= 1u << (2u * axis + 1u);
+        }
+    }
+    return mask;
+}
