@@ -18,14 +18,15 @@ struct RefineParams {
     subsamples: u32,        // split^2
     centre_weight: f32,     // 1 / (1 + split^2)
     light_choices: u32,     // lights sampled per hit (`shadow_loop_start_chosen`)
-    slots: u32,             // selection slots per record, max(K, 1)
+    slots: u32,             // selection slots per record (RefinePass::slots)
 }
 
 // Every slot of a dark plane's selection (plane_refine_select.wgsl).
 const DARK_PLANE: u32 = 0xffffffffu;
 // A selection that refines nothing (records::refine::NO_PIXELS).
 const NO_PIXELS: u32 = 0xfffffffeu;
-// A dark plane refined only where its select flagged pixels (radiance.x = -1).
+// A dark plane refined only at the pixels its selection lists: slot 1 holds their count,
+// slots 2.. the pixels (records::refine::DARK_GUIDED).
 const DARK_GUIDED: u32 = 0xfffffffdu;
 
 // Rust: records::plane::RefineSample.
@@ -65,32 +66,38 @@ fn main(
     let site = sites[id.z];
     let base = id.z * n;
     // One selected pixel per invocation; a dark plane's pixels j, j + L, ... for each of
-    // the dispatch's L lanes of the record (K rounded up to whole workgroups): every lane
-    // works, and one loop holds the tracing, so that it is compiled once (lavapipe inlines
-    // every call of it).
-    let first_slot = selected[id.z * params.slots];
+    // the dispatch's L lanes of the record (K rounded up to whole workgroups), and a guided
+    // dark plane's listed pixels the same way: every lane works, and one loop holds the
+    // tracing, so that it is compiled once (lavapipe inlines every call of it).
+    let row = id.z * params.slots;
+    let first_slot = selected[row];
     if first_slot == NO_PIXELS {
         return;     // a dark plane, dark planes not refined
     }
     let guided = first_slot == DARK_GUIDED;
-    let dark = first_slot == DARK_PLANE || guided;
-    var k = id.x;
-    var step = ((params.slots + 63u) / 64u) * 64u;
+    let dark = first_slot == DARK_PLANE;
+    let lanes = ((max(params.refined, 1u) + 63u) / 64u) * 64u;
+    var j = id.x;
+    var step = lanes;
     var end = n;
-    if !dark {
+    if guided {
+        end = selected[row + 1u];
+    } else if !dark {
         if id.x >= params.refined {
             return;
         }
-        k = selected[id.z * params.slots + id.x];
-        step = n;
-        end = k + 1u;
+        step = 1u;
+        end = id.x + 1u;
     }
-    for (; k < end; k += step) {
-        let centre = samples[base + k];
-        if guided && centre.radiance.x >= 0.0 {
-            continue;
+    for (; j < end; j += step) {
+        var k = j;
+        if guided {
+            k = selected[row + 2u + j];
+        } else if !dark {
+            k = selected[row + j];
         }
-        var radiance = select(centre.radiance, vec3f(0.0), guided) * params.centre_weight;
+        let centre = samples[base + k];
+        var radiance = centre.radiance * params.centre_weight;
         var inv_depth = select(0.0, params.centre_weight / centre.depth, centre.depth > 0.0);
         for (var q = 0u; q < params.subsamples; q++) {
             let sub = subs[k * params.subsamples + q];

@@ -36,7 +36,7 @@ struct SelectParams {
 
 @group(1) @binding(0) var<uniform> params: SelectParams;
 @group(1) @binding(1) var<storage, read> plane: array<PlanePixel>;
-@group(1) @binding(2) var<storage, read_write> samples: array<PlaneSample>;
+@group(1) @binding(2) var<storage, read> samples: array<PlaneSample>;
 @group(1) @binding(3) var<storage, read_write> keys: array<u32>;
 @group(1) @binding(4) var<storage, read_write> selected: array<u32>;
 // Planes refined everywhere, for the frame's ray count (RecordPass::take_dark_plane_rays).
@@ -49,8 +49,8 @@ struct SelectParams {
 @group(1) @binding(9) var<storage, read> lit_grid: array<u32>;
 
 // The first slot of a dark plane refined only where its rays can land near a lit surface
-// (records::refine::DARK_GUIDED): the selection flags those pixels in the samples
-// themselves, radiance.x = -1 (a dark plane's radiances are all zero), for plane_refine.wgsl.
+// (records::refine::DARK_GUIDED): slot 1 holds how many pixels, slots 2.. the pixels in
+// pixel order (RefinePass::slots makes room for P^2 of them).
 const DARK_GUIDED: u32 = 0xfffffffdu;
 
 // Hit point of pixel k of the plane at `base` (w: 0 on a miss).
@@ -199,15 +199,25 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
                     }
                     refine = lit_near(p.xyz, radius, faces);
                 }
-                if refine {
-                    samples[base + k].radiance.x = -1.0;
-                    mine += 1u;
+                keys[base + k] = u32(refine);
+                mine += u32(refine);
+            }
+            // The listed pixels, in pixel order (each thread's run after the earlier ones).
+            atomicAdd(&dark_planes[1], mine);
+            counts[lane] = mine;
+            scan_counts(lane);
+            let row = record * params.slots;
+            var slot = counts[lane];
+            for (var k = first; k < last; k++) {
+                if keys[base + k] != 0u {
+                    selected[row + 2u + slot] = k;
+                    slot += 1u;
                 }
             }
-            atomicAdd(&dark_planes[1], mine);
-            if lane == 0u {
+            if lane == THREADS - 1u {
                 atomicAdd(&dark_planes[2], 1u);
-                selected[record * params.slots] = DARK_GUIDED;
+                selected[row] = DARK_GUIDED;
+                selected[row + 1u] = slot;
             }
             return;
         }

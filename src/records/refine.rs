@@ -55,8 +55,8 @@ pub const NO_PIXELS: u32 = u32::MAX - 1;
 
 /// The first slot of a dark plane refined only where its rays can land near a lit surface
 /// ([`guided_pixels`]; `DARK_GUIDED` in `plane_refine_select.wgsl` and
-/// `plane_refine.wgsl`, where the selection flags those pixels in the samples themselves).
-/// On the CPU the selection is the list of those pixels.
+/// `plane_refine.wgsl`): slot 1 holds the number of pixels, the slots after it the pixels
+/// in pixel order. On the CPU the selection is the list itself.
 pub const DARK_GUIDED: u32 = u32::MAX - 2;
 
 /// Where the lit surfaces are, for refining a dark plane near them alone: the frame's lit
@@ -372,7 +372,7 @@ impl RefinePass {
                 &[
                     Uniform,
                     StorageRead,
-                    StorageReadWrite,
+                    StorageRead,
                     StorageReadWrite,
                     StorageReadWrite,
                     StorageReadWrite,
@@ -504,7 +504,8 @@ impl RefinePass {
             enc,
             &scene.bind_group,
             &bind,
-            [self.slots().div_ceil(64), 1, count],
+            // K lanes a record (a dark plane's pixels, listed or all, shared among them).
+            [self.refined.max(1).div_ceil(64), 1, count],
             timer.next("plane refinement"),
         );
         Ok(())
@@ -520,9 +521,16 @@ impl RefinePass {
         self.refined
     }
 
-    /// Selection slots per record, `max(K, 1)`: a dark plane's flag needs one.
+    /// Selection slots per record: `max(K, 1)` (a dark plane's flag needs one), and where
+    /// dark planes may be refined near light alone, room for a guided plane's list:
+    /// [`DARK_GUIDED`], the count, and up to P^2 pixels.
     pub fn slots(&self) -> u32 {
-        self.refined.max(1)
+        let contrast = self.refined.max(1);
+        if self.dark_planes_refined && self.dark_plane_guide {
+            contrast.max(self.resolution.pow(2) + 2)
+        } else {
+            contrast
+        }
     }
 
     /// Rays a guided dark plane's refined pixel traces.
