@@ -62,14 +62,55 @@ fn add(a: Partial, b: Partial) -> Partial {
     );
 }
 
-// Adds plane pixel k of the plane at `base` to `acc`.
+// Adds plane pixel k of the plane at `base` to `acc`. Each sample and plane pixel is loaded
+// once here, for the Hessian's edges and the other sums alike (a storage load is a loop over
+// the lanes on lavapipe; the Hessian's edges read the same neighbours again).
 fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32) {
     let count = res * res;
-    if RECORD_RADIUS_HESSIAN {
-        (*acc).hessian += hessian_edges_at(base, k, res, far);
-    }
+    let i = k % res;
     let s = samples[base + k];
     let px = plane[k];
+    let has_right = i + 1u < res;
+    let has_up = k + res < count;
+    var right: PlaneSample;
+    var up: PlaneSample;
+    if has_right {
+        right = samples[base + k + 1u];
+    }
+    if has_up {
+        up = samples[base + k + res];
+    }
+    // Quad (i, j) exists where both its right and up edges are inside the plane.
+    if RECORD_RADIUS_HESSIAN && has_right && has_up {
+        let upright = samples[base + k + res + 1u];
+        let vp = hessian_vertex(px.rot_center.zw, s, far);
+        let vr = hessian_vertex(plane[k + 1u].rot_center.zw, right, far);
+        let vu = hessian_vertex(plane[k + res].rot_center.zw, up, far);
+        let vur = hessian_vertex(plane[k + res + 1u].rot_center.zw, upright, far);
+        let has_b = k >= res;
+        let has_l = i > 0u;
+        var vb = vec4f(0.0);
+        var lb = 0.0;
+        var vl = vec4f(0.0);
+        var ll = 0.0;
+        if has_b {
+            let below = samples[base + k + 1u - res];
+            vb = hessian_vertex(plane[k + 1u - res].rot_center.zw, below, far);
+            lb = dot(below.radiance, LUMINANCE);
+        }
+        if has_l {
+            let left = samples[base + k + res - 1u];
+            vl = hessian_vertex(plane[k + res - 1u].rot_center.zw, left, far);
+            ll = dot(left.radiance, LUMINANCE);
+        }
+        (*acc).hessian += hessian_edges(
+            vp, dot(s.radiance, LUMINANCE),
+            vr, dot(right.radiance, LUMINANCE),
+            vu, dot(up.radiance, LUMINANCE),
+            vur, dot(upright.radiance, LUMINANCE),
+            has_b, vb, lb, has_l, vl, ll,
+        );
+    }
     let w = px.weights;
     (*acc).irradiance += s.radiance * w.x;
     if s.depth > 0.0 {
@@ -82,11 +123,9 @@ fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32
     (*acc).rotation_y += s.radiance * px.rot_center.y;
     // Translational gradient: each pixel edge sweeps with the nearer depth. The same edges
     // give the plane's sampling variance, w^2 (y_k - y_j)^2 / 4 per edge (plane_noise).
-    let i = k % res;
     let y = channel_sum(s.radiance);
     let w2 = w.x * w.x * 0.25;
-    if i + 1u < res {
-        let right = samples[base + k + 1u];
+    if has_right {
         let z = nearer_depth(s.depth, right.depth);
         if z > 0.0 {
             (*acc).translation_x += (right.radiance - s.radiance) * (w.z / z);
@@ -94,8 +133,7 @@ fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32
         let dy = channel_sum(right.radiance) - y;
         (*acc).variance += w2 * dy * dy;
     }
-    if k + res < count {
-        let up = samples[base + k + res];
+    if has_up {
         let z = nearer_depth(s.depth, up.depth);
         if z > 0.0 {
             (*acc).translation_y += (up.radiance - s.radiance) * (w.w / z);

@@ -4,7 +4,7 @@
 // (i,j) (i+1,j) (i,j+1) and triangle 2 = (i+1,j+1) (i,j+1) (i+1,j), each carrying the
 // luminance of its farthest vertex. Every interior edge adds the jump in luminance across
 // it times the closed-form Hessian of its form-factor term; the outer ring's edges are left
-// out. Needs `plane`, `samples` (records.wgsl layouts) bound by the including pass.
+// out. The including pass loads the samples (record_reduce.wgsl `accumulate`).
 //!include shared/records.wgsl
 
 // Misses sit this many R_max away along their pixel's direction (`hessian::MISS_DISTANCE`).
@@ -44,71 +44,58 @@ fn edge_hessian(r0: vec3f, r1: vec3f) -> vec3f {
     return (s_ma + 2.0 * cz * (i3 * s_rr + k3 * s_ee + 2.0 * j3 * s_re) - cz * i2 * vec3f(1.0, 0.0, 1.0)) * INV_PI;
 }
 
-// Hit point of plane sample k of the plane at `base` (misses `far` away) and its distance
-// (infinite for a miss).
-fn hessian_point(base: u32, k: u32, far: f32) -> vec4f {
-    let c = plane[k].rot_center.zw;
+// A plane vertex: the hit point of sample `s` through plane coordinates `c` (a miss `far`
+// away along its pixel's direction) with its distance in w (infinite for a miss).
+fn hessian_vertex(c: vec2f, s: PlaneSample, far: f32) -> vec4f {
     let dir = vec3f(c, 1.0);
-    let depth = samples[base + k].depth;
-    if depth > 0.0 {
-        let p = dir * depth;
+    if s.depth > 0.0 {
+        let p = dir * s.depth;
         return vec4f(p, length(p));
     }
     return vec4f(dir * (far / length(dir)), 3.0e38);
 }
 
-// Of three vertices (points with their distance in w), the index of the farthest, the
-// first of equals (`hessian::plane_hessian`'s rule).
-fn farthest_of(k0: u32, p0: vec4f, k1: u32, p1: vec4f, k2: u32, p2: vec4f) -> u32 {
-    var best = k0;
+// Of three vertices (points with their distance in w) and their luminances, the luminance of
+// the farthest, the first of equals (`hessian::plane_hessian`'s rule).
+fn farthest_luminance(p0: vec4f, l0: f32, p1: vec4f, l1: f32, p2: vec4f, l2: f32) -> f32 {
+    var best = l0;
     var best_d = p0.w;
     if p1.w > best_d {
-        best = k1;
+        best = l1;
         best_d = p1.w;
     }
     if p2.w > best_d {
-        best = k2;
+        best = l2;
     }
     return best;
 }
 
-fn sample_luminance(base: u32, k: u32) -> f32 {
-    return dot(samples[base + k].radiance, LUMINANCE);
-}
-
-// The Hessian terms of the edges that start at vertex k = j res + i (right, up and the
-// diagonal of quad (i, j)), as `hessian::plane_hessian` sums them. Each point is read
-// once; a triangle's luminance is its farthest vertex's.
-fn hessian_edges_at(base: u32, k: u32, res: u32, far: f32) -> vec3f {
-    let i = k % res;
-    let j = k / res;
-    let last = res - 1u;
+// The Hessian terms of the edges that start at the vertex `p` of quad (i, j) (right, up and
+// the quad's diagonal), as `hessian::plane_hessian` sums them, from its neighbours' vertices
+// and luminances: `r` (i+1, j), `u` (i, j+1), `ur` (i+1, j+1), and where they exist `b`
+// (i+1, j-1, `has_b`) and `l` (i-1, j+1, `has_l`). A triangle's luminance is its farthest
+// vertex's. The caller loads each sample once and only for quads inside the plane (the outer
+// ring's edges are left out).
+fn hessian_edges(
+    p: vec4f, lp: f32, r: vec4f, lr: f32, u: vec4f, lu: f32, ur: vec4f, lur: f32,
+    has_b: bool, b: vec4f, lb: f32, has_l: bool, l: vec4f, ll: f32,
+) -> vec3f {
     var h = vec3f(0.0);
-    if i == last || j == last {
-        // No quad (i, j): its right and up edges lie on the outer ring.
-        return h;
-    }
-    let p = hessian_point(base, k, far);
-    let right = hessian_point(base, k + 1u, far);
-    let up = hessian_point(base, k + res, far);
-    let upright = hessian_point(base, k + res + 1u, far);
-    let t1 = sample_luminance(base, farthest_of(k, p, k + 1u, right, k + res, up));
-    let t2 = sample_luminance(base, farthest_of(k + res + 1u, upright, k + res, up, k + 1u, right));
+    let t1 = farthest_luminance(p, lp, r, lr, u, lu);
+    let t2 = farthest_luminance(ur, lur, u, lu, r, lr);
     if t1 != t2 {
-        h += (t1 - t2) * edge_hessian(right.xyz, up.xyz);
+        h += (t1 - t2) * edge_hessian(r.xyz, u.xyz);
     }
-    if j > 0u {
-        let below = hessian_point(base, k + 1u - res, far);
-        let t2_below = sample_luminance(base, farthest_of(k + 1u, right, k, p, k + 1u - res, below));
+    if has_b {
+        let t2_below = farthest_luminance(r, lr, p, lp, b, lb);
         if t1 != t2_below {
-            h += (t1 - t2_below) * edge_hessian(p.xyz, right.xyz);
+            h += (t1 - t2_below) * edge_hessian(p.xyz, r.xyz);
         }
     }
-    if i > 0u {
-        let left = hessian_point(base, k + res - 1u, far);
-        let t2_left = sample_luminance(base, farthest_of(k + res, up, k + res - 1u, left, k, p));
+    if has_l {
+        let t2_left = farthest_luminance(u, lu, l, ll, p, lp);
         if t2_left != t1 {
-            h += (t2_left - t1) * edge_hessian(p.xyz, up.xyz);
+            h += (t2_left - t1) * edge_hessian(p.xyz, u.xyz);
         }
     }
     return h;
