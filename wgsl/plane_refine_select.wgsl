@@ -139,9 +139,10 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             // the farther surface) must touch a lit voxel whose lit side the pixel's
             // direction can see, and where all four neighbours lie on the pixel's own
             // plane, a lit side facing as that surface does. A pixel that missed is
-            // refined where a neighbour hit (an edge). The light maps see every lit surface of such a scene (every light
-            // mapped, no environment, no emitters of their own, one bounce: the caller's
-            // rule), so the other pixels' sub-rays could only find darkness.
+            // refined where a neighbour hit (an edge). The light maps see every lit
+            // surface of such a scene (every light mapped, no environment, no emitters of
+            // their own, one bounce: the caller's rule), so the other pixels' sub-rays
+            // could only find darkness.
             let site = sites[record];
             let frame = record_frame(site);
             var mine = 0u;
