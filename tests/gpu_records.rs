@@ -36,6 +36,22 @@ fn sites(
         .collect()
 }
 
+/// Appends two Cornell-box sites facing up, with the first site's footprint, whose planes
+/// see no light: on top of the box (every ray misses) and inside the tall block (every ray
+/// hits its unlit inside; such a record takes the split sphere's radius, not R_max, which
+/// spread zeros over whole floors: docs/results.md, "Dark records"). Returns their indices.
+fn push_dark_cornell_sites(sites: &mut Vec<RecordSite>) -> [usize; 2] {
+    let first = sites.len();
+    for position in [[0.278, 0.7, 0.279], [0.3685, 0.1, 0.3515]] {
+        let mut site = sites[0];
+        site.position = position;
+        site.normal = [0.0, 1.0, 0.0];
+        site.geometric_normal = [0.0, 1.0, 0.0];
+        sites.push(site);
+    }
+    [first, first + 1]
+}
+
 /// Computes records for `sites` with `pass`, appended to `cache`; returns all of `cache`.
 fn compute_records(
     renderer: &Renderer,
@@ -482,15 +498,7 @@ fn gpu_dark_planes_alone_are_refined_when_refinement_by_contrast_is_off() {
     assert_eq!(settings.refined_pixels(), 0);
     let mut sites = sites(&scene, &renderer, &settings, 8);
     let lit = sites.len();
-    // Facing up on top of the box (every ray misses) and inside the tall block (every ray
-    // hits an unlit surface): two planes without light.
-    for position in [[0.278, 0.7, 0.279], [0.3685, 0.1, 0.3515]] {
-        let mut site = sites[0];
-        site.position = position;
-        site.normal = [0.0, 1.0, 0.0];
-        site.geometric_normal = [0.0, 1.0, 0.0];
-        sites.push(site);
-    }
+    push_dark_cornell_sites(&mut sites);
     let prepared = renderer.prepare(&scene).expect("prepare");
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     assert!(pass.refines());
@@ -556,14 +564,7 @@ fn gpu_dark_planes_are_left_unrefined_when_dark_plane_refinement_is_off() {
     assert!(k > 0, "refinement by contrast on");
     let mut sites = sites(&scene, &renderer, &settings, 6);
     let lit = sites.len();
-    // Facing up on top of the box and inside the tall block: two planes without light.
-    for position in [[0.278, 0.7, 0.279], [0.3685, 0.1, 0.3515]] {
-        let mut site = sites[0];
-        site.position = position;
-        site.normal = [0.0, 1.0, 0.0];
-        site.geometric_normal = [0.0, 1.0, 0.0];
-        sites.push(site);
-    }
+    push_dark_cornell_sites(&mut sites);
     let prepared = renderer.prepare(&scene).expect("prepare");
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let reference = RecordReference::new(&scene, &settings);
@@ -1023,23 +1024,9 @@ fn refined_planes_and_records_match_the_cpu_reference(scene: Scene) {
     let k = settings.refined_pixels() as usize;
     assert_eq!(k, 86);
     let mut sites = sites(&scene, &renderer, &settings, 12);
-    // A site facing up at `position`, with the first site's footprint.
-    let facing_up = |position: [f32; 3]| {
-        let mut site = sites[0];
-        site.position = position;
-        site.normal = [0.0, 1.0, 0.0];
-        site.geometric_normal = [0.0, 1.0, 0.0];
-        site
-    };
-    // A site on top of the box facing up: every ray misses, a plane without light, which
-    // is refined everywhere instead of by contrast.
-    let dark = facing_up([0.278, 0.7, 0.279]);
-    // A site inside the tall block, facing up: every ray hits the block's unlit inside, a
-    // plane that sees surfaces but no light. Its record takes the split sphere's radius,
-    // not R_max (which spread such zeros over whole floors: docs/results.md, "Dark records").
-    let inside = facing_up([0.3685, 0.1, 0.3515]);
-    let (dark_index, inside_index) = (sites.len(), sites.len() + 1);
-    sites.extend([dark, inside]);
+    // Two planes without light, refined everywhere instead of by contrast: one whose rays
+    // all miss, one whose rays all hit unlit surfaces.
+    let [dark_index, inside_index] = push_dark_cornell_sites(&mut sites);
     let prepared = renderer.prepare(&scene).expect("prepare");
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let reference = RecordReference::new(&scene, &settings);

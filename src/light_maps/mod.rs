@@ -95,19 +95,13 @@ impl LightMaps {
         })
     }
 
-    /// Whether these maps see every surface a plane ray can find light on in `scene`: every
-    /// light has a map, and nothing else lights a hit (no environment, no emitters that
-    /// are not sampled lights, no bounce cache). Only then may a plane that saw no light
-    /// skip the pixels the lit grid rules out (`records::refine::guided_pixels`).
+    /// Whether these maps see every surface a plane ray can find light on in `scene`, so that
+    /// a plane that saw no light may skip the pixels the lit grid rules out
+    /// (`records::refine::guided_pixels`): the grid exists only where every light has a map
+    /// and neither an environment nor an emitter of its own lights a hit
+    /// ([`LightMapPass::build`]), and hits must not reflect a bounce cache either.
     pub fn see_every_lit_surface(&self, scene: &GpuScene) -> bool {
-        let features = scene.features();
-        let mapped = self.first.first().is_some_and(|&maps| maps > 0)
-            && self.first.iter().skip(1).step_by(2).all(|&m| m != NO_MAP);
-        mapped
-            && self.lit_grid.params.levels > 0
-            && !scene.unsampled_emission
-            && !features.has_environment()
-            && !features.has_bounce_cache()
+        self.lit_grid.params.levels > 0 && !scene.features().has_bounce_cache()
     }
 
     /// Texels over all maps (rays traced to build them).
@@ -267,7 +261,17 @@ impl LightMapPass {
         let depths = ctx.storage_buffer_sized("light map depths", texels * 4)?;
         let first_buffer = ctx.storage_buffer("light map table", &first)?;
         let max_res = layout.iter().map(|m| m.resolution).max().unwrap_or(8);
-        let grid = lit_grid::LitGrid::over(ctx, bounds)?;
+        // The lit grid only where the maps see every lit surface (every light mapped, no
+        // environment, no emitters of their own): elsewhere no plane could use it.
+        let every_light_mapped = first.iter().skip(1).step_by(2).all(|&m| m != NO_MAP);
+        let grid = if every_light_mapped
+            && !scene.unsampled_emission
+            && !scene.features().has_environment()
+        {
+            lit_grid::LitGrid::over(ctx, bounds)?
+        } else {
+            lit_grid::LitGrid::none(ctx)?
+        };
         let bind = self.trace.bind(
             ctx,
             &[&maps_buffer, &depths, &grid.params_buffer, &grid.voxels],
