@@ -9,8 +9,10 @@
 // index. The selection is exact and deterministic: a radix select on the contrast's bits
 // (non-negative floats order as their bits) with integer workgroup histograms, then
 // prefix sums in pixel order. A plane without light anywhere
-// has no contrast to rank: its K slots all say DARK_PLANE, and plane_refine.wgsl then
-// refines every pixel of it. The CPU mirror is records::refine::select_pixels.
+// has no contrast to rank: its K slots all say DARK_PLANE, and hemisphere_plane.wgsl then
+// refines every pixel of it (or those a guided selection lists, DARK_GUIDED). Such a
+// plane's record is appended after the batch's selections, and the indirect dispatch that
+// refines them sized (`dark_dispatch`). The CPU mirror is records::refine::select_pixels.
 //!include shared/records.wgsl
 //!include shared/lit_grid_query.wgsl
 
@@ -30,7 +32,7 @@ struct SelectParams {
     slots: u32,         // selection slots per record, max(K, 1): a dark plane's flag
     dark_planes: u32,   // 1: dark planes are refined everywhere (dark_plane_refine)
     guided: u32,        // 1: a dark plane refines only pixels near a lit voxel
-    _pad1: u32,
+    per_group: u32,     // refined pixels per workgroup of hemisphere_plane.wgsl
     _pad2: u32,
 }
 
@@ -47,6 +49,18 @@ struct SelectParams {
 @group(1) @binding(7) var<storage, read> sites: array<RecordSite>;
 @group(1) @binding(8) var<uniform> lit_grid_params: LitGridParams;
 @group(1) @binding(9) var<storage, read> lit_grid: array<u32>;
+// The indirect dispatch (x y z, cleared before this pass) that refines the dark planes:
+// z counts them, x is the most workgroups one needs.
+@group(1) @binding(10) var<storage, read_write> dark_dispatch: array<atomic<u32>, 3>;
+
+// Appends `record`, a dark plane with `pixels` pixels to refine, to the batch's dark planes.
+// Their order varies from run to run; each refines its own pixels, so the result does not.
+fn push_dark_plane(record: u32, pixels: u32) {
+    let i = atomicAdd(&dark_dispatch[2], 1u);
+    selected[params.count * params.slots + i] = record;
+    atomicMax(&dark_dispatch[0], (pixels + params.per_group - 1u) / params.per_group);
+    atomicMax(&dark_dispatch[1], 1u);
+}
 
 // The first slot of a dark plane refined only where its rays can land near a lit surface
 // (records::refine::DARK_GUIDED): slot 1 holds how many pixels, slots 2.. the pixels in
@@ -219,11 +233,13 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
                 atomicAdd(&dark_planes[2], 1u);
                 selected[row] = DARK_GUIDED;
                 selected[row + 1u] = slot;
+                push_dark_plane(record, slot);
             }
             return;
         }
         if lane == 0u {
             atomicAdd(&dark_planes[0], 1u);
+            push_dark_plane(record, n);
         }
         for (var slot = lane; slot < params.slots; slot += THREADS) {
             selected[record * params.slots + slot] = DARK_PLANE;
@@ -232,7 +248,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     }
     // Dark planes alone are refined (K = 0, CacheSettings::dark_plane_refine): a lit plane
     // keeps its samples. Its slot says so (it may hold an earlier batch's flag), and
-    // plane_refine.wgsl refines none of its pixels.
+    // hemisphere_plane.wgsl refines none of its pixels.
     if params.refined == 0u {
         if lane == 0u {
             selected[record * params.slots] = 0u;

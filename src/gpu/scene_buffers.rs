@@ -188,11 +188,11 @@ impl GpuSceneInfo {
     }
 }
 
-/// Materials, texture table and packed texels in GPU layout.
-pub fn material_tables(scene: &Scene) -> (Vec<GpuMaterial>, Vec<GpuTextureInfo>, Vec<u32>) {
-    let (infos, mut texels) = texture_tables(scene);
+/// Materials, and the texture table with the packed texels, in GPU layout.
+pub fn material_tables(scene: &Scene) -> (Vec<GpuMaterial>, Vec<u32>) {
+    let mut texels = texture_tables(scene);
     append_environment_map(scene, &mut texels);
-    (gpu_materials(scene), infos, texels)
+    (gpu_materials(scene), texels)
 }
 
 /// The material table in GPU layout.
@@ -224,27 +224,38 @@ fn gpu_materials(scene: &Scene) -> Vec<GpuMaterial> {
         .collect()
 }
 
-/// The texture table and every texture's texels packed in one array.
-fn texture_tables(scene: &Scene) -> (Vec<GpuTextureInfo>, Vec<u32>) {
-    let mut infos = Vec::new();
+/// The texture table and every texture's texels packed in one array: per texture four
+/// u32 (a [`GpuTextureInfo`]: its first texel, width, height), then the texels. One
+/// binding for both leaves room for the passes' own (`STORAGE_BUFFERS_PER_STAGE`).
+fn texture_tables(scene: &Scene) -> Vec<u32> {
+    let header = TEXTURE_INFO_WORDS * scene.textures.len();
+    let mut table = Vec::with_capacity(header);
     let mut texels = Vec::new();
     for t in &scene.textures {
-        infos.push(GpuTextureInfo {
-            offset: texels.len() as u32,
+        let info = GpuTextureInfo {
+            offset: (header + texels.len()) as u32,
             width: t.width,
             height: t.height,
             _pad: 0,
-        });
+        };
+        table.extend_from_slice(bytemuck::cast_slice(&[info]));
         texels.extend(t.texels.iter().map(|c| u32::from_le_bytes(*c)));
     }
-    (infos, texels)
+    table.extend(texels);
+    table
 }
+
+/// u32 words of one texture's entry at the head of the texel table.
+const TEXTURE_INFO_WORDS: usize = std::mem::size_of::<GpuTextureInfo>() / 4;
 
 /// Where the environment map starts in the texel table: after every texture's texels
 /// ([`NO_ENVIRONMENT_MAP`] without one).
 fn environment_map_offset(scene: &Scene) -> u32 {
     match &scene.environment_map {
-        Some(_) => scene.textures.iter().map(|t| t.texels.len() as u32).sum(),
+        Some(_) => {
+            let header = TEXTURE_INFO_WORDS * scene.textures.len();
+            (header + scene.textures.iter().map(|t| t.texels.len()).sum::<usize>()) as u32
+        }
         None => NO_ENVIRONMENT_MAP,
     }
 }
@@ -311,7 +322,7 @@ pub struct SceneVpls {
 
 /// Group 0: the BVH node texture at binding 0, storage buffers at bindings
 /// `1..SCENE_STORAGE_BINDINGS`; the info uniform follows.
-const SCENE_STORAGE_BINDINGS: u32 = 8;
+const SCENE_STORAGE_BINDINGS: u32 = 7;
 
 /// The bind group layout of the scene tables (group 0 in every pass).
 pub fn scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
@@ -401,25 +412,25 @@ impl GpuScene {
         let lights: Vec<GpuLight> = scene.lights.iter().map(GpuLight::new).collect();
         let bvh_nodes = bvh_texture(ctx, bvh)?;
         let bvh_view = bvh_nodes.create_view(&Default::default());
-        // Binding order (from 1): triangles, shading, instances, materials, texture table,
-        // texels, lights. The mesh and texture tables do not change between frames.
+        // Binding order (from 1): triangles, shading, instances, materials, texels (with
+        // the texture table at their head), lights. The mesh and texture tables do not
+        // change between frames.
         let shared = previous.map(|p| p._buffers.clone());
         let buffers = match shared {
-            Some(mut b) if b.len() == 7 => {
+            Some(mut b) if b.len() == 6 => {
                 b[2] = ctx.storage_buffer("instances", &bvh.instances)?;
                 b[3] = ctx.storage_buffer("materials", &materials)?;
-                b[6] = ctx.storage_buffer("lights", &lights)?;
+                b[5] = ctx.storage_buffer("lights", &lights)?;
                 b
             }
             _ => {
-                let (texture_infos, mut texels) = texture_tables(scene);
+                let mut texels = texture_tables(scene);
                 append_environment_map(scene, &mut texels);
                 vec![
                     ctx.storage_buffer("triangles", &bvh.triangles)?,
                     ctx.storage_buffer("triangle shading", &bvh.shading)?,
                     ctx.storage_buffer("instances", &bvh.instances)?,
                     ctx.storage_buffer("materials", &materials)?,
-                    ctx.storage_buffer("texture table", &texture_infos)?,
                     ctx.storage_buffer("texels", &texels)?,
                     ctx.storage_buffer("lights", &lights)?,
                 ]

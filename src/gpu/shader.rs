@@ -206,10 +206,6 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/plane_refine_select.wgsl"),
     ),
     (
-        "plane_refine.wgsl",
-        include_str!("../../wgsl/plane_refine.wgsl"),
-    ),
-    (
         "record_reduce.wgsl",
         include_str!("../../wgsl/record_reduce.wgsl"),
     ),

@@ -1032,8 +1032,8 @@ struct SiteParams {
     _pad: [u32; 3],
 }
 
-/// Parameters of the plane pass (`hemisphere_plane.wgsl`) and of the plane refresh's
-/// re-trace (`plane_retrace.wgsl`).
+/// Parameters of the plane pass and its refinement (`hemisphere_plane.wgsl`), and of the
+/// plane refresh's re-trace (`plane_retrace.wgsl`, which reads the first eight fields).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 pub(crate) struct PlaneParams {
@@ -1046,7 +1046,19 @@ pub(crate) struct PlaneParams {
     pub light_choices: u32,
     /// 1: also write each sample's environment-sampled share (refinement's selection).
     pub record_noise: u32,
-    pub _pad: [u32; 2],
+    /// 0: trace the planes; 1: refine the pixels selected on lit planes in place; 2: those
+    /// of the planes that saw no light ([`refine::RefinePass::record`]).
+    pub mode: u32,
+    /// Refining: K pixels selected per lit plane by contrast.
+    pub refined: u32,
+    /// Refining: strata per pixel, `split^2`.
+    pub subsamples: u32,
+    /// Refining: the centre ray's weight, `1 / (1 + split^2)`.
+    pub centre_weight: f32,
+    /// Refining: selection slots per record ([`refine::RefinePass::slots`]).
+    pub slots: u32,
+    /// Refining: pixels per workgroup, `64 / split^2` (one invocation per stratum).
+    pub per_group: u32,
 }
 
 #[repr(C)]
@@ -1082,7 +1094,10 @@ pub struct ReductionBatch<'a> {
     pub count: u32,
 }
 
-/// A [`HemispherePlane`]'s pixel table on the GPU, as the record reduction reads it.
+/// A [`HemispherePlane`]'s pixel table on the GPU, as the record reduction reads it: its
+/// `P^2` pixels, then where its settings refine planes, each pixel's `split^2` strata as
+/// pixels of their own (centre in `center`, weight in the refined pixel in `cos_weight`:
+/// [`HemispherePlane::refine_samples`]), which the plane pass's refinement traces.
 pub struct PlaneTable {
     pub resolution: u32,
     pub pixels: wgpu::Buffer,
@@ -1100,9 +1115,22 @@ impl PlaneTable {
             .iter()
             .map(|p| f64::from(p.cos_weight))
             .sum::<f64>();
+        let mut pixels = table.pixels.clone();
+        if settings.refined_pixels() > 0 || settings.dark_plane_refine {
+            pixels.extend(
+                table
+                    .refine_samples(settings.plane_refine_split)
+                    .iter()
+                    .map(|s| PlanePixel {
+                        cos_weight: s.weight,
+                        center: s.center,
+                        ..PlanePixel::default()
+                    }),
+            );
+        }
         Ok(Self {
             resolution,
-            pixels: ctx.storage_buffer("plane table", &table.pixels)?,
+            pixels: ctx.storage_buffer("plane table", &pixels)?,
             cos_weight_sum: cos_weight_sum as f32,
         })
     }
@@ -1128,6 +1156,8 @@ pub struct RecordPass {
     no_light_maps: LightMaps,
     /// What plane passes bind when no sample's environment share is kept (zeros).
     no_noise: wgpu::Buffer,
+    /// What the plane pass binds as refinement's selection when it traces.
+    no_selection: wgpu::Buffer,
     /// The kind of records computed; radiance records also project their planes.
     pub kind: RecordKind,
     /// The scene features its plane pipelines are compiled for ([`Self::for_scene`]).
@@ -1190,14 +1220,14 @@ impl RecordPass {
         // As many records per dispatch as fit one binding, at most 256 (a few seconds of
         // rays on a CPU device, so progress stays visible).
         let batch = (ctx.max_binding_size() / plane_bytes).clamp(1, 256) as u32;
-        // The refinement's pipelines compile on a thread of their own while this one
-        // compiles the plane's: each holds a copy of the traversal and shading, which
-        // lavapipe compiles in about 0.1 s, and the record pass is the longest of the
-        // passes a frame builds at start-up (`Renderer::build_passes`).
+        // The refinement's selection compiles on a thread of their own while this one
+        // compiles the plane's (which also refines: one copy of the traversal and
+        // shading, which lavapipe compiles in about 0.1 s); the record pass is the longest
+        // of the passes a frame builds at start-up (`Renderer::build_passes`).
         let (refine, built) = std::thread::scope(|s| {
             let refine = s.spawn(|| {
                 if planes {
-                    refine::RefinePass::new(ctx, settings, features)
+                    refine::RefinePass::new(ctx, settings)
                 } else {
                     Ok(None)
                 }
@@ -1231,6 +1261,9 @@ impl RecordPass {
                 "record_sites.wgsl",
                 &[Uniform, Uniform, StorageRead, StorageRead, StorageReadWrite],
             )?,
+            // Traces the planes and refines them (`refine::RefinePass::record`). Ten storage
+            // buffers: with the scene's six, the 16 a stage may bind
+            // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
             plane: ComputePass::with_constants(
                 ctx,
                 "hemisphere_plane.wgsl",
@@ -1245,6 +1278,7 @@ impl RecordPass {
                     StorageRead,
                     StorageRead,
                     StorageReadWrite,
+                    StorageRead,
                 ],
                 &[features.constant()],
             )?,
@@ -1278,6 +1312,7 @@ impl RecordPass {
             batch,
             no_light_maps: LightMaps::none(ctx)?,
             no_noise: ctx.storage_buffer_sized("no plane noise", 16)?,
+            no_selection: ctx.storage_buffer_sized("no refinement selection", 16)?,
             kind,
             features,
             projection,
@@ -1535,7 +1570,7 @@ impl RecordPass {
                 first_site: done,
                 count: n,
             };
-            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 16);
+            let mut timer = crate::gpu::timer::PassTimer::new(ctx, 24);
             if let Some(vpl) = &self.vpl {
                 // Records from VPLs: one gather writes them (RecordSource::Vpl).
                 vpl.record(
@@ -1604,6 +1639,7 @@ impl RecordPass {
                     ctx,
                     &mut enc,
                     scene,
+                    &self.plane,
                     &self.table,
                     &batch_sites,
                     &samples,
@@ -1769,7 +1805,7 @@ impl RecordPass {
                 record_hits: u32::from(record_hits),
                 light_choices: self.settings.plane_light_choices,
                 record_noise: u32::from(noise.is_some()),
-                _pad: [0; 2],
+                ..PlaneParams::zeroed()
             },
         );
         let plane_bind = self.plane.bind(
@@ -1785,6 +1821,7 @@ impl RecordPass {
                 &light_maps.first_buffer,
                 &scene.bounce_cache(),
                 noise.unwrap_or(&self.no_noise),
+                &self.no_selection,
             ],
         );
         self.plane.record(
@@ -1910,11 +1947,12 @@ impl RecordPass {
         let samples = ctx.storage_buffer("plane samples", &coarse)?;
         let selected = ctx.storage_buffer_sized("refined pixels", r.selected_bytes(n).max(4))?;
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let mut timer = crate::gpu::timer::PassTimer::new(ctx, 2);
+        let mut timer = crate::gpu::timer::PassTimer::new(ctx, 3);
         r.record(
             ctx,
             &mut enc,
             scene,
+            &self.plane,
             &self.table,
             &sites_buf,
             &samples,

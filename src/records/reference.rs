@@ -122,7 +122,7 @@ impl<'a> RecordReference<'a> {
     }
 
     /// The plane of `site` traced and, with `settings.plane_refine > 0`, adaptively refined
-    /// (as `plane_refine_select.wgsl` and `plane_refine.wgsl`): the refined plane and the
+    /// (as `plane_refine_select.wgsl` and `hemisphere_plane.wgsl`'s refinement): the refined plane and the
     /// pixels refined.
     pub fn refined_plane(&self, site: &RecordSite) -> (Vec<PlaneSample>, Vec<u32>) {
         let (coarse, noise): (Vec<PlaneSample>, Vec<f32>) = self

@@ -25,14 +25,16 @@
 //! (Ward's min rule, between pixels).
 //!
 //! GPU: `plane_refine_select.wgsl` (per record, one workgroup: contrast, exact radix
-//! select, selected pixels in pixel order) and `plane_refine.wgsl` (one invocation per
-//! selected pixel: trace its strata, merge). The functions here are the CPU mirror.
+//! select, selected pixels in pixel order; dark planes' records listed for a dispatch of
+//! their own) and the plane pass's pipeline, `hemisphere_plane.wgsl`, in its refining
+//! modes (one invocation per stratum ray, each pixel's strata merged in order). The
+//! functions here are the CPU mirror.
 
-use super::{CacheSettings, HemispherePlane, PlaneSample, PlaneTable, RecordSite};
+use super::{CacheSettings, HemispherePlane, PlaneParams, PlaneSample, PlaneTable, RecordSite};
 use crate::Result;
+use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
-use crate::gpu::{GpuContext, SceneFeatures};
 use crate::light_maps::lit_grid::{self, LitGridParams};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -44,18 +46,18 @@ fn channel_sum(s: &PlaneSample) -> f32 {
 }
 
 /// Every slot of a dark plane's selection ([`select_pixels`]): the plane is refined
-/// everywhere (`DARK_PLANE` in `plane_refine_select.wgsl` and `plane_refine.wgsl`).
+/// everywhere (`DARK_PLANE` in `plane_refine_select.wgsl` and `hemisphere_plane.wgsl`).
 pub const DARK_PLANE: u32 = u32::MAX;
 
 /// The first slot of a selection that refines nothing: a dark plane when dark planes are
 /// not refined (`CacheSettings::dark_plane_refine` off) but some pixels are by contrast,
 /// whose other slots hold nothing meaningful (`NO_PIXELS` in `plane_refine_select.wgsl`
-/// and `plane_refine.wgsl`; on the CPU an empty selection).
+/// and `hemisphere_plane.wgsl`; on the CPU an empty selection).
 pub const NO_PIXELS: u32 = u32::MAX - 1;
 
 /// The first slot of a dark plane refined only where its rays can land near a lit surface
 /// ([`guided_pixels`]; `DARK_GUIDED` in `plane_refine_select.wgsl` and
-/// `plane_refine.wgsl`): slot 1 holds the number of pixels, the slots after it the pixels
+/// `hemisphere_plane.wgsl`): slot 1 holds the number of pixels, the slots after it the pixels
 /// in pixel order. On the CPU the selection is the list itself.
 pub const DARK_GUIDED: u32 = u32::MAX - 2;
 
@@ -261,7 +263,7 @@ pub fn refined_pixels(resolution: u32, selected: &[u32]) -> Vec<u32> {
 
 /// A refined pixel: the centre sample weighted `centre_weight`, each sub-sample by its
 /// stratum's weight, radiance averaged and depth harmonically (misses add 0 to the sum of
-/// 1/Z; -1 when every ray missed). Same order of operations as `plane_refine.wgsl`.
+/// 1/Z; -1 when every ray missed). Same order of operations as `hemisphere_plane.wgsl`.
 pub fn merge(
     centre: &PlaneSample,
     centre_weight: f32,
@@ -311,29 +313,20 @@ struct SelectParams {
     dark_planes: u32,
     /// 1: a dark plane refines only its pixels near a lit voxel (`light_maps::lit_grid`).
     guided: u32,
-    _pad: [u32; 2],
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct RefineParams {
-    resolution: u32,
-    count: u32,
-    refined: u32,
-    light_samples: u32,
-    subsamples: u32,
-    centre_weight: f32,
-    light_choices: u32,
-    slots: u32,
+    /// Refined pixels per workgroup of the plane pass (`64 / split^2`).
+    per_group: u32,
+    _pad: u32,
 }
 
 /// The GPU passes of refinement for one [`CacheSettings`] (built when `plane_refine`
 /// selects at least one pixel or dark planes are refined, `dark_plane_refine`).
 pub struct RefinePass {
     select: ComputePass,
-    refine: ComputePass,
-    /// The sub-sample table, `P^2 split^2` entries.
-    subs: wgpu::Buffer,
+    /// What the refinement binds for the plane pass's hits (it writes none).
+    no_hits: wgpu::Buffer,
+    /// The indirect dispatch (x y z) that refines a batch's dark planes, which the
+    /// selection counts and sizes.
+    dark_dispatch: wgpu::Buffer,
     /// Planes refined everywhere (dark) since the counter was last cleared, counted by the
     /// selection (one u32 atomic: exact, whatever the order).
     dark_planes: wgpu::Buffer,
@@ -349,22 +342,17 @@ pub struct RefinePass {
 }
 
 impl RefinePass {
-    /// The passes and the sub-sample table for `settings`, its rays' hits shaded for the
-    /// scene features `features` (`RecordPass::for_scene`); `None` when refinement is off.
-    pub fn new(
-        ctx: &GpuContext,
-        settings: &CacheSettings,
-        features: SceneFeatures,
-    ) -> Result<Option<Self>> {
+    /// The selection pass for `settings` (the refinement's rays are traced by the record
+    /// pass's plane pipeline, [`Self::record`]); `None` when refinement is off.
+    pub fn new(ctx: &GpuContext, settings: &CacheSettings) -> Result<Option<Self>> {
         use Binding::*;
         let refined = settings.refined_pixels();
         if refined == 0 && !settings.dark_plane_refine {
             return Ok(None);
         }
-        let plane = settings.plane(settings.plane_resolution);
         let split = settings.plane_refine_split;
         Ok(Some(Self {
-            // Eight storage buffers: with the scene's seven, 15 of the 16 a stage may bind
+            // Nine storage buffers: with the scene's six, 15 of the 16 a stage may bind
             // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
             select: ComputePass::new(
                 ctx,
@@ -380,26 +368,18 @@ impl RefinePass {
                     StorageRead,
                     Uniform,
                     StorageRead,
-                ],
-            )?,
-            refine: ComputePass::with_constants(
-                ctx,
-                "plane_refine.wgsl",
-                &[
-                    Uniform,
-                    StorageRead,
-                    StorageRead,
-                    StorageRead,
-                    StorageRead,
                     StorageReadWrite,
-                    StorageRead,
-                    StorageRead,
-                    StorageRead,
-                    StorageRead,
                 ],
-                &[features.constant()],
             )?,
-            subs: ctx.storage_buffer("refine samples", &plane.refine_samples(split))?,
+            no_hits: ctx.storage_buffer_sized("no refined hits", 16)?,
+            dark_dispatch: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("dark plane refinement dispatch"),
+                size: 16,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::INDIRECT
+                    | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
             dark_planes: ctx.storage_buffer("dark planes", &[0u32; 3])?,
             resolution: settings.plane_resolution,
             refined,
@@ -422,6 +402,7 @@ impl RefinePass {
         ctx: &GpuContext,
         enc: &mut wgpu::CommandEncoder,
         scene: &GpuScene,
+        trace: &ComputePass,
         table: &PlaneTable,
         sites: &wgpu::Buffer,
         samples: &wgpu::Buffer,
@@ -447,7 +428,8 @@ impl RefinePass {
                 slots: self.slots(),
                 dark_planes: u32::from(self.dark_planes_refined),
                 guided: u32::from(guided),
-                _pad: [0; 2],
+                per_group: self.per_group(),
+                _pad: 0,
             },
         );
         let bind = self.select.bind(
@@ -463,8 +445,10 @@ impl RefinePass {
                 sites,
                 &light_maps.lit_grid.params_buffer,
                 &light_maps.lit_grid.voxels,
+                &self.dark_dispatch,
             ],
         );
+        enc.clear_buffer(&self.dark_dispatch, 0, None);
         self.select.record(
             enc,
             &scene.bind_group,
@@ -472,48 +456,69 @@ impl RefinePass {
             [count, 1, 1],
             timer.next("plane refinement select"),
         );
-        let params = ctx.uniform_buffer(
-            "refine params",
-            &RefineParams {
-                resolution: self.resolution,
-                count,
-                refined: self.refined,
-                light_samples: self.light_samples,
-                subsamples: self.split * self.split,
-                centre_weight: centre_weight(self.split),
-                light_choices: self.light_choices,
-                slots: self.slots(),
-            },
-        );
-        let bind = self.refine.bind(
-            ctx,
-            &[
-                &params,
-                sites,
-                &table.pixels,
-                &self.subs,
-                selected,
-                samples,
-                &light_maps.maps_buffer,
-                &light_maps.depths,
-                &light_maps.first_buffer,
-                &scene.bounce_cache(),
-            ],
-        );
-        self.refine.record(
+        // The strata of `per_group` pixels a workgroup: the K pixels of each lit plane in
+        // one dispatch, then the dark planes' in one the selection sized.
+        let params = |mode| PlaneParams {
+            resolution: self.resolution,
+            count,
+            light_samples: self.light_samples,
+            light_choices: self.light_choices,
+            mode,
+            refined: self.refined,
+            subsamples: self.split * self.split,
+            centre_weight: centre_weight(self.split),
+            slots: self.slots(),
+            per_group: self.per_group(),
+            ..PlaneParams::zeroed()
+        };
+        let bind = |params: &wgpu::Buffer| {
+            trace.bind(
+                ctx,
+                &[
+                    params,
+                    sites,
+                    &table.pixels,
+                    samples,
+                    &self.no_hits,
+                    &light_maps.maps_buffer,
+                    &light_maps.depths,
+                    &light_maps.first_buffer,
+                    &scene.bounce_cache(),
+                    noise,
+                    selected,
+                ],
+            )
+        };
+        let lit = ctx.uniform_buffer("refine params", &params(1));
+        let dark = ctx.uniform_buffer("dark refine params", &params(2));
+        if self.refined > 0 {
+            trace.record(
+                enc,
+                &scene.bind_group,
+                &bind(&lit),
+                [self.refined.div_ceil(self.per_group()), 1, count],
+                timer.next("plane refinement"),
+            );
+        }
+        trace.record_indirect(
             enc,
             &scene.bind_group,
-            &bind,
-            // K lanes a record (a dark plane's pixels, listed or all, shared among them).
-            [self.refined.max(1).div_ceil(64), 1, count],
-            timer.next("plane refinement"),
+            &bind(&dark),
+            &self.dark_dispatch,
+            timer.next("plane refinement: dark planes"),
         );
         Ok(())
     }
 
+    /// Refined pixels per workgroup of the plane pass: its 64 invocations trace one
+    /// stratum each.
+    fn per_group(&self) -> u32 {
+        (64 / (self.split * self.split)).max(1)
+    }
+
     /// Bytes of the selection buffer for `count` records.
     pub fn selected_bytes(&self, count: u32) -> u64 {
-        u64::from(count) * u64::from(self.slots()) * 4
+        u64::from(count) * (u64::from(self.slots()) + 1) * 4
     }
 
     /// Pixels refined per record by contrast (K; 0 where dark planes alone are refined).

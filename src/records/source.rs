@@ -12,7 +12,7 @@
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
 pub enum RecordSource {
     /// Hemisphere planes (thesis chapter 4): P x P rays from the record, traced and shaded
-    /// (`hemisphere_plane.wgsl`), optionally refined (`plane_refine*.wgsl`), reduced to E,
+    /// (`hemisphere_plane.wgsl`), optionally refined (`plane_refine_select.wgsl`), reduced to E,
     /// R and the gradients (`record_reduce.wgsl`, algorithms.md 3.3). Radiance records also
     /// project their planes onto HSH. More bounces come from the surface bounce cache.
     #[default]

@@ -233,7 +233,7 @@ impl PlaneRefresh<'_> {
                 record_hits: 1,
                 light_choices: settings.plane_light_choices,
                 record_noise: 0,
-                _pad: [0; 2],
+                ..bytemuck::Zeroable::zeroed()
             },
         );
         let bind = self.pass.retrace.bind(

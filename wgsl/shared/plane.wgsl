@@ -35,7 +35,7 @@ fn trace_plane_sample(site: RecordSite, pixel: u32) -> TracedSample {
 
 // The same for any direction `dir` (world space) above the record, as plane sample `index`
 // of the record: its hit's light samples are those of `plane_light_first(index, count)` on
-// (adaptive refinement's sub-samples, plane_refine.wgsl, number theirs past the pixels).
+// (adaptive refinement's sub-samples, hemisphere_plane.wgsl, number theirs past the pixels).
 fn trace_plane_ray(site: RecordSite, dir: vec3f, index: u32) -> TracedSample {
     var out = TracedSample(PlaneSample(vec3f(0.0), -1.0), PlaneHit(NO_HIT, 0u, 0.0, 0.0), 0.0);
     // Directions below the geometric surface (shading normals differ from it) see the

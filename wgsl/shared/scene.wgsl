@@ -30,7 +30,7 @@ struct Instance {
 
 struct Material {
     albedo: vec3f,
-    texture: u32,   // NO_TEXTURE or index into texture_infos
+    texture: u32,   // NO_TEXTURE or a texture's index (texture_info)
     emission: vec3f,
     flags: u32,     // MATERIAL_SAMPLED_LIGHT, MATERIAL_PHONG
     specular: vec3f, // the glossy lobe's reflectance (0 without one)
@@ -95,10 +95,18 @@ override SCENE_FEATURES: u32 = 0xffffffffu;
 @group(0) @binding(2) var<storage, read> shading: array<TriangleShading>;
 @group(0) @binding(3) var<storage, read> instances: array<Instance>;
 @group(0) @binding(4) var<storage, read> materials: array<Material>;
-@group(0) @binding(5) var<storage, read> texture_infos: array<TextureInfo>;
-@group(0) @binding(6) var<storage, read> texels: array<u32>;
-@group(0) @binding(7) var<storage, read> lights: array<Light>;
-@group(0) @binding(8) var<uniform> scene_info: SceneInfo;
+// Per texture four words (its TextureInfo), then every texture's texels, then the
+// environment map's (one binding for the table and the texels: gpu::scene_buffers
+// `texture_tables`).
+@group(0) @binding(5) var<storage, read> texels: array<u32>;
+@group(0) @binding(6) var<storage, read> lights: array<Light>;
+@group(0) @binding(7) var<uniform> scene_info: SceneInfo;
+
+// Texture `index`'s entry at the head of `texels`.
+fn texture_info(index: u32) -> TextureInfo {
+    let b = 4u * index;
+    return TextureInfo(texels[b], texels[b + 1u], texels[b + 2u], 0u);
+}
 
 // Texel `k` (0..3) of BVH node `node`; 512 nodes per row of 2048 texels
 // (`BVH_TEXTURE_WIDTH` in src/gpu/scene_buffers.rs).

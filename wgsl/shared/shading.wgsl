@@ -92,7 +92,7 @@ fn texel(info: TextureInfo, x: i32, y: i32) -> vec3f {
 
 // Bilinear lookup in linear colour; v = 1 is the top row of the image.
 fn sample_texture(index: u32, uv: vec2f) -> vec3f {
-    let info = texture_infos[index];
+    let info = texture_info(index);
     let x = (uv.x - floor(uv.x)) * f32(info.width) - 0.5;
     let y = (1.0 - (uv.y - floor(uv.y))) * f32(info.height) - 0.5;
     let x0 = floor(x);
