@@ -76,6 +76,35 @@ fn plane_hit_point(frame: mat3x3f, origin: vec3f, base: u32, k: u32) -> vec4f {
     return vec4f(origin + frame * vec3f(plane[k].rot_center.zw, 1.0) * z, 1.0);
 }
 
+// How far a pixel's footprint reaches (the largest distance from its hit to a
+// neighbour's), whether it or a neighbour missed, and whether any of them hit.
+struct NeighbourReach {
+    radius: f32,
+    missed: bool,
+    any_hit: bool,
+}
+
+// Takes neighbour hit `q` (w: 0 on a miss) of the pixel hit `p` into `reach` if `present`.
+fn reach_neighbour(reach: ptr<function, NeighbourReach>, p: vec4f, q: vec4f, present: bool) {
+    if !present {
+        return;
+    }
+    if q.w == 0.0 {
+        (*reach).missed = true;
+    } else {
+        (*reach).any_hit = true;
+        if p.w != 0.0 {
+            (*reach).radius = max((*reach).radius, length(q.xyz - p.xyz));
+        }
+    }
+}
+
+// Whether offset `e` from a pixel's hit lies on the plane of normal `sn` through it (within
+// 2 % of its length).
+fn on_plane(e: vec3f, sn: vec3f) -> bool {
+    return abs(dot(e, sn)) <= 0.02 * length(e);
+}
+
 var<workgroup> histogram: array<atomic<u32>, 256>;
 var<workgroup> lit: atomic<u32>;   // any sample of the plane has light
 var<workgroup> plane_dark: u32;    // `lit` read once, for a uniform branch
@@ -163,50 +192,44 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             for (var k = first; k < last; k++) {
                 let i = k % res;
                 let p = plane_hit_point(frame, site.position, base, k);
-                var radius = 0.0;
-                var missed = p.w == 0.0;
-                var any_hit = p.w != 0.0;
-                var nb: array<u32, 4>;
-                var m = 0u;
-                if i > 0u { nb[m] = k - 1u; m++; }
-                if i + 1u < res { nb[m] = k + 1u; m++; }
-                if k >= res { nb[m] = k - res; m++; }
-                if k + res < n { nb[m] = k + res; m++; }
-                var qs: array<vec3f, 4>;
-                for (var a = 0u; a < m; a++) {
-                    let q = plane_hit_point(frame, site.position, base, nb[a]);
-                    qs[a] = q.xyz;
-                    if q.w == 0.0 {
-                        missed = true;
-                    } else {
-                        any_hit = true;
-                        if p.w != 0.0 {
-                            radius = max(radius, length(q.xyz - p.xyz));
-                        }
-                    }
-                }
+                // The 4-neighbours in fixed slots with a flag each (a dynamically indexed
+                // local array is a tree of branches at every access on lavapipe); an
+                // absent one loads the pixel itself, unused.
+                let has_l = i > 0u;
+                let has_r = i + 1u < res;
+                let has_d = k >= res;
+                let has_u = k + res < n;
+                let ql = plane_hit_point(frame, site.position, base, select(k, k - 1u, has_l));
+                let qr = plane_hit_point(frame, site.position, base, select(k, k + 1u, has_r));
+                let qd = plane_hit_point(frame, site.position, base, select(k, k - res, has_d));
+                let qu = plane_hit_point(frame, site.position, base, select(k, k + res, has_u));
+                var reach = NeighbourReach(0.0, p.w == 0.0, p.w != 0.0);
+                reach_neighbour(&reach, p, ql, has_l);
+                reach_neighbour(&reach, p, qr, has_r);
+                reach_neighbour(&reach, p, qd, has_d);
+                reach_neighbour(&reach, p, qu, has_u);
+                let radius = reach.radius;
+                let missed = reach.missed;
+                let any_hit = reach.any_hit;
                 var refine = false;
                 if missed {
                     refine = any_hit;   // an edge against a miss: refine it
                 } else {
                     let d = normalize(frame * vec3f(plane[k].rot_center.zw, 1.0));
                     var faces = lit_faces_seen(d);
-                    if m == 4u {
+                    if has_l && has_r && has_d && has_u {
                         // All four neighbours on the pixel's own plane: its sub-rays land on
                         // that surface, whose lit side is one of the faces its normal is
                         // near (facing the record).
-                        var sn = cross(qs[1] - qs[0], qs[3] - qs[2]);
+                        var sn = cross(qr.xyz - ql.xyz, qu.xyz - qd.xyz);
                         let len = length(sn);
                         if len > 0.0 {
                             sn = sn / len;
                             if dot(sn, d) > 0.0 {
                                 sn = -sn;
                             }
-                            var flat = true;
-                            for (var a = 0u; a < 4u; a++) {
-                                let e = qs[a] - p.xyz;
-                                flat = flat && abs(dot(e, sn)) <= 0.02 * length(e);
-                            }
+                            let flat = on_plane(ql.xyz - p.xyz, sn) && on_plane(qr.xyz - p.xyz, sn)
+                                && on_plane(qd.xyz - p.xyz, sn) && on_plane(qu.xyz - p.xyz, sn);
                             if flat {
                                 faces &= lit_faces_near(sn);
                             }
@@ -258,36 +281,33 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     for (var k = first; k < last; k++) {
         let i = k % res;
         // The 4-neighbours' channel sums and environment shares, each loaded once (a
-        // storage load is a per-lane loop on lavapipe).
-        var ys: array<f32, 4>;
-        var ns: array<f32, 4>;
-        var m = 0u;
-        if i > 0u {
-            ys[m] = channel_sum(samples[base + k - 1u].radiance);
-            ns[m] = noise[base + k - 1u];
-            m++;
-        }
-        if i + 1u < res {
-            ys[m] = channel_sum(samples[base + k + 1u].radiance);
-            ns[m] = noise[base + k + 1u];
-            m++;
-        }
-        if k >= res {
-            ys[m] = channel_sum(samples[base + k - res].radiance);
-            ns[m] = noise[base + k - res];
-            m++;
-        }
-        if k + res < n {
-            ys[m] = channel_sum(samples[base + k + res].radiance);
-            ns[m] = noise[base + k + res];
-            m++;
-        }
+        // storage load is a per-lane loop on lavapipe), in fixed slots with a flag each:
+        // a dynamically indexed local array is a tree of branches at every access there.
+        let has_l = i > 0u;
+        let has_r = i + 1u < res;
+        let has_d = k >= res;
+        let has_u = k + res < n;
+        let kl = select(k, k - 1u, has_l);
+        let kr = select(k, k + 1u, has_r);
+        let kd = select(k, k - res, has_d);
+        let ku = select(k, k + res, has_u);
+        let yl = channel_sum(samples[base + kl].radiance);
+        let yr = channel_sum(samples[base + kr].radiance);
+        let yd = channel_sum(samples[base + kd].radiance);
+        let yu = channel_sum(samples[base + ku].radiance);
+        let nl = noise[base + kl];
+        let nr = noise[base + kr];
+        let nd = noise[base + kd];
+        let nu = noise[base + ku];
+        // The largest contrast over the pairs of present neighbours (max is exact: the
+        // same bits in any order).
         var c = 0.0;
-        for (var ia = 0u; ia < m; ia++) {
-            for (var ib = ia + 1u; ib < m; ib++) {
-                c = max(c, edge_contrast(ys[ia], ns[ia], ys[ib], ns[ib]));
-            }
-        }
+        c = max(c, select(0.0, edge_contrast(yl, nl, yr, nr), has_l && has_r));
+        c = max(c, select(0.0, edge_contrast(yl, nl, yd, nd), has_l && has_d));
+        c = max(c, select(0.0, edge_contrast(yl, nl, yu, nu), has_l && has_u));
+        c = max(c, select(0.0, edge_contrast(yr, nr, yd, nd), has_r && has_d));
+        c = max(c, select(0.0, edge_contrast(yr, nr, yu, nu), has_r && has_u));
+        c = max(c, select(0.0, edge_contrast(yd, nd, yu, nu), has_d && has_u));
         keys[base + k] = bitcast<u32>(c * plane[k].weights.x);
     }
     if lane == 0u {
