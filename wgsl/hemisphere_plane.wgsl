@@ -20,9 +20,10 @@
 // them in stratum order once all have traced (the same sums, in the same order, as
 // records::refine::refine_plane). MODE_REFINE_LIT refines the K pixels each lit plane's
 // selection lists (one dispatch over every record); MODE_REFINE_DARK the pixels of the
-// planes that saw no light (DARK_PLANE: all of them; DARK_GUIDED: those listed), whose
-// records the selection appended after the batch's selections and whose dispatch size it
-// wrote (an indirect dispatch: their many pixels cost no workgroups on the others).
+// planes that saw no light (DARK_PLANE: all of them; DARK_GUIDED: those listed), one
+// workgroup per item the selection appended after the batch's selections (a record and
+// which of its workgroups; an indirect dispatch the selection sized, so that their many
+// pixels cost no workgroups on the other planes, and no plane idle ones on the largest).
 //!include shared/plane.wgsl
 //!include shared/bounce_cache.wgsl
 
@@ -89,17 +90,24 @@ fn main(
     bvh_stack_init(lane);
     let n = params.resolution * params.resolution;
     let refining = params.mode != MODE_TRACE;
-    // The record (uniform over the workgroup: the barrier below needs it).
+    // The record and its workgroup (uniform over the workgroup: the barrier below needs
+    // it).
     var record = group.z;
+    var g = group.x;
     if params.mode == MODE_REFINE_DARK {
-        record = selected[params.count * params.slots + group.z];
+        let item = selected[params.count * params.slots + group.x + group.y * 65535u];
+        if item == 0u {
+            return;     // past the last item in the last row
+        }
+        record = (item - 1u) & 0xffffu;
+        g = (item - 1u) >> 16u;
     } else if group.z >= params.count {
         return;
     }
     let base = record * n;
     let row = record * params.slots;
     // This invocation's ray: pixel k's centre ray, or its stratum q.
-    var k = group.x * 64u + lane;
+    var k = g * 64u + lane;
     var q = 0u;
     var work = k < n;
     if refining {
@@ -110,7 +118,7 @@ fn main(
         }
         // Slot j of the selection: a lit plane's K, a guided plane's listed pixels, or
         // every pixel of a plane refined everywhere.
-        let j = group.x * params.per_group + lane / params.subsamples;
+        let j = g * params.per_group + lane / params.subsamples;
         q = lane % params.subsamples;
         var count = params.refined;
         if first_slot == DARK_GUIDED {

@@ -49,17 +49,30 @@ struct SelectParams {
 @group(1) @binding(7) var<storage, read> sites: array<RecordSite>;
 @group(1) @binding(8) var<uniform> lit_grid_params: LitGridParams;
 @group(1) @binding(9) var<storage, read> lit_grid: array<u32>;
-// The indirect dispatch (x y z, cleared before this pass) that refines the dark planes:
-// z counts them, x is the most workgroups one needs.
-@group(1) @binding(10) var<storage, read_write> dark_dispatch: array<atomic<u32>, 3>;
+// The indirect dispatch (x y z, cleared before this pass) that refines the dark planes, and
+// (element 3) how many workgroups it holds: one per `per_group` pixels of each dark plane.
+@group(1) @binding(10) var<storage, read_write> dark_dispatch: array<atomic<u32>, 4>;
 
-// Appends `record`, a dark plane with `pixels` pixels to refine, to the batch's dark planes.
-// Their order varies from run to run; each refines its own pixels, so the result does not.
+// Appends the workgroups that refine `record`, a dark plane with `pixels` pixels to refine,
+// after the batch's selections (cleared before this pass): workgroup g of the plane is
+// item `(g << 16 | record) + 1` (0: none), so that no workgroup of that dispatch is idle
+// (as one sized by the largest plane's pixels left most). Their order varies from run to
+// run; each refines its own pixels, so the result does not.
 fn push_dark_plane(record: u32, pixels: u32) {
-    let i = atomicAdd(&dark_dispatch[2], 1u);
-    selected[params.count * params.slots + i] = record;
-    atomicMax(&dark_dispatch[0], (pixels + params.per_group - 1u) / params.per_group);
-    atomicMax(&dark_dispatch[1], 1u);
+    let groups = (pixels + params.per_group - 1u) / params.per_group;
+    if groups == 0u {
+        return;
+    }
+    let start = atomicAdd(&dark_dispatch[3], groups);
+    let tail = params.count * params.slots;
+    for (var g = 0u; g < groups; g++) {
+        selected[tail + start + g] = ((g << 16u) | record) + 1u;
+    }
+    // x up to 65535 a row, then y rows (shared/work_list.wgsl's rule).
+    let end = start + groups;
+    atomicMax(&dark_dispatch[0], min(end, 65535u));
+    atomicMax(&dark_dispatch[1], (end - 1u) / 65535u + 1u);
+    atomicMax(&dark_dispatch[2], 1u);
 }
 
 // The first slot of a dark plane refined only where its rays can land near a lit surface

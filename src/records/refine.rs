@@ -325,7 +325,7 @@ pub struct RefinePass {
     /// What the refinement binds for the plane pass's hits (it writes none).
     no_hits: wgpu::Buffer,
     /// The indirect dispatch (x y z) that refines a batch's dark planes, which the
-    /// selection counts and sizes.
+    /// selection sizes, and the number of its workgroups (element 3).
     dark_dispatch: wgpu::Buffer,
     /// Planes refined everywhere (dark) since the counter was last cleared, counted by the
     /// selection (one u32 atomic: exact, whatever the order).
@@ -449,6 +449,12 @@ impl RefinePass {
             ],
         );
         enc.clear_buffer(&self.dark_dispatch, 0, None);
+        // The dark planes' workgroups, appended after the selections (0: none).
+        enc.clear_buffer(
+            selected,
+            u64::from(count) * u64::from(self.slots()) * 4,
+            None,
+        );
         self.select.record(
             enc,
             &scene.bind_group,
@@ -518,7 +524,8 @@ impl RefinePass {
 
     /// Bytes of the selection buffer for `count` records.
     pub fn selected_bytes(&self, count: u32) -> u64 {
-        u64::from(count) * (u64::from(self.slots()) + 1) * 4
+        let groups = self.resolution.pow(2).div_ceil(self.per_group());
+        u64::from(count) * u64::from(self.slots() + groups) * 4
     }
 
     /// Pixels refined per record by contrast (K; 0 where dark planes alone are refined).
