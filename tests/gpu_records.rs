@@ -474,10 +474,21 @@ const GOLDEN_RECORDS: &str = "a573f62874a001bcd8768308e165dbdc33a2b9757492c78a6e
 /// refined planes. Also run to run byte-identical.
 #[test]
 fn gpu_refined_planes_and_records_match_the_cpu_reference() {
-    refined_planes_and_records_match_the_cpu_reference(common::load(
-        "cornell-box.toml",
-        Some((32, 32)),
-    ));
+    refined_planes_and_records_match_the_cpu_reference(
+        common::load("cornell-box.toml", Some((32, 32))),
+        2,
+    );
+}
+
+/// The same with 3 x 3 strata a refined pixel: the plane pass's refinement packs
+/// `64 / 9 = 7` pixels' strata a workgroup (one invocation idle), where the default's 2 x 2
+/// fill it; every pixel's strata must still be summed whole, in order.
+#[test]
+fn gpu_refined_planes_with_nine_strata_match_the_cpu_reference() {
+    refined_planes_and_records_match_the_cpu_reference(
+        common::load("cornell-box.toml", Some((32, 32))),
+        3,
+    );
 }
 
 /// With refinement by contrast off (`plane_refine` 0, temporal caching's default), planes
@@ -729,7 +740,7 @@ fn gpu_dark_planes_refine_near_lit_surfaces_as_the_cpu() {
 /// plane's samples do.
 #[test]
 fn gpu_refined_planes_under_several_lights_match_the_cpu_reference() {
-    refined_planes_and_records_match_the_cpu_reference(common::many_lights_cornell_box());
+    refined_planes_and_records_match_the_cpu_reference(common::many_lights_cornell_box(), 2);
 }
 
 /// Under an environment map every hit's light is one environment sample, and refinement
@@ -1014,11 +1025,12 @@ fn a_widened_gather_stays_within_the_tolerance_of_the_default_one() {
     );
 }
 
-fn refined_planes_and_records_match_the_cpu_reference(scene: Scene) {
+fn refined_planes_and_records_match_the_cpu_reference(scene: Scene, split: u32) {
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let settings = CacheSettings {
         plane_resolution: 24,
         plane_refine: 0.15,
+        plane_refine_split: split,
         ..CacheSettings::default()
     };
     let k = settings.refined_pixels() as usize;
