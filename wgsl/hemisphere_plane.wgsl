@@ -95,9 +95,15 @@ fn main(
     var record = group.z;
     var g = group.x;
     if params.mode == MODE_REFINE_DARK {
-        let item = selected[params.count * params.slots + group.x + group.y * 65535u];
+        // The list holds up to ceil(P^2 / per_group) items a record, zeros past its end.
+        let i = group.x + group.y * 65535u;
+        let capacity = params.count * ((n + params.per_group - 1u) / params.per_group);
+        if i >= capacity {
+            return;     // past the list in the last row
+        }
+        let item = selected[params.count * params.slots + i];
         if item == 0u {
-            return;     // past the last item in the last row
+            return;     // past the last item
         }
         record = (item - 1u) & 0xffffu;
         g = (item - 1u) >> 16u;

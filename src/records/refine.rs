@@ -392,9 +392,11 @@ impl RefinePass {
     }
 
     /// Records the refinement of the `count` planes in `samples` (traced for `sites`, P^2
-    /// each) in place; `selected` receives the K selected pixels per record, or
-    /// `max(K, 1)` times [`DARK_PLANE`] for a plane refined everywhere (a buffer of
-    /// `count * max(K, 1)` u32, see [`Self::selected_bytes`]). `noise` holds each sample's environment share
+    /// each) in place: the selection, then `trace` (the record pass's plane pipeline,
+    /// `hemisphere_plane.wgsl`, built for `table`) in its refining modes. `selected`
+    /// receives [`Self::slots`] u32 per record (the K selected pixels, [`DARK_PLANE`] in
+    /// each slot, or a [`DARK_GUIDED`] list), then the dark planes' workgroups (a buffer
+    /// of [`Self::selected_bytes`]). `noise` holds each sample's environment share
     /// ([`contrast_keys`]; all zeros: plain contrast).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
