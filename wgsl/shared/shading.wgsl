@@ -422,36 +422,62 @@ fn light_choice_weight_raw(s: Surface, light: Light) -> f32 {
 // `direct::reference::rect_projected_solid_angle`.
 fn rect_projected_solid_angle(n: vec3f, a: vec3f, b: vec3f, c: vec3f) -> f32 {
     let quad = array<vec3f, 4>(a, a + b, a + b + c, a + c);
-    var clipped: array<vec3f, 5>;
-    var m = 0u;
+    // The clipped polygon's vertices are taken in order and each edge summed as its second
+    // vertex arrives, the closing edge last: the same edges in the same order as a list of
+    // the vertices, without the list (Mesa, lavapipe, turns a dynamically indexed local
+    // array into a tree of branches at every access).
+    var count = 0u;
+    var first = vec3f(0.0);
+    var last = vec3f(0.0);
+    var sum = 0.0;
     for (var k = 0u; k < 4u; k++) {
         let p0 = quad[k];
         let p1 = quad[(k + 1u) % 4u];
         let d0 = dot(n, p0);
         let d1 = dot(n, p1);
         if d0 > 0.0 {
-            clipped[m] = p0;
-            m++;
+            polygon_vertex(&count, &first, &last, &sum, n, p0);
         }
         if (d0 > 0.0) != (d1 > 0.0) {
-            clipped[m] = p0 + (d0 / (d0 - d1)) * (p1 - p0);
-            m++;
+            polygon_vertex(&count, &first, &last, &sum, n, p0 + (d0 / (d0 - d1)) * (p1 - p0));
         }
     }
-    if m < 3u {
+    if count < 3u {
         return 0.0;
     }
-    var sum = 0.0;
-    for (var k = 0u; k < m; k++) {
-        let u0 = normalize(clipped[k]);
-        let u1 = normalize(clipped[(k + 1u) % m]);
-        let cr = cross(u0, u1);
-        let len = length(cr);
-        if len > 0.0 {
-            sum += atan2(len, dot(u0, u1)) * (dot(n, cr) / len);
-        }
-    }
+    add_lambert_edge(&sum, n, last, first);
     return 0.5 * abs(sum);
+}
+
+// The next vertex `v` of a polygon (`rect_projected_solid_angle`): `count` vertices so far,
+// the `first` and the `last`, and the `sum` of Lambert's terms of the edges between them.
+fn polygon_vertex(
+    count: ptr<function, u32>,
+    first: ptr<function, vec3f>,
+    last: ptr<function, vec3f>,
+    sum: ptr<function, f32>,
+    n: vec3f,
+    v: vec3f,
+) {
+    if *count == 0u {
+        *first = v;
+    } else {
+        add_lambert_edge(sum, n, *last, v);
+    }
+    *last = v;
+    *count += 1u;
+}
+
+// Adds to `sum` Lambert's term of the polygon edge from `p` to `q`: its angle seen from the
+// origin times n . its unit normal.
+fn add_lambert_edge(sum: ptr<function, f32>, n: vec3f, p: vec3f, q: vec3f) {
+    let u0 = normalize(p);
+    let u1 = normalize(q);
+    let cr = cross(u0, u1);
+    let len = length(cr);
+    if len > 0.0 {
+        *sum += atan2(len, dot(u0, u1)) * (dot(n, cr) / len);
+    }
 }
 
 // The shadow loop of `shadow_loop_start_at` with `m` lights chosen instead of every light
