@@ -5,15 +5,15 @@
 mod common;
 
 use glam::Vec3;
-use radsplat::Renderer;
 use radsplat::direct::reference::DirectReference;
 use radsplat::records::plane_error::monte_carlo_irradiance;
 use radsplat::records::reference::{RecordReference, reduce_plane};
 use radsplat::records::{
-    CacheSettings, Record, RecordCache, RecordPass, RecordRadius, RecordSite, refine,
+    CacheSettings, Record, RecordCache, RecordPass, RecordRadius, RecordSite, RefinedPlanes, refine,
 };
 use radsplat::scene::Scene;
 use radsplat::visibility::GpuCamera;
+use radsplat::{PreparedScene, Renderer};
 
 /// Sites at a spread of visible pixels of the scene's camera (CPU-made, as the GPU would).
 fn sites(
@@ -510,14 +510,13 @@ fn gpu_dark_planes_alone_are_refined_when_refinement_by_contrast_is_off() {
     let mut sites = sites(&scene, &renderer, &settings, 8);
     let lit = sites.len();
     push_dark_cornell_sites(&mut sites);
-    let prepared = renderer.prepare(&scene).expect("prepare");
-    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    let Refined {
+        pass,
+        reference,
+        gpu,
+        ..
+    } = refined(&renderer, &scene, &settings, &sites);
     assert!(pass.refines());
-    let reference = RecordReference::new(&scene, &settings);
-    let gpu = pass
-        .trace_planes_refined(&renderer.ctx, &prepared.gpu, &sites)
-        .expect("refined planes");
-    renderer.ctx.check().expect("no wgpu errors");
     let per = (settings.plane_resolution * settings.plane_resolution) as usize;
     // One slot a record for the flag (and room for a guided plane's list: dark planes may be
     // refined near light alone, though not here, without light maps).
@@ -576,13 +575,7 @@ fn gpu_dark_planes_are_left_unrefined_when_dark_plane_refinement_is_off() {
     let mut sites = sites(&scene, &renderer, &settings, 6);
     let lit = sites.len();
     push_dark_cornell_sites(&mut sites);
-    let prepared = renderer.prepare(&scene).expect("prepare");
-    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
-    let reference = RecordReference::new(&scene, &settings);
-    let gpu = pass
-        .trace_planes_refined(&renderer.ctx, &prepared.gpu, &sites)
-        .expect("refined planes");
-    renderer.ctx.check().expect("no wgpu errors");
+    let Refined { reference, gpu, .. } = refined(&renderer, &scene, &settings, &sites);
     let per = (settings.plane_resolution * settings.plane_resolution) as usize;
     assert_eq!(gpu.selected.len(), sites.len() * k, "K slots a record");
     let mut lit_changed = 0;
@@ -757,13 +750,12 @@ fn gpu_refinement_under_an_environment_discounts_its_samples_as_the_cpu() {
     };
     let k = settings.refined_pixels() as usize;
     let sites = sites(&scene, &renderer, &settings, 8);
-    let prepared = renderer.prepare(&scene).expect("prepare");
-    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
-    let reference = RecordReference::new(&scene, &settings);
-    let gpu = pass
-        .trace_planes_refined(&renderer.ctx, &prepared.gpu, &sites)
-        .expect("refined planes");
-    renderer.ctx.check().expect("no wgpu errors");
+    let Refined {
+        pass,
+        reference,
+        gpu,
+        ..
+    } = refined(&renderer, &scene, &settings, &sites);
     let per = (settings.plane_resolution * settings.plane_resolution) as usize;
     let slots = pass.refine_slots() as usize;
     let (mut hits_with_share, mut compared, mut differ) = (0, 0, 0);
@@ -1025,6 +1017,37 @@ fn a_widened_gather_stays_within_the_tolerance_of_the_default_one() {
     );
 }
 
+/// `sites`' planes traced and refined on the GPU with `settings`, with what the refinement
+/// tests compare them with.
+struct Refined<'a> {
+    prepared: PreparedScene,
+    pass: RecordPass,
+    reference: RecordReference<'a>,
+    gpu: RefinedPlanes,
+}
+
+/// [`Refined`] for `sites` of `scene`; the device reports no error.
+fn refined<'a>(
+    renderer: &Renderer,
+    scene: &'a Scene,
+    settings: &'a CacheSettings,
+    sites: &[RecordSite],
+) -> Refined<'a> {
+    let prepared = renderer.prepare(scene).expect("prepare");
+    let pass = RecordPass::new(&renderer.ctx, settings).expect("record pass");
+    let reference = RecordReference::new(scene, settings);
+    let gpu = pass
+        .trace_planes_refined(&renderer.ctx, &prepared.gpu, sites)
+        .expect("refined planes");
+    renderer.ctx.check().expect("no wgpu errors");
+    Refined {
+        prepared,
+        pass,
+        reference,
+        gpu,
+    }
+}
+
 fn refined_planes_and_records_match_the_cpu_reference(scene: Scene, split: u32) {
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let settings = CacheSettings {
@@ -1039,12 +1062,12 @@ fn refined_planes_and_records_match_the_cpu_reference(scene: Scene, split: u32) 
     // Two planes without light, refined everywhere instead of by contrast: one whose rays
     // all miss, one whose rays all hit unlit surfaces.
     let [dark_index, inside_index] = push_dark_cornell_sites(&mut sites);
-    let prepared = renderer.prepare(&scene).expect("prepare");
-    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
-    let reference = RecordReference::new(&scene, &settings);
-    let gpu = pass
-        .trace_planes_refined(&renderer.ctx, &prepared.gpu, &sites)
-        .expect("refined planes");
+    let Refined {
+        prepared,
+        pass,
+        reference,
+        gpu,
+    } = refined(&renderer, &scene, &settings, &sites);
     let per = (settings.plane_resolution * settings.plane_resolution) as usize;
     let slots = pass.refine_slots() as usize;
     for i in [dark_index, inside_index] {

@@ -1046,8 +1046,7 @@ pub(crate) struct PlaneParams {
     pub light_choices: u32,
     /// 1: also write each sample's environment-sampled share (refinement's selection).
     pub record_noise: u32,
-    /// 0: trace the planes; 1: refine the pixels selected on lit planes in place; 2: those
-    /// of the planes that saw no light ([`refine::RefinePass::record`]).
+    /// [`Self::TRACE`], [`Self::REFINE_LIT`] or [`Self::REFINE_DARK`].
     pub mode: u32,
     /// Refining: K pixels selected per lit plane by contrast.
     pub refined: u32,
@@ -1059,6 +1058,16 @@ pub(crate) struct PlaneParams {
     pub slots: u32,
     /// Refining: pixels per workgroup, `64 / split^2` (one invocation per stratum).
     pub per_group: u32,
+}
+
+impl PlaneParams {
+    /// `mode`: trace the planes (`MODE_TRACE` in `hemisphere_plane.wgsl`).
+    pub const TRACE: u32 = 0;
+    /// `mode`: refine the pixels selected on lit planes in place
+    /// ([`refine::RefinePass::record`]).
+    pub const REFINE_LIT: u32 = 1;
+    /// `mode`: refine the pixels of the planes that saw no light.
+    pub const REFINE_DARK: u32 = 2;
 }
 
 #[repr(C)]
@@ -1805,6 +1814,7 @@ impl RecordPass {
                 record_hits: u32::from(record_hits),
                 light_choices: self.settings.plane_light_choices,
                 record_noise: u32::from(noise.is_some()),
+                mode: PlaneParams::TRACE,
                 ..PlaneParams::zeroed()
             },
         );

@@ -497,8 +497,8 @@ impl RefinePass {
                 ],
             )
         };
-        let lit = ctx.uniform_buffer("refine params", &params(1));
-        let dark = ctx.uniform_buffer("dark refine params", &params(2));
+        let lit = ctx.uniform_buffer("refine params", &params(PlaneParams::REFINE_LIT));
+        let dark = ctx.uniform_buffer("dark refine params", &params(PlaneParams::REFINE_DARK));
         if self.refined > 0 {
             trace.record(
                 enc,
