@@ -16,9 +16,15 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 EXTREMES = ["0", "-0", "1e38", "-1e38", "3.4e38", "nan", "inf", "-1", "1e-45", "0.0",
             "1e20", "65536", "4294967296", "-2147483648", '"x"', "[]", "[0,0,0]",
             "[1e38,1e38,1e38]"]
-SCENES = ["cornell-box.toml", "cube-in-box-anim.toml", "moving-light.toml", "spheres.toml"]
+SCENES = ["cornell-box.toml", "cube-in-box-anim.toml", "moving-light.toml", "spheres.toml",
+          "cornell-box-glossy.toml", "env-sphere.toml", "nave.toml", "spheres-glossy.toml"]
+# Scenes rendered as still frames (`render`); the others are animated (`animate`).
+STILL = {"cornell-box.toml", "cornell-box-glossy.toml", "env-sphere.toml", "nave.toml"}
 MESHES = {"cube.obj": "cube-in-box.toml", "room.obj": "cube-in-box.toml",
-          "cornell-box.obj": "cornell-box.toml", "cornell-box.mtl": "cornell-box.toml"}
+          "cornell-box.obj": "cornell-box.toml", "cornell-box.mtl": "cornell-box.toml",
+          "cornell-box-glossy.mtl": "cornell-box-glossy.toml", "nave.obj": "nave.toml",
+          "nave.mtl": "nave.toml", "glossy-sphere.mtl": "env-sphere.toml",
+          "sky.hdr": "env-sphere.toml"}
 
 
 def mutate(lines, rng):
@@ -64,7 +70,7 @@ def main():
         out = os.path.join(work, "out")
         os.makedirs(out)
         common = ["--size", "8x8", "--plane-resolution", "8", "--quiet"]
-        if a.kind == "scenes" and base != "cornell-box.toml":
+        if a.kind == "scenes" and base not in STILL:
             frames = rng.choice(["0..2", "5..6", "0..0"])
             cmd = [a.bin, "animate", scene, "--frames", frames, "-o", out + "/f_####.exr"]
         else:
