@@ -23,8 +23,10 @@
 //!   `-vh` = 2 atan(tan(vv/2) · width/height).
 
 use crate::scene::asset_path::resolve_asset;
+use crate::scene::file::RECT_LIGHT_PREFIX;
 use crate::scene::{Light, Scene};
 use crate::{Error, Result};
+use glam::{Mat4, Vec3};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -83,36 +85,20 @@ pub fn scene_rad(scene: &Scene) -> String {
         }
     }
     let mut n = 0usize;
+    // Rect lights' quads (the loader's `add_rect_light_mesh`: two triangles of a mesh of
+    // their own, or of the scene's one mesh) are written from the lights below, each as one
+    // 4-vertex `light` polygon. As two triangles, rpict samples each triangle over an
+    // equal-area rectangle about its centre (rays outside the triangle miss, the triangle
+    // outside it is never sampled) and splits it into at most 64 parts: fine from afar
+    // (Cornell box), but near a panel it lost most of the light (conference room: walls
+    // within ~30 cm of a panel 3-15x too dark in -ab 0).
     for inst in &scene.instances {
         let mesh = &scene.meshes[inst.mesh as usize];
-        // A rect light's two-triangle quad (the loader's `add_rect_light_mesh`: corners
-        // c, c+u, c+u+v, c+v) becomes one 4-vertex `light` polygon. As two triangles, rpict
-        // samples each triangle over an equal-area rectangle about its centre (rays outside
-        // the triangle miss, the triangle outside it is never sampled) and splits it into at
-        // most 64 parts: fine from afar (Cornell box), but near a panel it lost most of the
-        // light (conference room: walls within ~30 cm of a panel 3-15x too dark in -ab 0).
-        let quad_light = mesh.positions.len() == 4
-            && mesh.indices == [[0, 1, 2], [0, 2, 3]]
-            && mesh.material_ids.len() == 2
-            && mesh.material_ids[0] == mesh.material_ids[1]
-            && scene.materials[mesh.material_ids[0] as usize].sampled_light;
-        if quad_light {
-            let mi = mesh.material_ids[0] as usize;
-            let id = ident("m", mi, &scene.materials[mi].name);
-            let p = |k: usize| v3(inst.transform.transform_point3(mesh.positions[k]));
-            let _ = writeln!(
-                out,
-                "{id} polygon t{n} 0 0 12 {} {} {} {}",
-                p(0),
-                p(1),
-                p(2),
-                p(3)
-            );
-            n += 1;
-            continue;
-        }
         for (t, tri) in mesh.indices.iter().enumerate() {
             let mi = mesh.material_ids[t] as usize;
+            if scene.materials[mi].sampled_light {
+                continue;
+            }
             let id = ident("m", mi, &scene.materials[mi].name);
             let p = |k: usize| {
                 v3(inst
@@ -122,6 +108,34 @@ pub fn scene_rad(scene: &Scene) -> String {
             let _ = writeln!(out, "{id} polygon t{n} 0 0 9 {} {} {}", p(0), p(1), p(2));
             n += 1;
         }
+    }
+    for (i, light) in scene.lights.iter().enumerate() {
+        let Light::Rect {
+            corner,
+            edge_u,
+            edge_v,
+            ..
+        } = *light
+        else {
+            continue;
+        };
+        let name = format!("{RECT_LIGHT_PREFIX}{i}");
+        let Some(mi) = scene.materials.iter().position(|m| m.name == name) else {
+            continue;
+        };
+        let id = ident("m", mi, &name);
+        // The quad's corners as the loader made them, through the identity its instance
+        // had (so the same digits as when the quad was an instance of its own).
+        let p = |q: Vec3| v3(Mat4::IDENTITY.transform_point3(q));
+        let _ = writeln!(
+            out,
+            "{id} polygon t{n} 0 0 12 {} {} {} {}",
+            p(corner),
+            p(corner + edge_u),
+            p(corner + edge_u + edge_v),
+            p(corner + edge_v)
+        );
+        n += 1;
     }
     let radius = point_light_radius(scene);
     for (i, light) in scene.lights.iter().enumerate() {

@@ -419,9 +419,10 @@ fn check_consistent(scene: &Scene) {
 fn cornell_box_loads() {
     let scene = load_scene(&manifest_path("scenes/cornell-box.toml")).expect("cornell box");
     check_consistent(&scene);
-    // 5 walls + 2 blocks of 5 faces, as quads, and the light's two triangles.
+    // 5 walls + 2 blocks of 5 faces, as quads, and the light's two triangles: in the one
+    // mesh, which the light's quad joins (the scene stays one instance).
     assert_eq!(scene.triangle_count(), 15 * 2 + 2);
-    assert_eq!(scene.instances.len(), 2);
+    assert_eq!(scene.instances.len(), 1);
     assert_eq!(
         (scene.camera.width, scene.camera.height),
         (256, 256),
@@ -445,8 +446,16 @@ fn rect_light_mesh_faces_along_light_normal() {
         (normal - glam::Vec3::NEG_Y).length() < 1e-6,
         "light faces down"
     );
-    let mesh = &scene.meshes[scene.instances[1].mesh as usize];
-    for &[a, b, c] in &mesh.indices {
+    let mesh = &scene.meshes[scene.instances[0].mesh as usize];
+    let quad = mesh
+        .indices
+        .iter()
+        .zip(&mesh.material_ids)
+        .filter(|(_, m)| scene.materials[**m as usize].name == "__rect_light_0")
+        .map(|(t, _)| *t)
+        .collect::<Vec<_>>();
+    assert_eq!(quad.len(), 2);
+    for &[a, b, c] in &quad {
         let p = |i: u32| mesh.positions[i as usize];
         let geometric = (p(b) - p(a)).cross(p(c) - p(a)).normalize();
         assert!(
@@ -454,6 +463,71 @@ fn rect_light_mesh_faces_along_light_normal() {
             "{geometric} vs {normal}"
         );
     }
+}
+
+/// A static rect light's quad joins the scene's one mesh when that mesh is placed as
+/// modelled and never moves (the scene stays one instance, which rays traverse faster);
+/// otherwise, or when the light moves, the quad is an instance of its own. Either way the
+/// quad is the same two triangles.
+#[test]
+fn rect_light_quads_join_a_single_static_mesh() {
+    let dir = test_dir("quad-join");
+    write(&dir, "tri.obj", TRIANGLE_OBJ);
+    let light = "[[light]]\ntype = \"rect\"\ncorner = [0, 1, 0]\nedge_u = [1, 0, 0]\n\
+                 edge_v = [0, 0, 1]\nradiance = [2, 2, 2]\n";
+    let moving_light = format!("{light}[[light.keyframe]]\nframe = 3\ncorner = [0, 2, 0]\n");
+    let cases = [
+        ("[[mesh]]\nfile = \"tri.obj\"\n", light.to_string(), 1),
+        (
+            "[[mesh]]\nfile = \"tri.obj\"\ntranslate = [1, 0, 0]\n",
+            light.to_string(),
+            2,
+        ),
+        (
+            "[[mesh]]\nfile = \"tri.obj\"\n[[mesh.keyframe]]\nframe = 0\n\
+             [[mesh.keyframe]]\nframe = 2\ntranslate = [1, 0, 0]\n",
+            light.to_string(),
+            2,
+        ),
+        ("[[mesh]]\nfile = \"tri.obj\"\n", moving_light, 2),
+        (
+            "[[mesh]]\nfile = \"tri.obj\"\n[[mesh]]\nfile = \"tri.obj\"\n",
+            light.to_string(),
+            3,
+        ),
+    ];
+    let mut quads = Vec::new();
+    for (meshes, lights, instances) in cases {
+        let path = write(&dir, "scene.toml", &format!("{CAMERA}\n{meshes}\n{lights}"));
+        let scene = load_scene(&path).unwrap_or_else(|e| panic!("{meshes}{lights}: {e}"));
+        check_consistent(&scene);
+        assert_eq!(scene.instances.len(), instances, "{meshes}{lights}");
+        let joined = instances == 1;
+        assert_eq!(scene.meshes.len(), if joined { 1 } else { 2 }, "{meshes}");
+        // The OBJ's triangles first, then the quad's, whichever mesh holds them.
+        let mut quad = Vec::new();
+        for instance in &scene.instances {
+            let mesh = &scene.meshes[instance.mesh as usize];
+            for (t, m) in mesh.indices.iter().zip(&mesh.material_ids) {
+                if scene.materials[*m as usize]
+                    .name
+                    .starts_with("__rect_light_")
+                {
+                    quad.push(t.map(|i| mesh.positions[i as usize]));
+                }
+            }
+        }
+        assert_eq!(rect_light_mesh_emission(&scene), vec![[2.0, 2.0, 2.0]; 2]);
+        if joined {
+            assert_eq!(
+                scene.meshes[0].indices[0],
+                [0, 1, 2],
+                "the OBJ's triangle first"
+            );
+        }
+        quads.push(quad);
+    }
+    assert_eq!(quads[0], quads[1], "the same quad joined or not");
 }
 
 #[test]

@@ -135,8 +135,7 @@ mod tests {
     #[test]
     fn a_scenes_features_follow_its_instances_animation_and_textures() {
         let has = |f: SceneFeatures, bit: u32| f.0 & bit != 0;
-        // The nave: one OBJ placed as modelled, lit by the sun. (A rect light's quad is an
-        // instance of its own: the Cornell box has two.)
+        // The nave: one OBJ placed as modelled, lit by the sun.
         let nave = bundled("nave.toml");
         let plain = SceneFeatures::of(&nave);
         assert!(
@@ -147,12 +146,16 @@ mod tests {
         assert!(!has(plain, SceneFeatures::BOUNCE_CACHE_BIT));
         assert!(has(plain, 1 << LIGHT_SUN));
         assert!(!has(plain, 1 << LIGHT_RECT));
+        // A static rect light's quad joins a scene's one static mesh (the Cornell box stays
+        // one instance); beside two mesh entries it is an instance of its own.
         let cornell = bundled("cornell-box.toml");
-        assert_eq!(cornell.instances.len(), 2);
-        assert!(has(
-            SceneFeatures::of(&cornell),
-            SceneFeatures::INSTANCES_BIT
-        ));
+        assert_eq!(cornell.instances.len(), 1);
+        let lit = SceneFeatures::of(&cornell);
+        assert!(!has(lit, SceneFeatures::INSTANCES_BIT));
+        assert!(has(lit, 1 << LIGHT_RECT));
+        let cube = bundled("cube-in-box.toml");
+        assert_eq!(cube.instances.len(), 3);
+        assert!(has(SceneFeatures::of(&cube), SceneFeatures::INSTANCES_BIT));
 
         let mut moved = nave.clone();
         moved.instances[0].transform = glam::Mat4::from_translation(glam::Vec3::X);

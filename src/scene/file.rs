@@ -28,7 +28,9 @@ pub const RECT_LIGHT_PREFIX: &str = "__rect_light_";
 /// Loads and validates a scene file, with the OBJ, MTL and texture files it names.
 ///
 /// In the returned scene, `instances[i]` is the `i`-th `[[mesh]]` entry; the instances of the
-/// emissive meshes generated for rect lights follow. Meshes are shared between entries naming
+/// emissive meshes generated for rect lights follow. A scene of one `[[mesh]]` entry, placed
+/// as modelled and without keyframes, keeps the quads of its rect lights without keyframes
+/// in that mesh instead (two triangles each, after the OBJ's): it stays one instance. Meshes are shared between entries naming
 /// the same OBJ file. Errors name the file and the line or field at fault.
 pub fn load_scene(path: &Path) -> Result<Scene> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
@@ -432,6 +434,14 @@ impl<'a> SceneBuilder<'a> {
         for (i, material) in def.material.iter().enumerate() {
             self.apply_override(i, material)?;
         }
+        // The one mesh of a scene placed as modelled and never moved: static rect lights'
+        // quads join it, so the scene stays one instance (see `add_rect_light_mesh`).
+        let single_mesh = match self.instances.as_slice() {
+            [only] if self.instance_tracks.is_empty() && only.transform == Mat4::IDENTITY => {
+                Some(only.mesh)
+            }
+            _ => None,
+        };
         for (i, light_def) in def.light.iter().enumerate() {
             let light = parse_light(ctx, &format!("light[{i}]"), light_def)?;
             let track = light_track(ctx, i, light_def)?;
@@ -443,8 +453,9 @@ impl<'a> SceneBuilder<'a> {
                 radiance,
             } = light
             {
-                self.add_rect_light_mesh(i, corner, edge_u, edge_v, radiance);
-                quad = Some(RectQuad {
+                let into = single_mesh.filter(|_| track.is_none());
+                self.add_rect_light_mesh(i, corner, edge_u, edge_v, radiance, into);
+                quad = into.is_none().then_some(RectQuad {
                     instance: self.instances.len() - 1,
                     material: self.materials.len() - 1,
                     corner,
@@ -680,8 +691,25 @@ impl<'a> SceneBuilder<'a> {
         Ok(())
     }
 
-    /// Adds the emissive two-triangle mesh of rect light `i`, so the light is visible.
-    fn add_rect_light_mesh(&mut self, i: usize, corner: Vec3, u: Vec3, v: Vec3, radiance: Vec3) {
+    /// Adds the emissive two-triangle quad of rect light `i`, so the light is visible: as a
+    /// mesh and instance of its own, or, with `into`, as two more triangles of that mesh.
+    ///
+    /// `into` is the scene's one mesh when it is placed as modelled, never moves, and the
+    /// light does not either (`build`). The scene then stays one instance, whose rays start
+    /// in its BLAS and whose plane pipelines leave instance traversal out
+    /// (`bvh::SceneBvh::traversal_start`, `gpu::SceneFeatures`): the Cornell box's planes,
+    /// refinement and direct light took about 0.84 of their time (docs/results.md, stop 57).
+    /// The quad's triangles are the same either way (an identity instance transform changes
+    /// no bit of a hit), so are its hits.
+    fn add_rect_light_mesh(
+        &mut self,
+        i: usize,
+        corner: Vec3,
+        u: Vec3,
+        v: Vec3,
+        radiance: Vec3,
+        into: Option<u32>,
+    ) {
         let name = format!("{RECT_LIGHT_PREFIX}{i}");
         self.materials.push(Material {
             name: name.clone(),
@@ -696,9 +724,21 @@ impl<'a> SceneBuilder<'a> {
         let normal = u.cross(v).normalize_or_zero();
         // Both triangles have cross(e1, e2) parallel to cross(u, v): (c, c+u, c+u+v) gives
         // cross(u, u+v) = cross(u, v), and (c, c+u+v, c+v) gives cross(u+v, v) = cross(u, v).
+        let positions = [corner, corner + u, corner + u + v, corner + v];
+        if let Some(m) = into {
+            let mesh = &mut self.meshes[m as usize];
+            let base = mesh.positions.len() as u32;
+            mesh.positions.extend(positions);
+            mesh.normals.extend([normal; 4]);
+            mesh.uvs.extend([Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]);
+            mesh.indices
+                .extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
+            mesh.material_ids.extend([material; 2]);
+            return;
+        }
         self.meshes.push(Mesh {
             name,
-            positions: vec![corner, corner + u, corner + u + v, corner + v],
+            positions: positions.to_vec(),
             normals: vec![normal; 4],
             uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y],
             indices: vec![[0, 1, 2], [0, 2, 3]],
