@@ -301,6 +301,8 @@ pub fn run_cli(
     quiet: bool,
 ) -> Result<()> {
     let mut scene = load_scene(scene_path)?;
+    // Traced as `render` traces it.
+    scene.merge_static_instances();
     if let Some((w, h)) = size {
         scene.camera.width = w;
         scene.camera.height = h;

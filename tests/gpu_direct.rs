@@ -154,3 +154,53 @@ fn light_samples_beyond_the_llvmpipe_loop_limit_are_refused_there() {
         frame.expect("other devices have no loop limit");
     }
 }
+
+/// A static scene traced as one world-space mesh (`Scene::merge_static_instances`, what the
+/// commands render) looks as its instances do: env-sphere with its diffuse sphere mirrored
+/// and sheared (its vertex normals carried by the inverse transpose), direct light pixel by
+/// pixel and one bounce of records over 4x4 blocks.
+#[test]
+fn a_static_scene_merged_into_one_mesh_renders_as_its_instances() {
+    use glam::Mat4;
+    let mut instanced = common::load("env-sphere.toml", Some((48, 36)));
+    instanced.instances[1].transform = Mat4::from_translation(Vec3::new(-0.55, 0.45, 0.0))
+        * Mat4::from_rotation_z(0.4)
+        * Mat4::from_scale(Vec3::new(-0.5, 0.3, 0.45))
+        * Mat4::from_rotation_x(0.7);
+    let mut merged = instanced.clone();
+    assert!(merged.merge_static_instances());
+    assert_eq!(merged.instances.len(), 1);
+
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = radsplat::records::CacheSettings {
+        plane_resolution: 12,
+        ..Default::default()
+    };
+    let a = common::render_gi(&renderer, &instanced, &settings);
+    let b = common::render_gi(&renderer, &merged, &settings);
+    let mut worst = Vec::new();
+    for (i, (x, y)) in a.direct.iter().zip(&b.direct).enumerate() {
+        assert_eq!(
+            a.visibility[i].is_hit(),
+            b.visibility[i].is_hit(),
+            "pixel {i}"
+        );
+        let x = Vec3::from_slice(&x[..3]);
+        let y = Vec3::from_slice(&y[..3]);
+        worst.push((x - y).abs().max_element() / x.max_element().max(1e-2));
+    }
+    worst.sort_by(f32::total_cmp);
+    // Silhouette pixels may hit the other side of a tie: 99 % agree to rounding.
+    let p99 = worst[worst.len() * 99 / 100];
+    assert!(p99 < 1e-4, "direct light: 99th percentile {p99}");
+    let (mean, rms) = common::compare_blocks(
+        b.indirect.as_deref().expect("indirect"),
+        a.indirect.as_deref().expect("indirect"),
+        48,
+        4,
+    );
+    assert!(
+        (mean - 1.0).abs() < 0.01 && rms < 0.02,
+        "indirect light: mean {mean}, block RMS {rms}"
+    );
+}

@@ -18,7 +18,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
 
 /// Loads a scene with the command line's overrides: an animation frame, the resolution
-/// and the light samples (at least 1).
+/// and the light samples (at least 1). A scene whose instances never move is traced as
+/// one mesh ([`crate::scene::Scene::merge_static_instances`]).
 pub fn load_scene_with(
     path: &Path,
     frame: Option<u32>,
@@ -29,6 +30,7 @@ pub fn load_scene_with(
     if let Some(f) = frame {
         scene.try_set_frame(f as f32)?;
     }
+    scene.merge_static_instances();
     if let Some((w, h)) = size {
         scene.camera.width = w;
         scene.camera.height = h;

@@ -3,8 +3,9 @@
 //!
 //! The scene file format (TOML) is documented in `docs/scene-format.md`; parsing lives in
 //! [`mod@file`], OBJ/MTL loading in [`obj`], textures in [`texture`], and asset lookup along
-//! `RADSPLAT_ASSET_PATH` in [`asset_path`]; keyframed animation in [`animation`]; the caps on
-//! sizes and values that untrusted input may claim in [`limits`].
+//! `RADSPLAT_ASSET_PATH` in [`asset_path`]; keyframed animation in [`animation`]; a static
+//! scene's instances baked into one mesh in [`merge`]; the caps on sizes and values that
+//! untrusted input may claim in [`limits`].
 
 pub mod animation;
 pub mod asset_path;
@@ -12,6 +13,7 @@ pub mod brdf;
 pub mod environment;
 pub mod file;
 pub mod limits;
+pub mod merge;
 pub mod obj;
 pub mod texture;
 
