@@ -17,11 +17,17 @@
 use super::{Instance, Mesh, Scene};
 use glam::{Mat3, Mat4};
 
+/// Most triangles a baked scene may have when baking repeats shared meshes (about 50 MiB
+/// of triangles and shading data on the GPU); without sharing it never grows.
+pub const MAX_GROWN_TRIANGLES: usize = 1 << 20;
+
 impl Scene {
     /// Bakes every instance into one world-space mesh with an identity instance, when no
-    /// instance moves (no instance keyframes, no moving rect-light quad), there are
-    /// several, and no two share a mesh (so the triangles to upload do not grow: a mesh
-    /// instanced a thousand times stays instanced). Returns whether it did.
+    /// instance moves (no instance keyframes, no moving rect-light quad) and there are
+    /// several. Meshes that several instances share are repeated, so a scene is baked only
+    /// where that at most doubles its triangles and keeps them under
+    /// [`MAX_GROWN_TRIANGLES`] (four chairs in a room, not a forest of one tree instanced a
+    /// thousand times). Returns whether it did.
     ///
     /// Each triangle keeps its vertices' normals (carried by the normal matrix, so that
     /// shading interpolates the same directions: they need not be unit length then),
@@ -40,11 +46,19 @@ impl Scene {
         {
             return false;
         }
+        // Baking repeats a shared mesh's triangles once per instance: only where that at
+        // most doubles what the GPU holds, and stays small.
         let mut used = vec![false; self.meshes.len()];
+        let (mut distinct, mut baked) = (0usize, 0usize);
         for instance in &self.instances {
-            if std::mem::replace(&mut used[instance.mesh as usize], true) {
-                return false;
+            let triangles = self.meshes[instance.mesh as usize].indices.len();
+            baked += triangles;
+            if !std::mem::replace(&mut used[instance.mesh as usize], true) {
+                distinct += triangles;
             }
+        }
+        if baked > distinct && (baked > 2 * distinct || baked > MAX_GROWN_TRIANGLES) {
+            return false;
         }
         let mut merged = Mesh {
             name: self
@@ -192,8 +206,8 @@ mod tests {
         }
     }
 
-    /// Nothing changes a scene of one instance, one that may move, one that instances a
-    /// mesh twice, or one whose world positions would overflow.
+    /// Nothing changes a scene of one instance, one that may move, one that would more than
+    /// double its triangles, or one whose world positions would overflow.
     #[test]
     fn scenes_that_can_or_need_not_be_merged_are_left_alone() {
         let one = vec![Instance {
@@ -203,19 +217,21 @@ mod tests {
         let mut s = scene(one);
         assert!(!s.merge_static_instances());
 
-        let shared = vec![
-            Instance {
-                mesh: 1,
-                transform: Mat4::IDENTITY,
-            },
-            Instance {
-                mesh: 1,
-                transform: Mat4::from_translation(Vec3::X),
-            },
-        ];
-        let mut s = scene(shared);
+        // One triangle instanced three times would be three: more than twice one.
+        let shared = |n: usize| {
+            (0..n)
+                .map(|k| Instance {
+                    mesh: 1,
+                    transform: Mat4::from_translation(Vec3::X * k as f32),
+                })
+                .collect::<Vec<_>>()
+        };
+        let mut s = scene(shared(3));
         assert!(!s.merge_static_instances());
-        assert_eq!((s.instances.len(), s.meshes.len()), (2, 3));
+        assert_eq!((s.instances.len(), s.meshes.len()), (3, 3));
+        let mut s = scene(shared(2));
+        assert!(s.merge_static_instances(), "twice is baked");
+        assert_eq!(s.triangle_count(), 2);
 
         let huge = vec![
             Instance {
