@@ -178,11 +178,14 @@ fn unclamped_radius(sum: Partial, site: RecordSite) -> f32 {
 fn workgroup_min(lane: u32, v: f32) -> f32 {
     neighbour_bounds[lane] = v;
     workgroupBarrier();
-    for (var stride = THREADS / 2u; stride > 0u; stride /= 2u) {
-        if lane < stride {
-            neighbour_bounds[lane] = min(neighbour_bounds[lane], neighbour_bounds[lane + stride]);
+    // One lane takes the minimum (any order gives the same value): one barrier, where a
+    // tree takes one a level (lavapipe runs every invocation to each barrier).
+    if lane == 0u {
+        var m = neighbour_bounds[0];
+        for (var i = 1u; i < THREADS; i++) {
+            m = min(m, neighbour_bounds[i]);
         }
-        workgroupBarrier();
+        neighbour_bounds[0] = m;
     }
     let m = workgroupUniformLoad(&neighbour_bounds[0]);
     // Nobody writes the array again before every lane has read it.
@@ -255,12 +258,16 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     }
     partials[lane] = add(low, high);
     workgroupBarrier();
-    for (var stride = THREADS / 2u; stride > 0u; stride /= 2u) {
-        if lane < stride {
-            partials[lane] = add(partials[lane], partials[lane + stride]);
+    // The tree's additions, level by level, done by one lane: the same sums in the same
+    // order (so the same bits) behind one barrier instead of one a level.
+    if lane == 0u {
+        for (var stride = THREADS / 2u; stride > 0u; stride /= 2u) {
+            for (var i = 0u; i < stride; i++) {
+                partials[i] = add(partials[i], partials[i + stride]);
+            }
         }
-        workgroupBarrier();
     }
+    workgroupBarrier();
     // R before its neighbours bound it (lane 0; the grid search below stops by it).
     if lane == 0u && record < params.count {
         shared_radius = unclamped_radius(partials[0], sites[record]);
