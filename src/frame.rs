@@ -65,6 +65,9 @@ type TracedLightMaps = (LightMapSettings, MappedLights, std::sync::Arc<LightMaps
 /// Size and build time of a scene's BVH.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct BvhStats {
+    /// Instances traced (the commands bake a static scene's into one:
+    /// [`crate::scene::Scene::merge_static_instances`]).
+    pub instances: usize,
     pub triangles: usize,
     pub blas_nodes: usize,
     pub tlas_nodes: usize,
@@ -1571,6 +1574,7 @@ impl Renderer {
             vpls: Default::default(),
             photons: Default::default(),
             bvh_stats: BvhStats {
+                instances: scene.instances.len(),
                 triangles: bvh.triangles.len(),
                 blas_nodes: bvh.blas_nodes.len(),
                 tlas_nodes: bvh.tlas_nodes.len(),
