@@ -259,18 +259,17 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     partials[lane] = add(low, high);
     workgroupBarrier();
     // The tree's additions, level by level, done by one lane: the same sums in the same
-    // order (so the same bits) behind one barrier instead of one a level.
+    // order (so the same bits) behind one barrier (the uniform load's) instead of one a
+    // level. Then R before its neighbours bound it (the grid search below stops by it).
     if lane == 0u {
         for (var stride = THREADS / 2u; stride > 0u; stride /= 2u) {
             for (var i = 0u; i < stride; i++) {
                 partials[i] = add(partials[i], partials[i + stride]);
             }
         }
-    }
-    workgroupBarrier();
-    // R before its neighbours bound it (lane 0; the grid search below stops by it).
-    if lane == 0u && record < params.count {
-        shared_radius = unclamped_radius(partials[0], sites[record]);
+        if record < params.count {
+            shared_radius = unclamped_radius(partials[0], sites[record]);
+        }
     }
     let unclamped = workgroupUniformLoad(&shared_radius);
     // Neighbour clamping on insertion (Krivanek et al. 2006, algorithms.md 1.8): R_new <=

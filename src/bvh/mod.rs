@@ -526,16 +526,8 @@ pub fn tree_depth(bvh: &Bvh2) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::load_scene;
+    use crate::scene::bundled;
     use glam::Mat4;
-    use std::path::Path;
-
-    fn bundled(name: &str) -> Scene {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes")
-            .join(name);
-        load_scene(&path).expect("bundled scene loads")
-    }
 
     fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
         bytemuck::cast_slice(v)

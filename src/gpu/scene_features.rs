@@ -121,13 +121,7 @@ impl SceneFeatures {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn bundled(name: &str) -> Scene {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes")
-            .join(name);
-        crate::scene::load_scene(&path).unwrap_or_else(|e| panic!("{name}: {e}"))
-    }
+    use crate::scene::bundled;
 
     /// What `of` says of a scene decides which code its plane pipelines leave out: a wrong
     /// "no" would shade without that code (and be refused only where the GPU scene says

@@ -30,8 +30,9 @@ pub const RECT_LIGHT_PREFIX: &str = "__rect_light_";
 /// In the returned scene, `instances[i]` is the `i`-th `[[mesh]]` entry; the instances of the
 /// emissive meshes generated for rect lights follow. A scene of one `[[mesh]]` entry, placed
 /// as modelled and without keyframes, keeps the quads of its rect lights without keyframes
-/// in that mesh instead (two triangles each, after the OBJ's): it stays one instance. Meshes are shared between entries naming
-/// the same OBJ file. Errors name the file and the line or field at fault.
+/// in that mesh instead (two triangles each, after the OBJ's): it stays one instance.
+/// Meshes are shared between entries naming the same OBJ file. Errors name the file and the
+/// line or field at fault.
 pub fn load_scene(path: &Path) -> Result<Scene> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     parse_scene(&text, path)

@@ -118,6 +118,7 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::bundled;
     use glam::{Vec2, Vec3};
 
     fn triangle(name: &str) -> Mesh {
@@ -129,13 +130,6 @@ mod tests {
             indices: vec![[0, 1, 2]],
             material_ids: vec![0],
         }
-    }
-
-    fn bundled(name: &str) -> Scene {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes")
-            .join(name);
-        crate::scene::load_scene(&path).unwrap_or_else(|e| panic!("{name}: {e}"))
     }
 
     /// The Cornell box's camera, materials and light around two one-triangle meshes.

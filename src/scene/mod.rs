@@ -177,6 +177,15 @@ impl Scene {
     }
 }
 
+/// A scene bundled in `scenes/`, loaded (unit tests of several modules).
+#[cfg(test)]
+pub(crate) fn bundled(name: &str) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
+    load_scene(&path).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
 /// The matrix that takes object-space normals to world space under `transform` (the
 /// inverse transpose of its linear part); shared by the scene's lights, the CPU references
 /// and the GPU layout.
