@@ -75,13 +75,20 @@ pub fn orthonormal_basis(n: Vec3) -> Mat3 {
 /// and their sampling errors average out where they overlap.
 pub fn record_frame(n: Vec3, seed: u32) -> Mat3 {
     let base = orthonormal_basis(n);
-    let angle = 6.283_185_5_f32 * u32_to_unit(hash_combine(seed, 0x7f4a_7c15));
-    let (s, c) = (angle.sin(), angle.cos());
+    let (c, s) = record_frame_turn(seed);
     Mat3::from_cols(
         c * base.x_axis + s * base.y_axis,
         c * base.y_axis - s * base.x_axis,
         base.z_axis,
     )
+}
+
+/// (cos, sin) of the angle [`record_frame`] turns [`orthonormal_basis`] by (WGSL
+/// `record_frame_turn`): plane coordinates (x, y) lie along (c x - s y, s x + c y) in the
+/// unturned basis.
+pub fn record_frame_turn(seed: u32) -> (f32, f32) {
+    let angle = 6.283_185_5_f32 * u32_to_unit(hash_combine(seed, 0x7f4a_7c15));
+    (angle.cos(), angle.sin())
 }
 
 /// Index of the first light sample of plane sample `index` in its record's sequences (WGSL

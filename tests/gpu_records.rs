@@ -235,6 +235,7 @@ fn planes_and_records_match_the_cpu_reference_in(
     let mut cache = RecordCache::new(&renderer.ctx).expect("cache");
     let records = compute_records(&renderer, &prepared, &pass, &sites, &mut cache);
     assert_eq!(records.len(), sites.len());
+    let (mut corral_vertices, mut corral_differ) = (0u32, 0u32);
     for (i, (site, gpu)) in sites.iter().zip(&records).enumerate() {
         let cpu = reduce_plane(
             &reference.plane,
@@ -281,7 +282,27 @@ fn planes_and_records_match_the_cpu_reference_in(
             gpu.relative_noise()
         );
         assert!(noise >= 0.0 && noise.is_finite());
+        // The corral: the same level at every vertex, but where a hit lies on a level's
+        // boundary within the rounding of h and R (f32 on both sides, R within 1e-3).
+        let (g, c) = (gpu.corral(), cpu.corral());
+        for b in 0..radsplat::records::CORRAL_SECTORS {
+            let level = |w: [u32; 2]| {
+                let per = radsplat::records::CORRAL_PER_WORD;
+                (w[(b / per) as usize] >> (radsplat::records::CORRAL_BITS * (b % per))) & 7
+            };
+            corral_vertices += 1;
+            corral_differ += u32::from(level(g) != level(c));
+        }
     }
+    eprintln!("corral vertices: {corral_vertices} compared, {corral_differ} differ");
+    assert!(
+        corral_differ * 100 <= corral_vertices,
+        "{corral_differ} of {corral_vertices} corral vertices differ"
+    );
+    assert!(
+        records.iter().any(|r| r.corral() != [0, 0]),
+        "no record has a corral"
+    );
     assert!(
         records.iter().any(|r| r.relative_noise() > 0.0),
         "no record estimated its noise"
@@ -443,11 +464,13 @@ fn refinement_off_gives_todays_records() {
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let mut cache = RecordCache::new(&renderer.ctx).expect("cache");
     let mut records = compute_records(&renderer, &prepared, &pass, &sites, &mut cache);
-    // The relative noise each record now carries (in the red rotational gradient's spare
-    // w, compared with the CPU's in `gpu_planes_and_records_match_the_cpu_reference`) is
-    // left out: the hash pins what the records held before it.
+    // The relative noise and the corral each record now carries (in the rotational
+    // gradients' spare w, compared with the CPU's in
+    // `gpu_planes_and_records_match_the_cpu_reference`) are left out: the hash pins what
+    // the records held before them.
     for r in &mut records {
         r.rotation_gradient[0][3] = 0.0;
+        r.set_corral([0, 0]);
     }
     let hash = radsplat::output::sha256_hex(bytemuck::cast_slice(&records));
     common::assert_golden(

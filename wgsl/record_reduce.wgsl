@@ -23,6 +23,7 @@ struct ReduceParams {
     cos_weight_sum: f32,    // sum of the plane's cosine weights (pi when stretched)
     neighbour_clamp: u32,   // 1: R <= R_j + |p - p_j| over the records before this batch
     hessian_scale: f32,     // with RECORD_RADIUS_HESSIAN: R = hessian_scale sqrt(E / lambda)
+    corral: u32,            // 1: store the corral (records.wgsl, corral_allows)
 }
 
 @group(1) @binding(0) var<uniform> params: ReduceParams;
@@ -48,6 +49,10 @@ struct Partial {
 var<workgroup> partials: array<Partial, THREADS>;
 var<workgroup> neighbour_bounds: array<f32, THREADS>;
 var<workgroup> shared_radius: f32;
+// Per corral vertex, the nearest horizon hit's horizontal distance h as ~bits(h): positive
+// floats order like their bits, so the largest key is the nearest hit, whatever order the
+// lanes add them in; 0 (workgroup memory starts zeroed) is no hit.
+var<workgroup> corral_keys: array<atomic<u32>, CORRAL_SECTORS>;
 
 fn add(a: Partial, b: Partial) -> Partial {
     return Partial(
@@ -65,11 +70,23 @@ fn add(a: Partial, b: Partial) -> Partial {
 // Adds plane pixel k of the plane at `base` to `acc`. Each sample and plane pixel is loaded
 // once here, for the Hessian's edges and the other sums alike (a storage load is a loop over
 // the lanes on lavapipe; the Hessian's edges read the same neighbours again).
-fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32) {
+fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32, turn: vec2f) {
     let count = res * res;
     let i = k % res;
     let s = samples[base + k];
     let px = plane[k];
+    // The corral: the plane's outermost ring holds the rays nearest the horizon.
+    let j = k / res;
+    if params.corral != 0u && s.depth > 0.0 && (i == 0u || j == 0u || i + 1u == res || j + 1u == res) {
+        let c = px.rot_center.zw;
+        let h = s.depth * length(c);
+        let t = corral_turn(turn.x * c.x - turn.y * c.y, turn.y * c.x + turn.x * c.y);
+        // Within a quarter sector of vertex round(t).
+        let vertex = u32(round(t));
+        if abs(t - f32(vertex)) <= 0.25 {
+            atomicMax(&corral_keys[vertex % CORRAL_SECTORS], ~bitcast<u32>(h));
+        }
+    }
     let has_right = i + 1u < res;
     let has_up = k + res < count;
     var right: PlaneSample;
@@ -249,11 +266,12 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     var high = low;
     if record < params.count {
         let far = HESSIAN_MISS_DISTANCE * sites[record].r_min * params.r_max_factor;
+        let turn = record_frame_turn(sites[record]);
         for (var k = lane; k < count; k += SUM_LANES) {
-            accumulate(&low, base, k, res, far);
+            accumulate(&low, base, k, res, far, turn);
         }
         for (var k = lane + THREADS; k < count; k += SUM_LANES) {
-            accumulate(&high, base, k, res, far);
+            accumulate(&high, base, k, res, far, turn);
         }
     }
     partials[lane] = add(low, high);
@@ -322,5 +340,20 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         out.translation_gradient[c] = vec4f(tr[c], 0.0);
     }
     out.rotation_gradient[0].w = relative_noise(sum.variance, e);
+    // The corral's vertices against the final R (records.wgsl), eight a word, each word
+    // stored as an exact integer (under 2^24).
+    var words = vec2u(0u);
+    for (var vertex = 0u; vertex < CORRAL_SECTORS; vertex++) {
+        let key = atomicLoad(&corral_keys[vertex]);
+        let h = select(-1.0, bitcast<f32>(~key), key != 0u);
+        let bits = corral_level(h, radius) << (CORRAL_BITS * (vertex % CORRAL_PER_WORD));
+        if vertex < CORRAL_PER_WORD {
+            words.x |= bits;
+        } else {
+            words.y |= bits;
+        }
+    }
+    out.rotation_gradient[1].w = f32(words.x);
+    out.rotation_gradient[2].w = f32(words.y);
     records[params.first_record + record] = out;
 }

@@ -92,10 +92,56 @@ impl Record {
         (p - self.position()).dot(n + self.normal()) * 0.5 >= -1.0e-2 * accuracy * self.radius
     }
 
-    /// Whether the record contributes at (p, n) at `accuracy`: Ward's error within it and
-    /// not behind (WGSL `reach_error` below `NOT_REACHED`).
+    /// Whether the record contributes at (p, n) at `accuracy`: Ward's error within it, not
+    /// behind and inside its corral (WGSL `reach_error` below `NOT_REACHED`).
     pub fn reaches(&self, p: Vec3, n: Vec3, accuracy: f32) -> bool {
-        self.error_at(p, n) <= accuracy && self.in_front_of(p, n, accuracy)
+        self.error_at(p, n) <= accuracy && self.in_front_of(p, n, accuracy) && self.corral_allows(p)
+    }
+
+    /// The corral: [`CORRAL_BITS`] bits per vertex of the polygon of [`CORRAL_SECTORS`]
+    /// vertices around the normal (the levels of [`corral_level`]), eight vertices in each
+    /// of the green and blue channels' unused rotational-gradient w, as exact integers (0:
+    /// no vertex near; records without a plane keep 0).
+    pub fn corral(&self) -> [u32; 2] {
+        [
+            self.rotation_gradient[1][3] as u32,
+            self.rotation_gradient[2][3] as u32,
+        ]
+    }
+
+    /// Stores the corral (see [`Record::corral`]).
+    pub fn set_corral(&mut self, corral: [u32; 2]) {
+        debug_assert!(corral.iter().all(|&w| w < 1 << 24), "exact in an f32");
+        self.rotation_gradient[1][3] = corral[0] as f32;
+        self.rotation_gradient[2][3] = corral[1] as f32;
+    }
+
+    /// Whether the corral lets the record reach `p` (WGSL `corral_allows`): p's offset
+    /// along the record's tangent plane lies on the record's side of the polygon's edge
+    /// across p's sector.
+    pub fn corral_allows(&self, p: Vec3) -> bool {
+        let words = self.corral();
+        if words == [0, 0] {
+            return true;
+        }
+        let base = crate::sampling::orthonormal_basis(self.normal());
+        let d = p - self.position();
+        let q = glam::Vec2::new(d.dot(base.x_axis), d.dot(base.y_axis));
+        let s = (corral_turn(q.x, q.y).max(0.0) as u32).min(CORRAL_SECTORS - 1);
+        let b1 = (s + 1) % CORRAL_SECTORS;
+        let level = |b: u32| {
+            (words[(b / CORRAL_PER_WORD) as usize] >> (CORRAL_BITS * (b % CORRAL_PER_WORD))) & 7
+        };
+        let (l0, l1) = (level(s), level(b1));
+        if l0 == 0 && l1 == 0 {
+            return true;
+        }
+        let p0 = corral_vertex(s, l0, self.radius);
+        let p1 = corral_vertex(b1, l1, self.radius);
+        let edge = p1 - p0;
+        let side_q = edge.perp_dot(q - p0);
+        let side_o = edge.perp_dot(-p0);
+        side_q * side_o >= 0.0
     }
 
     /// E_k extrapolated to (p, n) with the gradients, clamped at 0 (WGSL
@@ -110,6 +156,53 @@ impl Record {
         }
         e.max(Vec3::ZERO)
     }
+}
+
+/// Vertices of a record's corral polygon around its normal (WGSL `CORRAL_SECTORS`,
+/// records.wgsl), 22.5 degrees apart.
+pub const CORRAL_SECTORS: u32 = 16;
+/// Bits of a corral vertex's level.
+pub const CORRAL_BITS: u32 = 3;
+/// Vertices in each of the two words of a corral (24 bits, exact in an f32).
+pub const CORRAL_PER_WORD: u32 = 8;
+/// A corral vertex's distance from the record in units of R, by level (0: far).
+pub const CORRAL_DISTANCE: [f32; 8] = [2.0, 0.0625, 0.125, 0.1875, 0.25, 0.375, 0.5, 0.75];
+
+/// Where a tangent-plane offset (u, v) along [`crate::sampling::orthonormal_basis`]'s
+/// first two axes lies around the normal, in sectors (WGSL `corral_turn`): vertex b at b.
+pub fn corral_turn(u: f32, v: f32) -> f32 {
+    (v.atan2(u) + std::f32::consts::PI) * (CORRAL_SECTORS as f32 / std::f32::consts::TAU)
+}
+
+/// The level of a corral vertex whose nearest hit lies `h` away along the tangent plane
+/// (negative: none), for a record of radius `radius` (WGSL `corral_level`): the farthest
+/// [`CORRAL_DISTANCE`] within h (the nearest, R / 16, below it); 0 (far) for h >= R.
+pub fn corral_level(h: f32, radius: f32) -> u32 {
+    if h < 0.0 || h >= radius {
+        return 0;
+    }
+    (2..8u32)
+        .filter(|&l| CORRAL_DISTANCE[l as usize] * radius <= h)
+        .max()
+        .unwrap_or(1)
+}
+
+/// Vertex `b` of a corral at `level`, in the tangent plane (WGSL `corral_vertex`).
+pub fn corral_vertex(b: u32, level: u32, radius: f32) -> glam::Vec2 {
+    let angle = b as f32 * (std::f32::consts::TAU / CORRAL_SECTORS as f32) - std::f32::consts::PI;
+    glam::Vec2::new(angle.cos(), angle.sin()) * (CORRAL_DISTANCE[level as usize] * radius)
+}
+
+/// The corral of `h`, the nearest horizon hit per vertex (negative: none), for a record of
+/// radius `radius`: the two words [`Record::set_corral`] stores.
+pub fn corral_words(h: &[f32; CORRAL_SECTORS as usize], radius: f32) -> [u32; 2] {
+    let mut words = [0u32; 2];
+    for (b, &h) in h.iter().enumerate() {
+        let b = b as u32;
+        words[(b / CORRAL_PER_WORD) as usize] |=
+            corral_level(h, radius) << (CORRAL_BITS * (b % CORRAL_PER_WORD));
+    }
+    words
 }
 
 /// How the records' radii R sit between their R_min and R_max (the `render --stats`
@@ -241,6 +334,12 @@ pub struct CacheSettings {
     /// bound is searched in a grid ([`neighbour_grid`]), the same bytes as a loop over
     /// every earlier record, whose cost grew with the square of the record count.
     pub neighbour_clamp: bool,
+    /// The corral (Radiance's ambcorral): a record does not reach pixels beyond a surface
+    /// its plane's horizon rays hit nearer than R, sector by sector around its normal
+    /// ([`Record::corral_allows`]), so records on the dark side of a wall's end do not
+    /// darken the floor in front of its lit face, nor the lit side's records light the
+    /// dark one. On by default.
+    pub corral: bool,
     /// Most records the cache may hold.
     pub record_budget: u32,
     /// Tail fill (`placement/mod.rs`): once at most this share of the visible pixels is
@@ -386,6 +485,7 @@ impl Default for CacheSettings {
                 scale: Self::HESSIAN_SCALE,
             },
             neighbour_clamp: true,
+            corral: true,
             record_budget: 200_000,
             tail_share: Self::TAIL_SHARE,
             tail_factor: Self::TAIL_FACTOR,
@@ -1081,6 +1181,8 @@ struct ReduceParams {
     cos_weight_sum: f32,
     neighbour_clamp: u32,
     hessian_scale: f32,
+    corral: u32,
+    _pad: [u32; 3],
 }
 
 /// Planes traced and refined by [`RecordPass::trace_planes_refined`].
@@ -1882,6 +1984,8 @@ impl RecordPass {
                 cos_weight_sum: table.cos_weight_sum,
                 neighbour_clamp: u32::from(self.settings.neighbour_clamp),
                 hessian_scale: self.settings.record_radius.hessian_scale(),
+                corral: u32::from(self.settings.corral),
+                _pad: [0; 3],
             },
         );
         let bind = self.reduce.bind(
@@ -2102,5 +2206,72 @@ mod tests {
         // a = 0.5: no wider tail, no coarser planes; tail fill off: the plane itself.
         assert_eq!(tail_resolution(24, 0.5, 0.1), 24);
         assert_eq!(tail_resolution(24, 0.25, 0.0), 24);
+    }
+
+    /// A record on a floor (normal +y) 0.1 m from the end of a wall, its corral from the
+    /// horizontal distances at which its vertices' directions meet the wall.
+    fn record_beside(wall: impl Fn(glam::Vec3) -> Option<f32>) -> super::Record {
+        use super::{CORRAL_SECTORS, Record, corral_words};
+        let mut r: Record = bytemuck::Zeroable::zeroed();
+        r.normal = [0.0, 1.0, 0.0];
+        r.radius = 1.0;
+        r.irradiance = [1.0; 3];
+        let base = crate::sampling::orthonormal_basis(glam::Vec3::Y);
+        let mut h = [-1.0f32; CORRAL_SECTORS as usize];
+        for (b, h) in h.iter_mut().enumerate() {
+            let angle =
+                b as f32 * std::f32::consts::TAU / CORRAL_SECTORS as f32 - std::f32::consts::PI;
+            let dir = angle.cos() * base.x_axis + angle.sin() * base.y_axis;
+            *h = wall(dir).unwrap_or(-1.0);
+        }
+        r.set_corral(corral_words(&h, r.radius));
+        r
+    }
+
+    #[test]
+    fn the_corral_keeps_a_record_from_beyond_a_wall_and_not_from_along_it() {
+        use glam::Vec3;
+        // A wall along z at x = 0.1, as long as the floor: every direction with x > 0
+        // meets it at 0.1 / x.
+        let r = record_beside(|d| (d.x > 1e-3).then(|| 0.1 / d.x));
+        assert!(r.corral() != [0, 0]);
+        // Beyond the wall: cut off (the corral rounds its vertices in, to 1/16 R here).
+        assert!(!r.corral_allows(Vec3::new(0.3, 0.0, 0.0)));
+        assert!(!r.corral_allows(Vec3::new(0.3, 0.0, 0.2)));
+        // In front of it, along it and away from it: kept.
+        assert!(r.corral_allows(Vec3::new(0.05, 0.0, 0.0)));
+        assert!(r.corral_allows(Vec3::new(0.02, 0.0, 0.8)));
+        assert!(r.corral_allows(Vec3::new(0.02, 0.0, -0.8)));
+        assert!(r.corral_allows(Vec3::new(-0.6, 0.0, 0.3)));
+        // Ward's test with the corral: the pixel beyond is not reached, the one along is.
+        assert!(!r.reaches(Vec3::new(0.2, 0.0, 0.0), Vec3::Y, 0.25));
+        assert!(r.reaches(Vec3::new(0.0, 0.0, 0.2), Vec3::Y, 0.25));
+
+        // The end of a wall (the wall for z > 0 only, its end 0.02 beside the record): the
+        // floor in front of its far side (x > 0.1, z < 0) is cut off where the segment from
+        // the record crosses the wall, the floor past its end (z < -0.2) is not.
+        let end = record_beside(|d| (d.x > 1e-3).then(|| 0.1 / d.x).filter(|t| d.z * t > 0.02));
+        assert!(!end.corral_allows(Vec3::new(0.3, 0.0, 0.3)));
+        assert!(end.corral_allows(Vec3::new(0.3, 0.0, -0.4)));
+        assert!(end.corral_allows(Vec3::new(-0.3, 0.0, 0.3)));
+        // Nothing near: no corral, every pixel kept.
+        let open = record_beside(|_| None);
+        assert_eq!(open.corral(), [0, 0]);
+        assert!(open.corral_allows(Vec3::new(0.9, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn corral_levels_round_in_and_fit_an_f32() {
+        use super::{CORRAL_DISTANCE, corral_level};
+        for &h in &[0.0f32, 0.01, 0.07, 0.13, 0.2, 0.3, 0.45, 0.6, 0.8, 0.99] {
+            let level = corral_level(h, 1.0);
+            assert!((1..8).contains(&level), "h {h}: level {level}");
+            // Rounded in (the nearest vertex, R / 16, may lie past a nearer hit).
+            assert!(CORRAL_DISTANCE[level as usize] <= h.max(CORRAL_DISTANCE[1]));
+        }
+        assert_eq!(corral_level(1.0, 1.0), 0);
+        assert_eq!(corral_level(-1.0, 1.0), 0);
+        let words = super::corral_words(&[0.0; 16], 1.0);
+        assert!(words.iter().all(|&w| w < 1 << 24));
     }
 }

@@ -194,7 +194,25 @@ pub fn reduce_plane(
     let (mut rx, mut ry, mut tx, mut ty) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
     let mut variance = 0.0f64;
     let y = |s: &PlaneSample| l(s).element_sum();
+    // The corral: per vertex, the nearest horizontal distance of a hit on the plane's
+    // outermost ring (the rays nearest the horizon), in f32 as record_reduce.wgsl.
+    let mut corral_h = [-1.0f32; super::CORRAL_SECTORS as usize];
+    let (turn_c, turn_s) = crate::sampling::record_frame_turn(site.seed);
     for (k, (s, px)) in samples.iter().zip(&plane.pixels).enumerate() {
+        let (i, j) = (k % res, k / res);
+        if settings.corral && s.depth > 0.0 && (i == 0 || j == 0 || i + 1 == res || j + 1 == res) {
+            let c = Vec3::new(px.center[0], px.center[1], 0.0);
+            let h = s.depth * c.length();
+            let t = super::corral_turn(turn_c * c.x - turn_s * c.y, turn_s * c.x + turn_c * c.y);
+            // Within a quarter sector of vertex round(t).
+            let vertex = t.round();
+            if (t - vertex).abs() <= 0.25 {
+                let b = (vertex as usize) % super::CORRAL_SECTORS as usize;
+                if corral_h[b] < 0.0 || h < corral_h[b] {
+                    corral_h[b] = h;
+                }
+            }
+        }
         let w2 = f64::from(px.cos_weight).powi(2) * 0.25;
         let w = f64::from(px.cos_weight);
         weight_sum += w;
@@ -278,7 +296,7 @@ pub fn reduce_plane(
     let v4 = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
     let mut rotation_gradient = [v4(rot[0]), v4(rot[1]), v4(rot[2])];
     rotation_gradient[0][3] = plane_noise(variance, e) as f32;
-    Record {
+    let mut record = Record {
         position: site.position,
         radius: radius as f32,
         normal: site.normal,
@@ -287,7 +305,9 @@ pub fn reduce_plane(
         instance: site.instance,
         rotation_gradient,
         translation_gradient: [v4(tr[0]), v4(tr[1]), v4(tr[2])],
-    }
+    };
+    record.set_corral(super::corral_words(&corral_h, record.radius));
+    record
 }
 
 /// A record's relative noise from its plane (`record_reduce.wgsl` `relative_noise`):

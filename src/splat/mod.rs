@@ -125,7 +125,9 @@ pub(crate) struct SplatParams {
     plateau: f32,
     /// [`SplatSource::dark_only_empty`], 1 or 0.
     dark_only_empty: u32,
-    _pad: u32,
+    /// 1: the records' corrals apply ([`crate::records::Record::corral_allows`]); 0 in tail
+    /// fill, so that a pixel the corrals keep from every lit record is not left black.
+    corral: u32,
 }
 
 impl SplatParams {
@@ -605,7 +607,7 @@ impl SplatPass {
                 count_coverage,
                 plateau,
                 dark_only_empty: u32::from(dark_only_empty),
-                _pad: 0,
+                corral: u32::from(into != SplatInto::FillEmpty),
             },
         );
         let record_tiles = ctx.storage_buffer_sized("record tiles", u64::from(records) * 16)?;

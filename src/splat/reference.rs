@@ -26,15 +26,29 @@ pub fn empty_where_only_dark(
     accuracy: f32,
     sums: &mut [[f32; 4]],
 ) {
+    empty_where_only_dark_corralled(records, vis, accuracy, true, sums);
+}
+
+/// [`empty_where_only_dark`], with the records' corrals or without (tail fill's tier).
+fn empty_where_only_dark_corralled(
+    records: &[Record],
+    vis: &[VisSample],
+    accuracy: f32,
+    corral: bool,
+    sums: &mut [[f32; 4]],
+) {
     for (v, sum) in vis.iter().zip(sums.iter_mut()) {
         if !v.is_hit() || sum[3] == 0.0 {
             continue;
         }
         let p = Vec3::from(v.position);
         let n = Vec3::from(v.shading_normal);
-        let lit = records
-            .iter()
-            .any(|r| !r.is_dark() && r.reaches(p, n, accuracy));
+        let lit = records.iter().any(|r| {
+            !r.is_dark()
+                && r.error_at(p, n) <= accuracy
+                && r.in_front_of(p, n, accuracy)
+                && (!corral || r.corral_allows(p))
+        });
         if !lit {
             *sum = [0.0; 4];
         }
@@ -50,6 +64,20 @@ pub fn splat_records_widened(
     plateau: f32,
     sums: &mut [[f32; 4]],
 ) {
+    splat_records_corralled(records, first, vis, accuracy, plateau, true, sums);
+}
+
+/// [`splat_records_widened`], with the records' corrals or without (tail fill's tier:
+/// `SplatParams::corral` 0 in `splat_fill.wgsl`).
+fn splat_records_corralled(
+    records: &[Record],
+    first: usize,
+    vis: &[VisSample],
+    accuracy: f32,
+    plateau: f32,
+    corral: bool,
+    sums: &mut [[f32; 4]],
+) {
     for (v, sum) in vis.iter().zip(sums.iter_mut()) {
         if !v.is_hit() {
             continue;
@@ -58,7 +86,7 @@ pub fn splat_records_widened(
         let n = Vec3::from(v.shading_normal);
         for r in &records[first.min(records.len())..] {
             let err = r.error_at(p, n);
-            if err <= accuracy && r.in_front_of(p, n, accuracy) {
+            if err <= accuracy && r.in_front_of(p, n, accuracy) && (!corral || r.corral_allows(p)) {
                 let w = splat_weight(err, accuracy, plateau);
                 let e = r.irradiance_at(p, n);
                 sum[0] += w * e.x;
@@ -93,7 +121,7 @@ pub fn keep_consistent(wide: &mut [[f32; 4]], narrow: &[[f32; 4]], tolerance: f3
 
 /// Per-pixel sums with tail fill (`splat_gather.wgsl` with `accumulate` 2): every record
 /// at `accuracy`, as [`splat_records`]; then, where no record reaches the pixel, the records
-/// that reach it at `tail_accuracy`, weighted at that accuracy. With `dark_only_empty`
+/// that reach it at `tail_accuracy`, weighted at that accuracy, their corrals ignored. With `dark_only_empty`
 /// (a still frame's plane records), both tiers leave the pixels only dark records reach
 /// empty ([`empty_where_only_dark`]).
 pub fn splat_records_with_tail(
@@ -105,11 +133,13 @@ pub fn splat_records_with_tail(
 ) -> Vec<[f32; 4]> {
     let mut sums = vec![[0.0f32; 4]; vis.len()];
     splat_records(records, 0, vis, accuracy, &mut sums);
+    // The tail's tier ignores the corrals: a pixel that the corrals keep from every lit
+    // record at the accuracy takes them at the tail's rather than reading black.
     let mut tail = vec![[0.0f32; 4]; vis.len()];
-    splat_records(records, 0, vis, tail_accuracy, &mut tail);
+    splat_records_corralled(records, 0, vis, tail_accuracy, 0.0, false, &mut tail);
     if dark_only_empty {
         empty_where_only_dark(records, vis, accuracy, &mut sums);
-        empty_where_only_dark(records, vis, tail_accuracy, &mut tail);
+        empty_where_only_dark_corralled(records, vis, tail_accuracy, false, &mut tail);
     }
     for (sum, t) in sums.iter_mut().zip(tail) {
         if sum[3] == 0.0 {

@@ -298,7 +298,8 @@ impl TemporalRecord {
         Self::blend(&self.record, &successor.record, f)
     }
 
-    /// `from` with irradiance and both gradients moved the fraction `f` towards `to`.
+    /// `from` with irradiance and both gradients moved the fraction `f` towards `to`; its
+    /// corral stays `from`'s (an integer bit field, not a quantity to interpolate).
     fn blend(from: &Record, to: &Record, f: f32) -> Record {
         let mut r = *from;
         lerp(&mut r.irradiance, to.irradiance, f);
@@ -310,6 +311,7 @@ impl TemporalRecord {
                 f,
             );
         }
+        r.set_corral(from.corral());
         r
     }
 }

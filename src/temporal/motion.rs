@@ -224,7 +224,9 @@ pub fn replacement_site(
 /// position and normal move with it; the rotational gradient turns with its rotation
 /// (`(n_k x n).grad_r` is invariant under a rotation of all three); the translational
 /// gradient, a covector (`grad_t . dp`), maps by the inverse transpose; R and R_min scale
-/// with it. Irradiance is unchanged. The identity returns `record` bit for bit.
+/// with it. Irradiance is unchanged. The identity returns `record` bit for bit. A moved
+/// record loses its corral ([`Record::corral`]): its sectors are counted from Duff's basis
+/// around the normal, which a rotation does not carry along.
 pub fn move_record(record: &Record, m: &Mat4) -> Record {
     if *m == Mat4::IDENTITY {
         return *record;

@@ -11,7 +11,7 @@ struct Record {
     r_min: f32,
     irradiance: vec3f,             // E_k (rgb)
     instance: u32,                 // the instance it lies on (temporal records can move with it)
-    rotation_gradient: array<vec4f, 3>,     // per channel: grad_r (xyz); [0].w relative noise
+    rotation_gradient: array<vec4f, 3>,     // per channel: grad_r (xyz); [0].w relative noise, [1].w [2].w corral
     translation_gradient: array<vec4f, 3>,  // per channel: grad_t (xyz)
 }
 
@@ -97,6 +97,88 @@ fn record_in_front(r: Record, p: vec3f, n: vec3f, accuracy: f32) -> bool {
     return dot(p - r.position, n + r.normal) * 0.5 >= -1.0e-2 * accuracy * r.radius;
 }
 
+// The corral (after Radiance's ambcorral, Ward): a record must not reach across a surface
+// that stands near it, such as the end of a wall whose sunlit face it cannot see while a
+// pixel a hand's width away, in front of that face, sees it whole (the irradiance jumps
+// there; no gradient or curvature measured at the record predicts it). The corral is a
+// polygon around the record in its tangent plane: CORRAL_SECTORS vertices, along the
+// directions at the sectors' edges, each as far out as the nearest horizontal distance at
+// which the plane's outermost ring of pixels (the rays nearest the horizon) hit something
+// within a quarter sector of that direction (corral_level: 3 bits a vertex, rounded in;
+// nothing hit: far). A pixel outside the polygon does not take the record. An edge
+// between two vertices follows a wall that runs past the record, so the pixels along the
+// wall keep it, where a cut per sector would cut them off. The vertices are stored eight
+// to a word, in the rotational gradient's unused w of the green and blue channels, as
+// exact integers (records::Record::corral), and counted from Duff's basis around the
+// normal, so they need no stored frame.
+const CORRAL_SECTORS: u32 = 16u;
+const CORRAL_BITS: u32 = 3u;
+const CORRAL_PER_WORD: u32 = 8u;
+// A vertex's distance in units of R by level (0: far, past any reach).
+const CORRAL_DISTANCE = array<f32, 8>(2.0, 0.0625, 0.125, 0.1875, 0.25, 0.375, 0.5, 0.75);
+
+// Where offset (u, v) (components along orthonormal_basis(n)'s first two axes) lies around
+// the normal, in sectors: vertex b is at b, sector s spans [s, s + 1). Rust:
+// records::corral_turn.
+fn corral_turn(u: f32, v: f32) -> f32 {
+    return (atan2(v, u) + PI) * (f32(CORRAL_SECTORS) / (2.0 * PI));
+}
+
+// The level of a vertex whose nearest hit lies `h` away (h < 0: nothing hit), for a record
+// of radius R: the farthest CORRAL_DISTANCE within h (the nearest one, R / 16, below it);
+// 0 (far) for h >= R. Rust: records::corral_level.
+fn corral_level(h: f32, radius: f32) -> u32 {
+    if h < 0.0 || h >= radius {
+        return 0u;
+    }
+    var level = 1u;
+    for (var l = 2u; l < 8u; l++) {
+        if CORRAL_DISTANCE[l] * radius <= h {
+            level = l;
+        }
+    }
+    return level;
+}
+
+// Vertex b's point in the tangent plane (u, v), `level` its level.
+fn corral_vertex(b: u32, level: u32, radius: f32) -> vec2f {
+    let angle = f32(b) * (2.0 * PI / f32(CORRAL_SECTORS)) - PI;
+    return vec2f(cos(angle), sin(angle)) * (CORRAL_DISTANCE[level] * radius);
+}
+
+fn corral_vertex_level(words: vec2u, b: u32) -> u32 {
+    let word = select(words.x, words.y, b >= CORRAL_PER_WORD);
+    return (word >> (CORRAL_BITS * (b % CORRAL_PER_WORD))) & 7u;
+}
+
+// Whether record r's corral lets it reach p: p's offset from r along r's tangent plane lies
+// on the record's side of the polygon edge across p's sector. Rust:
+// records::Record::corral_allows.
+fn corral_allows(r: Record, p: vec3f) -> bool {
+    let words = vec2u(u32(r.rotation_gradient[1].w), u32(r.rotation_gradient[2].w));
+    if all(words == vec2u(0u)) {
+        return true;
+    }
+    let base = orthonormal_basis(r.normal);
+    let d = p - r.position;
+    let q = vec2f(dot(d, base[0]), dot(d, base[1]));
+    let s = min(u32(max(corral_turn(q.x, q.y), 0.0)), CORRAL_SECTORS - 1u);
+    let b1 = (s + 1u) % CORRAL_SECTORS;
+    let l0 = corral_vertex_level(words, s);
+    let l1 = corral_vertex_level(words, b1);
+    if l0 == 0u && l1 == 0u {
+        return true;
+    }
+    let p0 = corral_vertex(s, l0, r.radius);
+    let p1 = corral_vertex(b1, l1, r.radius);
+    let edge = p1 - p0;
+    // The record (the origin) and q on the same side of the edge (the origin is never on
+    // it: both vertices lie at least R / 16 out, along directions 22.5 degrees apart).
+    let side_q = edge.x * (q.y - p0.y) - edge.y * (q.x - p0.x);
+    let side_o = edge.x * (-p0.y) - edge.y * (-p0.x);
+    return side_q * side_o >= 0.0;
+}
+
 // Irradiance of record k extrapolated to (p, n) with its gradients (decision 3), each
 // channel clamped at 0.
 fn record_irradiance_at(r: Record, p: vec3f, n: vec3f) -> vec3f {
@@ -136,10 +218,17 @@ fn plane_light_first(index: u32, count: u32) -> u32 {
 // overlapping records a pixel interpolates err independently and average out.
 fn record_frame(site: RecordSite) -> mat3x3f {
     let base = orthonormal_basis(site.normal);
-    let angle = 6.283185307179586 * u32_to_unit(hash_combine(site.seed, 0x7f4a7c15u));
-    let c = cos(angle);
-    let s = sin(angle);
+    let turn = record_frame_turn(site);
+    let c = turn.x;
+    let s = turn.y;
     return mat3x3f(c * base[0] + s * base[1], c * base[1] - s * base[0], base[2]);
+}
+
+// (cos, sin) of the angle `record_frame` turns Duff's basis by: a plane coordinate (x, y)
+// lies along (c x - s y, s x + c y) in Duff's basis (the corral's sectors).
+fn record_frame_turn(site: RecordSite) -> vec2f {
+    let angle = 6.283185307179586 * u32_to_unit(hash_combine(site.seed, 0x7f4a7c15u));
+    return vec2f(cos(angle), sin(angle));
 }
 
 // Ward's gradient limit (decision 5): where |grad_t| R would exceed E, shrink R (not below

@@ -5,23 +5,26 @@
 //!include shared/records.wgsl
 //!include shared/splat.wgsl
 
-// The part of record k the contribution test reads: its position, radius and normal, 32 of
-// its 144 bytes (every storage load is a per-lane loop on lavapipe: load only those, and
+// The part of record k the contribution test reads: its position, radius, normal and
+// corral, 40 of its 144 bytes (every storage load is a per-lane loop on lavapipe: load only those, and
 // once for all the pixels an invocation tests).
 fn record_reach(k: u32) -> Record {
     var r: Record;
     r.position = records[k].position;
     r.radius = records[k].radius;
     r.normal = records[k].normal;
+    r.rotation_gradient[1].w = records[k].rotation_gradient[1].w;
+    r.rotation_gradient[2].w = records[k].rotation_gradient[2].w;
     return r;
 }
 
 // Ward's error of record r (its reach, `record_reach`) at (p, n) (eq. 4.2), or NOT_REACHED
-// where the record is behind p: it contributes where this is at most the accuracy a.
+// where the record is behind p or its corral keeps it from p: it contributes where this is at most the accuracy a.
 const NOT_REACHED: f32 = 1.0e30;
 fn reach_error(r: Record, p: vec3f, n: vec3f) -> f32 {
     let err = record_error(r, p, n);
-    if err <= params.accuracy && record_in_front(r, p, n, params.accuracy) {
+    if err <= params.accuracy && record_in_front(r, p, n, params.accuracy)
+        && (params.corral == 0u || corral_allows(r, p)) {
         return err;
     }
     return NOT_REACHED;
