@@ -127,20 +127,23 @@ impl Record {
         let base = crate::sampling::orthonormal_basis(self.normal());
         let d = p - self.position();
         let q = glam::Vec2::new(d.dot(base.x_axis), d.dot(base.y_axis));
-        let s = (corral_turn(q.x, q.y).max(0.0) as u32).min(CORRAL_SECTORS - 1);
-        let b1 = (s + 1) % CORRAL_SECTORS;
+        // In the frame of q's quarter turn (WGSL `corral_quarter`), as the GPU computes it.
+        let (quarter, xy) = corral_quarter(q.x, q.y);
+        let k = corral_sub_sector(xy);
+        let s = 4 * quarter + k;
         let level = |b: u32| {
             (words[(b / CORRAL_PER_WORD) as usize] >> (CORRAL_BITS * (b % CORRAL_PER_WORD))) & 7
         };
-        let (l0, l1) = (level(s), level(b1));
+        let (l0, l1) = (level(s), level((s + 1) % CORRAL_SECTORS));
         if l0 == 0 && l1 == 0 {
             return true;
         }
-        let p0 = corral_vertex(s, l0, self.radius);
-        let p1 = corral_vertex(b1, l1, self.radius);
+        let direction = |k: u32| glam::Vec2::from(CORRAL_DIRECTIONS[k as usize + 8]);
+        let p0 = direction(k) * (CORRAL_DISTANCE[l0 as usize] * self.radius);
+        let p1 = direction(k + 1) * (CORRAL_DISTANCE[l1 as usize] * self.radius);
         let edge = p1 - p0;
-        let side_q = edge.perp_dot(q - p0);
-        let side_o = edge.perp_dot(-p0);
+        let side_q = edge.x * (xy.y - p0.y) - edge.y * (xy.x - p0.x);
+        let side_o = edge.x * (-p0.y) - edge.y * (-p0.x);
         side_q * side_o >= 0.0
     }
 
@@ -187,10 +190,64 @@ pub fn corral_level(h: f32, radius: f32) -> u32 {
         .unwrap_or(1)
 }
 
+/// The corral vertices' directions in the tangent plane: vertex b at -pi + b pi / 8
+/// (WGSL `CORRAL_DIRECTIONS`, the same constants).
+pub const CORRAL_DIRECTIONS: [[f32; 2]; 16] = [
+    [-1.0, 0.0],
+    [-0.923_879_5, -0.382_683_43],
+    [-0.707_106_77, -0.707_106_77],
+    [-0.382_683_43, -0.923_879_5],
+    [0.0, -1.0],
+    [0.382_683_43, -0.923_879_5],
+    [0.707_106_77, -0.707_106_77],
+    [0.923_879_5, -0.382_683_43],
+    [1.0, 0.0],
+    [0.923_879_5, 0.382_683_43],
+    [0.707_106_77, 0.707_106_77],
+    [0.382_683_43, 0.923_879_5],
+    [0.0, 1.0],
+    [-0.382_683_43, 0.923_879_5],
+    [-0.707_106_77, 0.707_106_77],
+    [-0.923_879_5, 0.382_683_43],
+];
+
+/// tan(22.5 degrees) (WGSL `CORRAL_TAN`).
+const CORRAL_TAN: f32 = 0.414_213_57;
+
+/// The sector (0..15) of a tangent-plane offset (u, v), between vertices s and s + 1: the
+/// whole part of [`corral_turn`] but at its edges, from comparisons alone (WGSL
+/// `corral_sector`: no atan2 where every reached pixel tests a record).
+pub fn corral_sector(u: f32, v: f32) -> u32 {
+    let (quarter, xy) = corral_quarter(u, v);
+    4 * quarter + corral_sub_sector(xy)
+}
+
+/// The quarter turn from -pi that a tangent-plane offset (u, v) lies in (vertices
+/// 4 quarter .. 4 quarter + 4), and the offset in that quarter's frame: x along its first
+/// vertex, y along its last (WGSL `corral_quarter`; a turn by a multiple of 90 degrees,
+/// exact in floats).
+pub fn corral_quarter(u: f32, v: f32) -> (u32, glam::Vec2) {
+    if v < 0.0 && u >= 0.0 {
+        (1, glam::Vec2::new(-v, u))
+    } else if v >= 0.0 && u >= 0.0 {
+        (2, glam::Vec2::new(u, v))
+    } else if v >= 0.0 {
+        (3, glam::Vec2::new(v, -u))
+    } else {
+        (0, glam::Vec2::new(-u, -v))
+    }
+}
+
+/// The sector within a quarter (0..3) of a point of its frame (WGSL `corral_sub_sector`).
+fn corral_sub_sector(xy: glam::Vec2) -> u32 {
+    u32::from(xy.y >= xy.x * CORRAL_TAN)
+        + u32::from(xy.y >= xy.x)
+        + u32::from(xy.y * CORRAL_TAN >= xy.x)
+}
+
 /// Vertex `b` of a corral at `level`, in the tangent plane (WGSL `corral_vertex`).
 pub fn corral_vertex(b: u32, level: u32, radius: f32) -> glam::Vec2 {
-    let angle = b as f32 * (std::f32::consts::TAU / CORRAL_SECTORS as f32) - std::f32::consts::PI;
-    glam::Vec2::new(angle.cos(), angle.sin()) * (CORRAL_DISTANCE[level as usize] * radius)
+    glam::Vec2::from(CORRAL_DIRECTIONS[b as usize]) * (CORRAL_DISTANCE[level as usize] * radius)
 }
 
 /// The corral of `h`, the nearest horizon hit per vertex (negative: none), for a record of
@@ -2258,6 +2315,25 @@ mod tests {
         let open = record_beside(|_| None);
         assert_eq!(open.corral(), [0, 0]);
         assert!(open.corral_allows(Vec3::new(0.9, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn corral_sectors_follow_the_angle_and_the_directions_table() {
+        use super::{CORRAL_DIRECTIONS, corral_sector, corral_turn};
+        for k in 0..720 {
+            // Away from the sectors' edges, the sector is the whole part of the turn.
+            let angle = (k as f32 + 0.37) * std::f32::consts::TAU / 720.0 - std::f32::consts::PI;
+            let (u, v) = (2.5 * angle.cos(), 2.5 * angle.sin());
+            let turn = corral_turn(u, v);
+            if (turn - turn.round()).abs() > 1e-3 {
+                assert_eq!(corral_sector(u, v), turn.floor() as u32, "angle {angle}");
+            }
+        }
+        for (b, d) in CORRAL_DIRECTIONS.iter().enumerate() {
+            let turn = corral_turn(d[0], d[1]);
+            let expected = if b == 0 { 16.0 } else { b as f32 };
+            assert!((turn - expected).abs() < 1e-4, "vertex {b}: turn {turn}");
+        }
     }
 
     #[test]

@@ -623,7 +623,7 @@ impl TemporalCache {
     /// the re-shading at t+1 traces rays), planes are refined only where they saw no light
     /// (`CacheSettings::dark_plane_refine`; by contrast too where
     /// [`TemporalSettings::refine_planes`] says so, which the cache's own pass then
-    /// applies), records are not neighbour-clamped nor tail-filled; planes keep the user's
+    /// applies), records are not neighbour-clamped nor tail-filled nor corralled; planes keep the user's
     /// spacing (reprojection bins moved hits by its inverse) and field of view, except that
     /// an evenly spaced plane at the refined default
     /// ([`CacheSettings::PLANE_FOV_REFINED`]) takes the plain even plane's best
@@ -647,6 +647,10 @@ impl TemporalCache {
             // only, and the tail's records would be the first to lapse: the static default
             // only (unmeasured over time).
             tail_share: 0.0,
+            // A record lives several frames while occluders move: a corral taken from the
+            // geometry at its birth would keep it from directions where a moving object no
+            // longer stands (cube in a box 48x48, 24 frames: 2.74 -> 2.81 % with it).
+            corral: false,
             plane_fov_degrees: if refined_default_fov {
                 CacheSettings::PLANE_FOV_PLAIN
             } else {
