@@ -243,6 +243,7 @@ fn frame_gather_source<'a>(
         accuracy: settings.accuracy * factor,
         plateau: crate::records::noise_widening::weight_plateau(settings, factor),
         dark_only_empty: still && settings.source == crate::records::RecordSource::Planes,
+        corral: true,
     }
 }
 
@@ -980,6 +981,7 @@ impl Renderer {
             accuracy: cache.pass.settings.accuracy,
             plateau: 0.0,
             dark_only_empty: false,
+            corral: true,
         };
         let sums = cache.splat.gather(ctx, splat_pass, src, &mut times)?;
         let sums = ctx.read_buffer(&sums)?;
@@ -1019,9 +1021,15 @@ impl Renderer {
                 accuracy,
                 plateau: 0.0,
                 dark_only_empty: false,
+                corral: true,
             };
             splat_pass.splat(ctx, src, &splat, true, &mut times)?;
-            splat_pass.cover(ctx, src, &mask, &mut times)?;
+            // Placement's cover: the corrals only with `Corral::Placement`.
+            let cover = SplatSource {
+                corral: cache.settings().corral == crate::records::Corral::Placement,
+                ..src
+            };
+            splat_pass.cover(ctx, cover, &mask, &mut times)?;
             first = partial.count;
         }
         let sums = ctx.read_buffer(&splat.sums)?;
@@ -1162,6 +1170,7 @@ impl Renderer {
             accuracy,
             plateau: 0.0,
             dark_only_empty: false,
+            corral: true,
         };
         splat_pass.cover(ctx, held, &mask, &mut times)?;
         // Light-space visibility for the plane hits of new records, traced once per scene.
@@ -1253,6 +1262,7 @@ impl Renderer {
                     accuracy,
                     plateau: 0.0,
                     dark_only_empty: false,
+                    corral: true,
                 };
                 splat_pass.cover(ctx, held, &need, &mut times)?;
                 // Placed in the placement-only pass too (the first pass of interpolated
@@ -1294,6 +1304,7 @@ impl Renderer {
                         accuracy,
                         plateau: 0.0,
                         dark_only_empty: false,
+                        corral: true,
                     };
                     Some(rf.splat.gather(ctx, splat_pass, all, &mut times)?)
                 };
@@ -1496,6 +1507,7 @@ impl Renderer {
             accuracy,
             plateau: 0.0,
             dark_only_empty: false,
+            corral: true,
         };
         splat_pass.splat(ctx, src, &out, false, times)?;
         out.read_coverage(ctx)

@@ -552,11 +552,13 @@ struct CacheArgs {
     /// count).
     #[arg(long)]
     no_neighbour_clamp: bool,
-    /// Turn the corral off (on by default: a record does not reach pixels beyond a surface
-    /// that its plane's horizon rays hit nearer than its radius, per 30-degree sector around
-    /// its normal; Radiance's ambcorral).
-    #[arg(long)]
-    no_corral: bool,
+    /// The corral (after Radiance's ambcorral): a record does not reach pixels beyond a
+    /// surface that its plane's horizon rays hit near it. `gather` (the default): the
+    /// gathers weigh no record beyond its corral, placement is unchanged; `placement`:
+    /// placement's cover too, so such pixels get records of their own (more records, more
+    /// time); `off`. Animations keep no corral.
+    #[arg(long, value_enum, default_value = "gather")]
+    corral: radsplat::records::Corral,
     /// How hemisphere-plane hits are shadowed: `maps` traces light-space visibility maps
     /// once per scene (an orthographic map for a sun, octahedral maps for point and spot
     /// lights, an N x N grid of them per rect light) and looks shadows up; `rays` traces a
@@ -761,7 +763,7 @@ impl CacheArgs {
             tail_factor: self.tail_factor,
             gradients: !self.no_gradients,
             neighbour_clamp: !self.no_neighbour_clamp,
-            corral: !self.no_corral,
+            corral: self.corral,
             plane_shadows: self.plane_shadows,
             light_maps: radsplat::light_maps::LightMapSettings {
                 resolution: self.light_map_resolution,

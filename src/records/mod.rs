@@ -161,6 +161,28 @@ impl Record {
     }
 }
 
+/// Where the records' corrals ([`Record::corral_allows`]: a record does not reach pixels
+/// beyond a surface its plane's horizon rays hit near it, so records on the dark side of
+/// a wall's end do not darken the floor in front of its lit face, nor the lit side's
+/// records light the dark one) apply.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, clap::ValueEnum)]
+pub enum Corral {
+    /// No corral: records are computed without one.
+    Off,
+    /// The gathers weigh no record beyond its corral; placement covers as without (the
+    /// same records), so a pixel that only corralled records reach takes them in tail
+    /// fill's gather rather than reading black. The default: on the nave the same records
+    /// for 1.03x the process time (start-up's larger pipelines), indirect error 13.07 ->
+    /// 12.58 %, the conference room 2.55 -> 2.47 % (docs/results.md, "The corral").
+    #[default]
+    Gather,
+    /// Placement's cover too: pixels beyond a record's corral get records of their own.
+    /// Where a lit surface's end stands beside the floor (the nave with the sun 34 degrees
+    /// up) 16.6 -> 6.7 % where the gathers alone give 13.6 %, for 1.1-1.2x the time (2-11 %
+    /// more records).
+    Placement,
+}
+
 /// Vertices of a record's corral polygon around its normal (WGSL `CORRAL_SECTORS`,
 /// records.wgsl), 22.5 degrees apart.
 pub const CORRAL_SECTORS: u32 = 16;
@@ -391,12 +413,9 @@ pub struct CacheSettings {
     /// bound is searched in a grid ([`neighbour_grid`]), the same bytes as a loop over
     /// every earlier record, whose cost grew with the square of the record count.
     pub neighbour_clamp: bool,
-    /// The corral (Radiance's ambcorral): a record does not reach pixels beyond a surface
-    /// its plane's horizon rays hit nearer than R, sector by sector around its normal
-    /// ([`Record::corral_allows`]), so records on the dark side of a wall's end do not
-    /// darken the floor in front of its lit face, nor the lit side's records light the
-    /// dark one. On by default.
-    pub corral: bool,
+    /// The corral (after Radiance's ambcorral, [`Corral`]): where a record's
+    /// [`Record::corral_allows`] applies. Default [`Corral::Gather`].
+    pub corral: Corral,
     /// Most records the cache may hold.
     pub record_budget: u32,
     /// Tail fill (`placement/mod.rs`): once at most this share of the visible pixels is
@@ -542,7 +561,7 @@ impl Default for CacheSettings {
                 scale: Self::HESSIAN_SCALE,
             },
             neighbour_clamp: true,
-            corral: true,
+            corral: Corral::Gather,
             record_budget: 200_000,
             tail_share: Self::TAIL_SHARE,
             tail_factor: Self::TAIL_FACTOR,
@@ -2041,7 +2060,7 @@ impl RecordPass {
                 cos_weight_sum: table.cos_weight_sum,
                 neighbour_clamp: u32::from(self.settings.neighbour_clamp),
                 hessian_scale: self.settings.record_radius.hessian_scale(),
-                corral: u32::from(self.settings.corral),
+                corral: u32::from(self.settings.corral != Corral::Off),
                 _pad: [0; 3],
             },
         );

@@ -200,7 +200,10 @@ pub fn reduce_plane(
     let (turn_c, turn_s) = crate::sampling::record_frame_turn(site.seed);
     for (k, (s, px)) in samples.iter().zip(&plane.pixels).enumerate() {
         let (i, j) = (k % res, k / res);
-        if settings.corral && s.depth > 0.0 && (i == 0 || j == 0 || i + 1 == res || j + 1 == res) {
+        if settings.corral != super::Corral::Off
+            && s.depth > 0.0
+            && (i == 0 || j == 0 || i + 1 == res || j + 1 == res)
+        {
             let c = Vec3::new(px.center[0], px.center[1], 0.0);
             let h = s.depth * c.length();
             let t = super::corral_turn(turn_c * c.x - turn_s * c.y, turn_s * c.x + turn_c * c.y);

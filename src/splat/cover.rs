@@ -138,13 +138,26 @@ impl SplatPass {
 }
 
 /// Plain-Rust cover: 1 where any of `records` contributes to the visible pixel (the test
-/// of [`super::reference::splat_records`], so exactly where its `sum w` is non-zero).
-pub fn reference_cover(records: &[Record], vis: &[VisSample], accuracy: f32) -> Vec<u32> {
+/// of [`super::reference::splat_records`], so exactly where its `sum w` is non-zero), the
+/// records' corrals applied or not ([`super::SplatSource::corral`]).
+pub fn reference_cover(
+    records: &[Record],
+    vis: &[VisSample],
+    accuracy: f32,
+    corral: bool,
+) -> Vec<u32> {
     vis.iter()
         .map(|v| {
             let p = Vec3::from(v.position);
             let n = Vec3::from(v.shading_normal);
-            u32::from(v.is_hit() && records.iter().any(|r| r.reaches(p, n, accuracy)))
+            u32::from(
+                v.is_hit()
+                    && records.iter().any(|r| {
+                        r.error_at(p, n) <= accuracy
+                            && r.in_front_of(p, n, accuracy)
+                            && (!corral || r.corral_allows(p))
+                    }),
+            )
         })
         .collect()
 }

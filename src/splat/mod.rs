@@ -125,8 +125,7 @@ pub(crate) struct SplatParams {
     plateau: f32,
     /// [`SplatSource::dark_only_empty`], 1 or 0.
     dark_only_empty: u32,
-    /// 1: the records' corrals apply ([`crate::records::Record::corral_allows`]); 0 in tail
-    /// fill, so that a pixel the corrals keep from every lit record is not left black.
+    /// [`SplatSource::corral`], 1 or 0 (0 in tail fill's gather).
     corral: u32,
 }
 
@@ -298,6 +297,11 @@ pub struct SplatSource<'a> {
     /// indirect light where the reference has some (docs/results.md, "Pixels only dark
     /// records reach"). Where a lit record reaches too, dark records count as before.
     pub dark_only_empty: bool,
+    /// Whether the records' corrals apply ([`crate::records::Record::corral_allows`]):
+    /// in every gather; in placement's cover with [`crate::records::Corral::Placement`]
+    /// alone; never in tail fill's gather, so that a pixel they keep from every lit record
+    /// is not left black.
+    pub corral: bool,
 }
 
 pub struct SplatPass {
@@ -581,6 +585,7 @@ impl SplatPass {
             accuracy,
             plateau,
             dark_only_empty,
+            corral,
         } = src;
         let (width, height) = (vis.width, vis.height);
         let tiles_x = width.div_ceil(TILE_SIZE);
@@ -607,7 +612,7 @@ impl SplatPass {
                 count_coverage,
                 plateau,
                 dark_only_empty: u32::from(dark_only_empty),
-                corral: u32::from(into != SplatInto::FillEmpty),
+                corral: u32::from(corral && into != SplatInto::FillEmpty),
             },
         );
         let record_tiles = ctx.storage_buffer_sized("record tiles", u64::from(records) * 16)?;

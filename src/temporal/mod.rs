@@ -650,7 +650,7 @@ impl TemporalCache {
             // A record lives several frames while occluders move: a corral taken from the
             // geometry at its birth would keep it from directions where a moving object no
             // longer stands (cube in a box 48x48, 24 frames: 2.74 -> 2.81 % with it).
-            corral: false,
+            corral: crate::records::Corral::Off,
             plane_fov_degrees: if refined_default_fov {
                 CacheSettings::PLANE_FOV_PLAIN
             } else {
