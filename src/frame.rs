@@ -243,7 +243,7 @@ fn frame_gather_source<'a>(
         accuracy: settings.accuracy * factor,
         plateau: crate::records::noise_widening::weight_plateau(settings, factor),
         dark_only_empty: still && settings.source == crate::records::RecordSource::Planes,
-        corral: true,
+        corral: settings.corral != crate::records::Corral::Off,
     }
 }
 
@@ -981,7 +981,7 @@ impl Renderer {
             accuracy: cache.pass.settings.accuracy,
             plateau: 0.0,
             dark_only_empty: false,
-            corral: true,
+            corral: cache.pass.settings.corral != crate::records::Corral::Off,
         };
         let sums = cache.splat.gather(ctx, splat_pass, src, &mut times)?;
         let sums = ctx.read_buffer(&sums)?;
@@ -1021,7 +1021,7 @@ impl Renderer {
                 accuracy,
                 plateau: 0.0,
                 dark_only_empty: false,
-                corral: true,
+                corral: cache.settings().corral != crate::records::Corral::Off,
             };
             splat_pass.splat(ctx, src, &splat, true, &mut times)?;
             // Placement's cover: the corrals only with `Corral::Placement`.
@@ -1170,7 +1170,7 @@ impl Renderer {
             accuracy,
             plateau: 0.0,
             dark_only_empty: false,
-            corral: true,
+            corral: pass.settings.corral != crate::records::Corral::Off,
         };
         splat_pass.cover(ctx, held, &mask, &mut times)?;
         // Light-space visibility for the plane hits of new records, traced once per scene.
@@ -1262,7 +1262,7 @@ impl Renderer {
                     accuracy,
                     plateau: 0.0,
                     dark_only_empty: false,
-                    corral: true,
+                    corral: rf.pass.settings.corral != crate::records::Corral::Off,
                 };
                 splat_pass.cover(ctx, held, &need, &mut times)?;
                 // Placed in the placement-only pass too (the first pass of interpolated
@@ -1304,7 +1304,7 @@ impl Renderer {
                         accuracy,
                         plateau: 0.0,
                         dark_only_empty: false,
-                        corral: true,
+                        corral: rf.pass.settings.corral != crate::records::Corral::Off,
                     };
                     Some(rf.splat.gather(ctx, splat_pass, all, &mut times)?)
                 };
@@ -1507,7 +1507,8 @@ impl Renderer {
             accuracy,
             plateau: 0.0,
             dark_only_empty: false,
-            corral: true,
+            // Temporal records, the ones counted, carry no corral.
+            corral: false,
         };
         splat_pass.splat(ctx, src, &out, false, times)?;
         out.read_coverage(ctx)

@@ -553,11 +553,11 @@ struct CacheArgs {
     #[arg(long)]
     no_neighbour_clamp: bool,
     /// The corral (after Radiance's ambcorral): a record does not reach pixels beyond a
-    /// surface that its plane's horizon rays hit near it. `gather` (the default): the
-    /// gathers weigh no record beyond its corral, placement is unchanged; `placement`:
-    /// placement's cover too, so such pixels get records of their own (more records, more
-    /// time); `off`. Animations keep no corral.
-    #[arg(long, value_enum, default_value = "gather")]
+    /// surface that its plane's horizon rays hit near it. `off` (the default); `gather`:
+    /// the gathers weigh no record beyond its corral, placement is unchanged (the same
+    /// records); `placement`: placement's cover too, so such pixels get records of their
+    /// own (more records, more time). Animations keep no corral.
+    #[arg(long, value_enum, default_value = "off")]
     corral: radsplat::records::Corral,
     /// How hemisphere-plane hits are shadowed: `maps` traces light-space visibility maps
     /// once per scene (an orthographic map for a sun, octahedral maps for point and spot

@@ -375,11 +375,8 @@ fn photon_records_follow_the_reference_on_the_cornell_box_and_are_deterministic(
 /// 1.006 -> 1.010 (at 128x128 the photon records' error fell from 5.49 to 5.08 %).
 /// Changed on purpose in stop 51 (rect lights drawn by solid angle at pixels and plane
 /// hits, `rect_light_sample`): 7.540 -> 7.542 %, mean 1.010 (this test's measurement).
-/// Changed on purpose in stop 58 (the gathers weigh no plane record beyond its corral,
-/// `Record::corral_allows`): 7.542 -> 7.543 %, mean 1.010 -> 1.009, the same 234 records
-/// (this test's measurement).
 const GOLDEN_CORNELL_PHOTONS: &str =
-    "3feee8f4e3e8678257a22ddfe0714de3b099473bd88544a09814bdbdf2ce9f7f";
+    "f6d0888eafbbe35d00dde6ee59130b130b1ca816cbd2dd900aadc8d3ae5bdedc";
 
 /// A room whose floor is eight coplanar slats with gaps between them as wide as they are
 /// (a bench, a grating): the neighbourhood of a photon record on a slat spans the gaps.

@@ -13,6 +13,9 @@ const SUM_LANES: u32 = 128u;
 // 1: records::RecordRadius::Hessian (R from the irradiance's curvature); 0: the split
 // sphere. A pipeline constant, so each pipeline carries only its rule's code.
 override RECORD_RADIUS_HESSIAN: bool = false;
+// 1: the records get corrals (records.wgsl; records::Corral not Off): a pipeline constant,
+// so that a pipeline without them carries none of their code.
+override CORRAL: bool = false;
 
 struct ReduceParams {
     resolution: u32,
@@ -77,7 +80,7 @@ fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32
     let px = plane[k];
     // The corral: the plane's outermost ring holds the rays nearest the horizon.
     let j = k / res;
-    if params.corral != 0u && s.depth > 0.0 && (i == 0u || j == 0u || i + 1u == res || j + 1u == res) {
+    if CORRAL && params.corral != 0u && s.depth > 0.0 && (i == 0u || j == 0u || i + 1u == res || j + 1u == res) {
         let c = px.rot_center.zw;
         let h = s.depth * length(c);
         let t = corral_turn(turn.x * c.x - turn.y * c.y, turn.y * c.x + turn.x * c.y);
@@ -340,20 +343,22 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         out.translation_gradient[c] = vec4f(tr[c], 0.0);
     }
     out.rotation_gradient[0].w = relative_noise(sum.variance, e);
-    // The corral's vertices against the final R (records.wgsl), eight a word, each word
-    // stored as an exact integer (under 2^24).
-    var words = vec2u(0u);
-    for (var vertex = 0u; vertex < CORRAL_SECTORS; vertex++) {
-        let key = atomicLoad(&corral_keys[vertex]);
-        let h = select(-1.0, bitcast<f32>(~key), key != 0u);
-        let bits = corral_level(h, radius) << (CORRAL_BITS * (vertex % CORRAL_PER_WORD));
-        if vertex < CORRAL_PER_WORD {
-            words.x |= bits;
-        } else {
-            words.y |= bits;
+    if CORRAL {
+        // The corral's vertices against the final R (records.wgsl), eight a word, each word
+        // stored as an exact integer (under 2^24).
+        var words = vec2u(0u);
+        for (var vertex = 0u; vertex < CORRAL_SECTORS; vertex++) {
+            let key = atomicLoad(&corral_keys[vertex]);
+            let h = select(-1.0, bitcast<f32>(~key), key != 0u);
+            let bits = corral_level(h, radius) << (CORRAL_BITS * (vertex % CORRAL_PER_WORD));
+            if vertex < CORRAL_PER_WORD {
+                words.x |= bits;
+            } else {
+                words.y |= bits;
+            }
         }
+        out.rotation_gradient[1].w = f32(words.x);
+        out.rotation_gradient[2].w = f32(words.y);
     }
-    out.rotation_gradient[1].w = f32(words.x);
-    out.rotation_gradient[2].w = f32(words.y);
     records[params.first_record + record] = out;
 }

@@ -167,14 +167,17 @@ impl Record {
 /// records light the dark one) apply.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, clap::ValueEnum)]
 pub enum Corral {
-    /// No corral: records are computed without one.
+    /// No corral: records are computed without one. The default: on lavapipe the corral's
+    /// larger pipelines and tests cost the small scenes 3-9 % of their process time, which
+    /// its gains pay for only where a record stands beside a lit surface's end
+    /// (docs/results.md, "The corral").
+    #[default]
     Off,
     /// The gathers weigh no record beyond its corral; placement covers as without (the
     /// same records), so a pixel that only corralled records reach takes them in tail
-    /// fill's gather rather than reading black. The default: on the nave the same records
-    /// for 1.03x the process time (start-up's larger pipelines), indirect error 13.07 ->
-    /// 12.58 %, the conference room 2.55 -> 2.47 % (docs/results.md, "The corral").
-    #[default]
+    /// fill's gather rather than reading black. The nave 13.07 -> 12.58 %, the conference
+    /// room 2.55 -> 2.47 %, the nave with the sun 34 degrees up 16.56 -> 13.56 %, Sponza's
+    /// west sun 10.70 -> 10.83 %, for 1.03-1.09x the process time.
     Gather,
     /// Placement's cover too: pixels beyond a record's corral get records of their own.
     /// Where a lit surface's end stands beside the floor (the nave with the sun 34 degrees
@@ -414,7 +417,7 @@ pub struct CacheSettings {
     /// every earlier record, whose cost grew with the square of the record count.
     pub neighbour_clamp: bool,
     /// The corral (after Radiance's ambcorral, [`Corral`]): where a record's
-    /// [`Record::corral_allows`] applies. Default [`Corral::Gather`].
+    /// [`Record::corral_allows`] applies. Default [`Corral::Off`].
     pub corral: Corral,
     /// Most records the cache may hold.
     pub record_budget: u32,
@@ -561,7 +564,7 @@ impl Default for CacheSettings {
                 scale: Self::HESSIAN_SCALE,
             },
             neighbour_clamp: true,
-            corral: Corral::Gather,
+            corral: Corral::Off,
             record_budget: 200_000,
             tail_share: Self::TAIL_SHARE,
             tail_factor: Self::TAIL_FACTOR,
@@ -1484,13 +1487,21 @@ impl RecordPass {
                     StorageRead,
                     StorageRead,
                 ],
-                &[(
-                    "RECORD_RADIUS_HESSIAN",
-                    f64::from(u8::from(matches!(
-                        settings.record_radius,
-                        RecordRadius::Hessian { .. }
-                    ))),
-                )],
+                &[
+                    (
+                        "RECORD_RADIUS_HESSIAN",
+                        f64::from(u8::from(matches!(
+                            settings.record_radius,
+                            RecordRadius::Hessian { .. }
+                        ))),
+                    ),
+                    // The corral's code only where records get one (lavapipe's start-up
+                    // built the larger pipeline 1.2x as slowly).
+                    (
+                        "CORRAL",
+                        f64::from(u8::from(settings.corral != Corral::Off)),
+                    ),
+                ],
             )?,
             neighbour_grid: neighbour_grid::NeighbourGridPass::new(ctx)?,
             table: PlaneTable::new(ctx, settings.plane_resolution, settings)?,

@@ -74,9 +74,26 @@ impl SplatPass {
         if bins.total == 0 {
             return Ok(());
         }
+        // The records' corrals only in the pipeline built with them (`CORRAL`).
+        let cover = if src.corral {
+            match self.cover_corral.get() {
+                Some(pass) => pass,
+                None => {
+                    let pass = crate::gpu::pipeline::ComputePass::with_constants(
+                        ctx,
+                        "splat_cover.wgsl",
+                        super::COVER_BINDINGS,
+                        &[("CORRAL", 1.0)],
+                    )?;
+                    self.cover_corral.get_or_init(|| pass)
+                }
+            }
+        } else {
+            &self.cover
+        };
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let bind = self.cover.bind(
+        let bind = cover.bind(
             ctx,
             &[
                 &bins.params,
@@ -90,7 +107,7 @@ impl SplatPass {
                 &bins.busy_count,
             ],
         );
-        self.cover.record(
+        cover.record(
             &mut enc,
             &scene.bind_group,
             &bind,

@@ -57,42 +57,80 @@ const GATHER_BINDINGS: &[Binding] = &[
     Binding::StorageRead,
 ];
 
+/// Bindings of `splat_cover.wgsl`.
+const COVER_BINDINGS: &[Binding] = &[
+    Binding::Uniform,
+    Binding::StorageRead,
+    Binding::StorageRead,
+    Binding::StorageRead,
+    Binding::StorageRead,
+    Binding::StorageReadWrite,
+    Binding::StorageReadWrite,
+    Binding::StorageRead,
+    Binding::StorageRead,
+];
+
 /// Bindings `splat_fill.wgsl` adds after the gather's: the empty pixels' list and count.
 const FILL_EXTRA_BINDINGS: &[Binding] = &[Binding::StorageRead, Binding::StorageRead];
 
-/// A gather compiled twice: without coverage counting (`COUNTS_COVERAGE` false in
-/// `wgsl/shared/splat_pixel.wgsl`), for still frames, which count nothing; and with it,
-/// built when a splat first counts (temporal caching). Lavapipe runs the count's loads and
-/// atomic for every record of a tile's list even when nothing is counted: on Sponza
-/// 400x400 the gather without them took 0.80 of its time, the same bytes.
+/// A gather compiled up to four times: with coverage counting or without
+/// (`COUNTS_COVERAGE` in `wgsl/shared/splat_pixel.wgsl`), with the records' corrals or
+/// without (`CORRAL` in `wgsl/shared/splat_weight.wgsl`). Still frames count nothing and,
+/// by default, weigh no corral: that pipeline is built up front, the others when a splat
+/// first asks for one (temporal caching counts; `records::Corral` other than Off weighs
+/// corrals). Lavapipe runs the count's loads and atomic for every record of a tile's list
+/// even when nothing is counted (on Sponza 400x400 the gather without them took 0.80 of
+/// its time, the same bytes), and builds a pipeline with the corral's code 1.2x as slowly.
 struct GatherPipelines {
     name: &'static str,
     bindings: Vec<Binding>,
     plain: ComputePass,
-    counting: std::sync::OnceLock<ComputePass>,
+    /// Indexed by `2 counting + corral`; index 0 is `plain`.
+    others: [std::sync::OnceLock<ComputePass>; 3],
 }
 
 impl GatherPipelines {
     fn new(ctx: &GpuContext, name: &'static str, bindings: Vec<Binding>) -> Result<Self> {
         Ok(Self {
             name,
-            plain: ComputePass::with_constants(ctx, name, &bindings, &[("COUNTS_COVERAGE", 0.0)])?,
+            plain: Self::build(ctx, name, &bindings, false, false)?,
             bindings,
-            counting: std::sync::OnceLock::new(),
+            others: Default::default(),
         })
     }
 
+    fn build(
+        ctx: &GpuContext,
+        name: &'static str,
+        bindings: &[Binding],
+        counting: bool,
+        corral: bool,
+    ) -> Result<ComputePass> {
+        ComputePass::with_constants(
+            ctx,
+            name,
+            bindings,
+            &[
+                ("COUNTS_COVERAGE", f64::from(u8::from(counting))),
+                ("CORRAL", f64::from(u8::from(corral))),
+            ],
+        )
+    }
+
     /// The pipeline for a splat counting `coverage_mode` (`COUNT_NONE`, `COUNT_ALL` or
-    /// `COUNT_NEEDED`).
-    fn for_mode(&self, ctx: &GpuContext, coverage_mode: u32) -> Result<&ComputePass> {
-        if coverage_mode == COUNT_NONE {
+    /// `COUNT_NEEDED`), weighing the records' corrals or not.
+    fn for_mode(&self, ctx: &GpuContext, coverage_mode: u32, corral: bool) -> Result<&ComputePass> {
+        let counting = coverage_mode != COUNT_NONE;
+        let index = 2 * usize::from(counting) + usize::from(corral);
+        if index == 0 {
             return Ok(&self.plain);
         }
-        if let Some(pass) = self.counting.get() {
+        let slot = &self.others[index - 1];
+        if let Some(pass) = slot.get() {
             return Ok(pass);
         }
-        let pass = ComputePass::new(ctx, self.name, &self.bindings)?;
-        Ok(self.counting.get_or_init(|| pass))
+        let pass = Self::build(ctx, self.name, &self.bindings, counting, corral)?;
+        Ok(slot.get_or_init(|| pass))
     }
 }
 
@@ -314,6 +352,9 @@ pub struct SplatPass {
     /// Tail fill's gather over the listed empty pixels.
     fill: GatherPipelines,
     cover: ComputePass,
+    /// Placement's cover weighing the records' corrals (`records::Corral::Placement`),
+    /// built when first asked for.
+    cover_corral: std::sync::OnceLock<ComputePass>,
     count_coverage: ComputePass,
     bounds: ComputePass,
     /// The tile bounds of the pixels tail fill's gather fills (`EMPTY_ONLY`).
@@ -374,21 +415,8 @@ impl SplatPass {
                 "splat_fill.wgsl",
                 [GATHER_BINDINGS, FILL_EXTRA_BINDINGS].concat(),
             )?,
-            cover: ComputePass::new(
-                ctx,
-                "splat_cover.wgsl",
-                &[
-                    Uniform,
-                    StorageRead,
-                    StorageRead,
-                    StorageRead,
-                    StorageRead,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                    StorageRead,
-                    StorageRead,
-                ],
-            )?,
+            cover: ComputePass::new(ctx, "splat_cover.wgsl", COVER_BINDINGS)?,
+            cover_corral: std::sync::OnceLock::new(),
             count_coverage: ComputePass::new(
                 ctx,
                 "coverage_count.wgsl",
@@ -485,7 +513,8 @@ impl SplatPass {
         }
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let fill = self.fill.for_mode(ctx, out.coverage_mode)?;
+        // Tail fill weighs no corral (`SplatSource::corral`).
+        let fill = self.fill.for_mode(ctx, out.coverage_mode, false)?;
         let bind = fill.bind(
             ctx,
             &[
@@ -534,7 +563,7 @@ impl SplatPass {
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         if bins.total > 0 || !accumulate {
-            let gather = self.gather.for_mode(ctx, out.coverage_mode)?;
+            let gather = self.gather.for_mode(ctx, out.coverage_mode, src.corral)?;
             let bind = gather.bind(
                 ctx,
                 &[

@@ -5,6 +5,10 @@
 //!include shared/records.wgsl
 //!include shared/splat.wgsl
 
+// 1: the pipeline weighs the records' corrals (where `params.corral` says so): a pipeline
+// constant, so that the pipelines of splats without corrals carry none of their code.
+override CORRAL: bool = false;
+
 // The part of record k the contribution test reads: its position, radius, normal and
 // corral, 40 of its 144 bytes (every storage load is a per-lane loop on lavapipe: load only those, and
 // once for all the pixels an invocation tests).
@@ -13,8 +17,10 @@ fn record_reach(k: u32) -> Record {
     r.position = records[k].position;
     r.radius = records[k].radius;
     r.normal = records[k].normal;
-    r.rotation_gradient[1].w = records[k].rotation_gradient[1].w;
-    r.rotation_gradient[2].w = records[k].rotation_gradient[2].w;
+    if CORRAL {
+        r.rotation_gradient[1].w = records[k].rotation_gradient[1].w;
+        r.rotation_gradient[2].w = records[k].rotation_gradient[2].w;
+    }
     return r;
 }
 
@@ -24,7 +30,7 @@ const NOT_REACHED: f32 = 1.0e30;
 fn reach_error(r: Record, p: vec3f, n: vec3f) -> f32 {
     let err = record_error(r, p, n);
     if err <= params.accuracy && record_in_front(r, p, n, params.accuracy)
-        && (params.corral == 0u || corral_allows(r, p)) {
+        && (!CORRAL || params.corral == 0u || corral_allows(r, p)) {
         return err;
     }
     return NOT_REACHED;
