@@ -51,7 +51,7 @@ pub struct Record {
     pub instance: u32,
     /// Per channel (r, g, b): the world-space rotational gradient (xyz). The red
     /// channel's w holds the record's relative noise ([`Record::relative_noise`]); the
-    /// others' w are unused.
+    /// green and blue channels' w its corral ([`Record::corral`]; 0 without one).
     pub rotation_gradient: [[f32; 4]; 3],
     /// Per channel: the world-space translational gradient.
     pub translation_gradient: [[f32; 4]; 3],
