@@ -3,6 +3,7 @@
 // gradients straight from the plane (algorithms.md 3.3), then clamps R (decision 5, and
 // optionally by its neighbours).
 //!include shared/records.wgsl
+//!include shared/corral.wgsl
 //!include shared/record_hessian.wgsl
 //!include shared/sampling.wgsl
 //!include shared/neighbour_grid.wgsl
@@ -13,7 +14,7 @@ const SUM_LANES: u32 = 128u;
 // 1: records::RecordRadius::Hessian (R from the irradiance's curvature); 0: the split
 // sphere. A pipeline constant, so each pipeline carries only its rule's code.
 override RECORD_RADIUS_HESSIAN: bool = false;
-// 1: the records get corrals (records.wgsl; records::Corral not Off): a pipeline constant,
+// 1: the records get corrals (shared/corral.wgsl; records::Corral not Off): a pipeline constant,
 // so that a pipeline without them carries none of their code.
 override CORRAL: bool = false;
 
@@ -26,7 +27,7 @@ struct ReduceParams {
     cos_weight_sum: f32,    // sum of the plane's cosine weights (pi when stretched)
     neighbour_clamp: u32,   // 1: R <= R_j + |p - p_j| over the records before this batch
     hessian_scale: f32,     // with RECORD_RADIUS_HESSIAN: R = hessian_scale sqrt(E / lambda)
-    corral: u32,            // 1: store the corral (records.wgsl, corral_allows)
+    corral: u32,            // 1: store the corral (shared/corral.wgsl)
 }
 
 @group(1) @binding(0) var<uniform> params: ReduceParams;
@@ -344,7 +345,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     }
     out.rotation_gradient[0].w = relative_noise(sum.variance, e);
     if CORRAL {
-        // The corral's vertices against the final R (records.wgsl), eight a word, each word
+        // The corral's vertices against the final R (shared/corral.wgsl), eight a word, each word
         // stored as an exact integer (under 2^24).
         var words = vec2u(0u);
         for (var vertex = 0u; vertex < CORRAL_SECTORS; vertex++) {

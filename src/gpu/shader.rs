@@ -81,6 +81,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/shared/records.wgsl"),
     ),
     (
+        "shared/corral.wgsl",
+        include_str!("../../wgsl/shared/corral.wgsl"),
+    ),
+    (
         "shared/record_hessian.wgsl",
         include_str!("../../wgsl/shared/record_hessian.wgsl"),
     ),

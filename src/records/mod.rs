@@ -187,7 +187,7 @@ pub enum Corral {
 }
 
 /// Vertices of a record's corral polygon around its normal (WGSL `CORRAL_SECTORS`,
-/// records.wgsl), 22.5 degrees apart.
+/// shared/corral.wgsl), 22.5 degrees apart.
 pub const CORRAL_SECTORS: u32 = 16;
 /// Bits of a corral vertex's level.
 pub const CORRAL_BITS: u32 = 3;

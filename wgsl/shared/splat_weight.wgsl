@@ -3,6 +3,7 @@
 // that a pixel the cover marks is exactly a pixel the gather gives a non-zero weight. The
 // including pass declares `records: array<Record>` and a `params: SplatParams` uniform.
 //!include shared/records.wgsl
+//!include shared/corral.wgsl
 //!include shared/splat.wgsl
 
 // 1: the pipeline weighs the records' corrals (where `params.corral` says so): a pipeline
