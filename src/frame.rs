@@ -243,7 +243,7 @@ fn frame_gather_source<'a>(
         accuracy: settings.accuracy * factor,
         plateau: crate::records::noise_widening::weight_plateau(settings, factor),
         dark_only_empty: still && settings.source == crate::records::RecordSource::Planes,
-        corral: settings.corral != crate::records::Corral::Off,
+        corral: settings.corral.in_gathers(),
     }
 }
 
@@ -981,7 +981,7 @@ impl Renderer {
             accuracy: cache.pass.settings.accuracy,
             plateau: 0.0,
             dark_only_empty: false,
-            corral: cache.pass.settings.corral != crate::records::Corral::Off,
+            corral: cache.pass.settings.corral.in_gathers(),
         };
         let sums = cache.splat.gather(ctx, splat_pass, src, &mut times)?;
         let sums = ctx.read_buffer(&sums)?;
@@ -1021,12 +1021,12 @@ impl Renderer {
                 accuracy,
                 plateau: 0.0,
                 dark_only_empty: false,
-                corral: cache.settings().corral != crate::records::Corral::Off,
+                corral: cache.settings().corral.in_gathers(),
             };
             splat_pass.splat(ctx, src, &splat, true, &mut times)?;
             // Placement's cover: the corrals only with `Corral::Placement`.
             let cover = SplatSource {
-                corral: cache.settings().corral == crate::records::Corral::Placement,
+                corral: cache.settings().corral.in_cover(),
                 ..src
             };
             splat_pass.cover(ctx, cover, &mask, &mut times)?;
@@ -1170,7 +1170,7 @@ impl Renderer {
             accuracy,
             plateau: 0.0,
             dark_only_empty: false,
-            corral: pass.settings.corral != crate::records::Corral::Off,
+            corral: pass.settings.corral.in_cover(),
         };
         splat_pass.cover(ctx, held, &mask, &mut times)?;
         // Light-space visibility for the plane hits of new records, traced once per scene.
@@ -1262,7 +1262,7 @@ impl Renderer {
                     accuracy,
                     plateau: 0.0,
                     dark_only_empty: false,
-                    corral: rf.pass.settings.corral != crate::records::Corral::Off,
+                    corral: rf.pass.settings.corral.in_cover(),
                 };
                 splat_pass.cover(ctx, held, &need, &mut times)?;
                 // Placed in the placement-only pass too (the first pass of interpolated
@@ -1304,7 +1304,7 @@ impl Renderer {
                         accuracy,
                         plateau: 0.0,
                         dark_only_empty: false,
-                        corral: rf.pass.settings.corral != crate::records::Corral::Off,
+                        corral: rf.pass.settings.corral.in_gathers(),
                     };
                     Some(rf.splat.gather(ctx, splat_pass, all, &mut times)?)
                 };

@@ -14,8 +14,8 @@ const SUM_LANES: u32 = 128u;
 // 1: records::RecordRadius::Hessian (R from the irradiance's curvature); 0: the split
 // sphere. A pipeline constant, so each pipeline carries only its rule's code.
 override RECORD_RADIUS_HESSIAN: bool = false;
-// 1: the records get corrals (shared/corral.wgsl; records::Corral not Off): a pipeline constant,
-// so that a pipeline without them carries none of their code.
+// 1: the records get corrals (shared/corral.wgsl; records::Corral::in_gathers): a pipeline
+// constant, so that a pipeline without them carries none of their code.
 override CORRAL: bool = false;
 
 struct ReduceParams {
@@ -27,7 +27,6 @@ struct ReduceParams {
     cos_weight_sum: f32,    // sum of the plane's cosine weights (pi when stretched)
     neighbour_clamp: u32,   // 1: R <= R_j + |p - p_j| over the records before this batch
     hessian_scale: f32,     // with RECORD_RADIUS_HESSIAN: R = hessian_scale sqrt(E / lambda)
-    corral: u32,            // 1: store the corral (shared/corral.wgsl)
 }
 
 @group(1) @binding(0) var<uniform> params: ReduceParams;
@@ -81,7 +80,7 @@ fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32
     let px = plane[k];
     // The corral: the plane's outermost ring holds the rays nearest the horizon.
     let j = k / res;
-    if CORRAL && params.corral != 0u && s.depth > 0.0 && (i == 0u || j == 0u || i + 1u == res || j + 1u == res) {
+    if CORRAL && s.depth > 0.0 && (i == 0u || j == 0u || i + 1u == res || j + 1u == res) {
         let c = px.rot_center.zw;
         let h = s.depth * length(c);
         let t = corral_turn(turn.x * c.x - turn.y * c.y, turn.y * c.x + turn.x * c.y);

@@ -317,7 +317,7 @@ impl PlacementPass {
                             accuracy: cover_accuracy,
                             plateau: 0.0,
                             dark_only_empty: false,
-                            corral: settings.corral == crate::records::Corral::Placement,
+                            corral: settings.corral.in_cover(),
                         };
                         splat_pass.cover(ctx, new_records, mask, times)?;
                         stats.new_records += n;

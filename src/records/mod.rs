@@ -95,7 +95,15 @@ impl Record {
     /// Whether the record contributes at (p, n) at `accuracy`: Ward's error within it, not
     /// behind and inside its corral (WGSL `reach_error` below `NOT_REACHED`).
     pub fn reaches(&self, p: Vec3, n: Vec3, accuracy: f32) -> bool {
-        self.error_at(p, n) <= accuracy && self.in_front_of(p, n, accuracy) && self.corral_allows(p)
+        self.reaches_corralled(p, n, accuracy, true)
+    }
+
+    /// [`Record::reaches`] with the corral weighed or not (tail fill's gather, and
+    /// placement's cover but with [`Corral::Placement`], weigh none).
+    pub fn reaches_corralled(&self, p: Vec3, n: Vec3, accuracy: f32, corral: bool) -> bool {
+        self.error_at(p, n) <= accuracy
+            && self.in_front_of(p, n, accuracy)
+            && (!corral || self.corral_allows(p))
     }
 
     /// The corral: [`CORRAL_BITS`] bits per vertex of the polygon of [`CORRAL_SECTORS`]
@@ -186,6 +194,18 @@ pub enum Corral {
     Placement,
 }
 
+impl Corral {
+    /// Whether records get corrals and the gathers weigh them.
+    pub fn in_gathers(self) -> bool {
+        self != Corral::Off
+    }
+
+    /// Whether placement's cover weighs them too.
+    pub fn in_cover(self) -> bool {
+        self == Corral::Placement
+    }
+}
+
 /// Vertices of a record's corral polygon around its normal (WGSL `CORRAL_SECTORS`,
 /// shared/corral.wgsl), 22.5 degrees apart.
 pub const CORRAL_SECTORS: u32 = 16;
@@ -268,11 +288,6 @@ fn corral_sub_sector(xy: glam::Vec2) -> u32 {
     u32::from(xy.y >= xy.x * CORRAL_TAN)
         + u32::from(xy.y >= xy.x)
         + u32::from(xy.y * CORRAL_TAN >= xy.x)
-}
-
-/// Vertex `b` of a corral at `level`, in the tangent plane (WGSL `corral_vertex`).
-pub fn corral_vertex(b: u32, level: u32, radius: f32) -> glam::Vec2 {
-    glam::Vec2::from(CORRAL_DIRECTIONS[b as usize]) * (CORRAL_DISTANCE[level as usize] * radius)
 }
 
 /// The corral of `h`, the nearest horizon hit per vertex (negative: none), for a record of
@@ -1260,8 +1275,6 @@ struct ReduceParams {
     cos_weight_sum: f32,
     neighbour_clamp: u32,
     hessian_scale: f32,
-    corral: u32,
-    _pad: [u32; 3],
 }
 
 /// Planes traced and refined by [`RecordPass::trace_planes_refined`].
@@ -1497,10 +1510,7 @@ impl RecordPass {
                     ),
                     // The corral's code only where records get one (lavapipe's start-up
                     // built the larger pipeline 1.2x as slowly).
-                    (
-                        "CORRAL",
-                        f64::from(u8::from(settings.corral != Corral::Off)),
-                    ),
+                    ("CORRAL", f64::from(u8::from(settings.corral.in_gathers()))),
                 ],
             )?,
             neighbour_grid: neighbour_grid::NeighbourGridPass::new(ctx)?,
@@ -2071,8 +2081,6 @@ impl RecordPass {
                 cos_weight_sum: table.cos_weight_sum,
                 neighbour_clamp: u32::from(self.settings.neighbour_clamp),
                 hessian_scale: self.settings.record_radius.hessian_scale(),
-                corral: u32::from(self.settings.corral != Corral::Off),
-                _pad: [0; 3],
             },
         );
         let bind = self.reduce.bind(

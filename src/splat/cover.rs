@@ -169,11 +169,9 @@ pub fn reference_cover(
             let n = Vec3::from(v.shading_normal);
             u32::from(
                 v.is_hit()
-                    && records.iter().any(|r| {
-                        r.error_at(p, n) <= accuracy
-                            && r.in_front_of(p, n, accuracy)
-                            && (!corral || r.corral_allows(p))
-                    }),
+                    && records
+                        .iter()
+                        .any(|r| r.reaches_corralled(p, n, accuracy, corral)),
             )
         })
         .collect()

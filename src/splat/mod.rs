@@ -163,8 +163,7 @@ pub(crate) struct SplatParams {
     plateau: f32,
     /// [`SplatSource::dark_only_empty`], 1 or 0.
     dark_only_empty: u32,
-    /// [`SplatSource::corral`], 1 or 0 (0 in tail fill's gather).
-    corral: u32,
+    _pad: u32,
 }
 
 impl SplatParams {
@@ -614,7 +613,8 @@ impl SplatPass {
             accuracy,
             plateau,
             dark_only_empty,
-            corral,
+            // Pipelines, not parameters, weigh the corrals (`CORRAL`).
+            corral: _,
         } = src;
         let (width, height) = (vis.width, vis.height);
         let tiles_x = width.div_ceil(TILE_SIZE);
@@ -641,7 +641,7 @@ impl SplatPass {
                 count_coverage,
                 plateau,
                 dark_only_empty: u32::from(dark_only_empty),
-                corral: u32::from(corral && into != SplatInto::FillEmpty),
+                _pad: 0,
             },
         );
         let record_tiles = ctx.storage_buffer_sized("record tiles", u64::from(records) * 16)?;

@@ -43,12 +43,9 @@ fn empty_where_only_dark_corralled(
         }
         let p = Vec3::from(v.position);
         let n = Vec3::from(v.shading_normal);
-        let lit = records.iter().any(|r| {
-            !r.is_dark()
-                && r.error_at(p, n) <= accuracy
-                && r.in_front_of(p, n, accuracy)
-                && (!corral || r.corral_allows(p))
-        });
+        let lit = records
+            .iter()
+            .any(|r| !r.is_dark() && r.reaches_corralled(p, n, accuracy, corral));
         if !lit {
             *sum = [0.0; 4];
         }

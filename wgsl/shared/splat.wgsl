@@ -25,7 +25,7 @@ struct SplatParams {
                          // no record outliving the frame contributes to (splat_gather.wgsl)
     plateau: f32,        // below this error a record's weight stops growing (splat_weight)
     dark_only_empty: u32, // 1: a pixel only records with E = 0 reach stays empty (SplatSource)
-    corral: u32,         // 1: the records' corrals apply (0: tail fill, records.wgsl)
+    _pad1: u32,
 }
 
 // The pixels of tile `tile` (row-major over `params.tiles_x`): x0, y0 inclusive, x1, y1

@@ -6,8 +6,9 @@
 //!include shared/corral.wgsl
 //!include shared/splat.wgsl
 
-// 1: the pipeline weighs the records' corrals (where `params.corral` says so): a pipeline
-// constant, so that the pipelines of splats without corrals carry none of their code.
+// 1: the pipeline weighs the records' corrals (SplatSource::corral; never in tail fill's
+// gather): a pipeline constant, so that the pipelines of splats without corrals carry none
+// of their code.
 override CORRAL: bool = false;
 
 // The part of record k the contribution test reads: its position, radius, normal and
@@ -31,7 +32,7 @@ const NOT_REACHED: f32 = 1.0e30;
 fn reach_error(r: Record, p: vec3f, n: vec3f) -> f32 {
     let err = record_error(r, p, n);
     if err <= params.accuracy && record_in_front(r, p, n, params.accuracy)
-        && (!CORRAL || params.corral == 0u || corral_allows(r, p)) {
+        && (!CORRAL || corral_allows(r, p)) {
         return err;
     }
     return NOT_REACHED;
