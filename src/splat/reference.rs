@@ -65,7 +65,7 @@ pub fn splat_records_widened(
 }
 
 /// [`splat_records_widened`], with the records' corrals or without (tail fill's tier:
-/// `SplatParams::corral` 0 in `splat_fill.wgsl`).
+/// its pipeline built without `CORRAL`, `splat_fill.wgsl`).
 fn splat_records_corralled(
     records: &[Record],
     first: usize,
