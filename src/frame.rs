@@ -701,8 +701,7 @@ impl Renderer {
         self.build_passes_on(cache, cores)
     }
 
-    /// [`Self::build_passes`] on up to `threads` threads (at least one); with more threads
-    /// than passes, the record pass's thread also builds tail fill's record pass.
+    /// [`Self::build_passes`] on up to `threads` threads (at least one).
     pub fn build_passes_on(
         &self,
         cache: Option<&CacheSettings>,
@@ -735,19 +734,14 @@ impl Renderer {
                 Box::new(|| self.light_map_pass().map(|_| ())),
                 Box::new(|| self.resolve_pass().map(|_| ())),
             ]);
-            // A spare core also builds the pass of tail fill's coarser planes after the
-            // record pass (large images use it; otherwise it is built when the tail
-            // begins, and small images never use it).
-            let tail = cores > builds.len() + 1;
+            // (Tail fill's pass of coarser planes is built when the tail begins, from the
+            // record pass's pipelines: `RecordPass::tail_pass`.)
             let built = &built_cache;
             // The record pass (several pipelines) first: it is the longest.
             builds.insert(
                 0,
                 Box::new(move || {
                     let cache = self.new_cache_for(settings, features())?;
-                    if tail {
-                        cache.pass.tail_pass(&self.ctx)?;
-                    }
                     *built.lock().unwrap_or_else(|p| p.into_inner()) = Some(cache);
                     Ok(())
                 }),

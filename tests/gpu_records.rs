@@ -1282,3 +1282,58 @@ fn neighbour_grid_clamp_matches_the_full_loop() {
         sites.len()
     );
 }
+
+/// Tail fill's record pass (`RecordPass::tail_pass`: coarser planes, built from the record
+/// pass's own pipelines with a plane table and buffers of its own) computes the records a
+/// pass built anew at the tail's plane resolution computes, bit for bit: refinement, dark
+/// planes and the reduction all follow the resolution at run time, none is compiled in.
+#[test]
+fn tail_pass_computes_the_records_of_a_pass_built_at_its_resolution() {
+    let scene = common::load("cornell-box.toml", Some((32, 32)));
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let settings = CacheSettings::default();
+    let tail_resolution = settings.tail_plane_resolution();
+    assert!(
+        tail_resolution < settings.plane_resolution,
+        "the defaults' tail planes are coarser ({tail_resolution} against {})",
+        settings.plane_resolution
+    );
+    let mut sites = sites(&scene, &renderer, &settings, 24);
+    // Two planes that see no light: refined everywhere.
+    push_dark_cornell_sites(&mut sites);
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+    let tail = pass.tail_pass(&renderer.ctx).expect("tail pass");
+    assert_eq!(tail.settings.plane_resolution, tail_resolution);
+    let built = RecordPass::new(
+        &renderer.ctx,
+        &CacheSettings {
+            plane_resolution: tail_resolution,
+            ..settings.clone()
+        },
+    )
+    .expect("pass at the tail's resolution");
+    let mut from_tail = RecordCache::new(&renderer.ctx).expect("cache");
+    let mut from_built = RecordCache::new(&renderer.ctx).expect("cache");
+    let a = compute_records(&renderer, &prepared, tail, &sites, &mut from_tail);
+    let b = compute_records(&renderer, &prepared, &built, &sites, &mut from_built);
+    assert_eq!(a.len(), sites.len());
+    let differ = a
+        .iter()
+        .zip(&b)
+        .filter(|(x, y)| bytemuck::bytes_of(*x) != bytemuck::bytes_of(*y))
+        .count();
+    assert_eq!(differ, 0, "{differ} of {} records differ", a.len());
+    // And they are the tail's, not the full planes' records.
+    let mut from_full = RecordCache::new(&renderer.ctx).expect("cache");
+    let c = compute_records(&renderer, &prepared, &pass, &sites, &mut from_full);
+    assert!(
+        a.iter()
+            .zip(&c)
+            .any(|(x, y)| bytemuck::bytes_of(x) != bytemuck::bytes_of(y)),
+        "coarser planes give other records"
+    );
+    // The dark planes were counted by each pass's own counter.
+    let dark = RecordPass::take_dark_plane_rays(&renderer.ctx, &[&pass]).expect("dark rays");
+    assert!(dark > 0, "the dark sites' planes were refined");
+}

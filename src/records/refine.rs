@@ -321,7 +321,8 @@ struct SelectParams {
 /// The GPU passes of refinement for one [`CacheSettings`] (built when `plane_refine`
 /// selects at least one pixel or dark planes are refined, `dark_plane_refine`).
 pub struct RefinePass {
-    select: ComputePass,
+    /// Shared with the tail pass's refinement ([`Self::coarser`]).
+    select: std::sync::Arc<ComputePass>,
     /// What the refinement binds for the plane pass's hits (it writes none).
     no_hits: wgpu::Buffer,
     /// The indirect dispatch (x y z) that refines a batch's dark planes, which the
@@ -350,27 +351,41 @@ impl RefinePass {
         if refined == 0 && !settings.dark_plane_refine {
             return Ok(None);
         }
-        let split = settings.plane_refine_split;
-        Ok(Some(Self {
-            // Nine storage buffers: with the scene's six, 15 of the 16 a stage may bind
-            // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
-            select: ComputePass::new(
-                ctx,
-                "plane_refine_select.wgsl",
-                &[
-                    Uniform,
-                    StorageRead,
-                    StorageRead,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                    StorageRead,
-                    StorageRead,
-                    Uniform,
-                    StorageRead,
-                    StorageReadWrite,
-                ],
-            )?,
+        // Nine storage buffers: with the scene's six, 15 of the 16 a stage may bind
+        // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
+        let select = ComputePass::new(
+            ctx,
+            "plane_refine_select.wgsl",
+            &[
+                Uniform,
+                StorageRead,
+                StorageRead,
+                StorageReadWrite,
+                StorageReadWrite,
+                StorageReadWrite,
+                StorageRead,
+                StorageRead,
+                Uniform,
+                StorageRead,
+                StorageReadWrite,
+            ],
+        )?;
+        Self::with_select(ctx, settings, std::sync::Arc::new(select)).map(Some)
+    }
+
+    /// This refinement for planes of another resolution (`settings`): the same selection
+    /// pipeline (no resolution is compiled into it), with buffers and counters of its own.
+    pub fn coarser(&self, ctx: &GpuContext, settings: &CacheSettings) -> Result<Self> {
+        Self::with_select(ctx, settings, std::sync::Arc::clone(&self.select))
+    }
+
+    fn with_select(
+        ctx: &GpuContext,
+        settings: &CacheSettings,
+        select: std::sync::Arc<ComputePass>,
+    ) -> Result<Self> {
+        Ok(Self {
+            select,
             no_hits: ctx.storage_buffer_sized("no refined hits", 16)?,
             dark_dispatch: ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("dark plane refinement dispatch"),
@@ -382,13 +397,13 @@ impl RefinePass {
             }),
             dark_planes: ctx.storage_buffer("dark planes", &[0u32; 3])?,
             resolution: settings.plane_resolution,
-            refined,
-            split,
+            refined: settings.refined_pixels(),
+            split: settings.plane_refine_split,
             light_samples: settings.plane_light_samples,
             light_choices: settings.plane_light_choices,
             dark_planes_refined: settings.dark_plane_refine,
             dark_plane_guide: settings.dark_plane_guide,
-        }))
+        })
     }
 
     /// Records the refinement of the `count` planes in `samples` (traced for `sites`, P^2
