@@ -75,6 +75,25 @@ fn each_pipeline_is_compiled_once_at_first_use_and_reported_apart() {
             "{pass} compiled twice: {compiled:?}"
         );
     }
+    // A cache at another plane resolution (as tail fill's coarser planes and temporal
+    // caching's records are) builds no pipeline of its own: no plane resolution is
+    // compiled into a pipeline, so its record pass is built from the first cache's
+    // (`ComputePass::shared`), and its frame compiles nothing.
+    let mut other = renderer
+        .new_cache(&CacheSettings {
+            plane_resolution: 12,
+            ..settings.clone()
+        })
+        .expect("cache");
+    let gi_other = renderer
+        .render_gi_frame(&prepared, &scene.camera, &mut other, None, |_| {})
+        .expect("GI frame");
+    assert!(
+        gi_other.stats.shader_compile_ms.is_empty(),
+        "a second record pass compiled pipelines again: {:?}",
+        gi_other.stats.shader_compile_ms
+    );
+    assert_ne!(gi.beauty, gi_other.beauty, "the planes' resolution counts");
     // Pass times never include a compilation: the GI frame's direct pass costs what the
     // warm direct-light frame's did, within the noise of this machine (10x and 50 ms).
     let ms = |f: &radsplat::frame::Frame, n: &str| {

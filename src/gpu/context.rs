@@ -82,6 +82,9 @@ pub struct GpuContext {
     /// Pass timers read later, in one wait ([`GpuContext::deferring_pass_times`]); None:
     /// timers are read when their submission is done.
     pub(crate) deferred_times: Arc<Mutex<Option<Vec<super::timer::DeferredTimes>>>>,
+    /// The passes built on this device, by shader, bindings and constants
+    /// ([`super::pipeline::ComputePass::shared`]).
+    pub(crate) built_passes: super::pipeline::BuiltPasses,
 }
 
 /// A wgpu pipeline cache kept in a file between runs, so a driver that compiles pipelines
@@ -300,6 +303,7 @@ impl GpuContext {
             pipeline_cache: None,
             waits: Arc::default(),
             deferred_times: Arc::default(),
+            built_passes: Default::default(),
         }
     }
 

@@ -3,14 +3,35 @@
 
 use super::{GpuContext, scene_buffers::scene_layout, shader};
 use crate::{Error, Result};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 
 /// How a pass binds one of its own buffers (group 1, bindings in order).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Binding {
     Uniform,
     StorageRead,
     StorageReadWrite,
 }
+
+/// What a pass is built from: its shader, its group-1 bindings and its pipeline constants
+/// (by their bits).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+struct PassKey {
+    name: &'static str,
+    bindings: Vec<Binding>,
+    constants: Vec<(String, u64)>,
+}
+
+/// The passes [`ComputePass::shared`] built on one device: a slot per key, locked while
+/// its pass is built (a failed build leaves it empty, for the next asker to try).
+#[derive(Default)]
+pub(crate) struct BuiltPasses {
+    slots: Mutex<HashMap<PassKey, Arc<PassSlot>>>,
+}
+
+/// One key's pass, once built.
+type PassSlot = Mutex<Option<Arc<ComputePass>>>;
 
 /// A compiled compute pass.
 ///
@@ -116,6 +137,43 @@ impl ComputePass {
             compile_times: ctx.compile_times.clone(),
             compiled: std::sync::atomic::AtomicBool::new(!lazy),
         })
+    }
+
+    /// [`Self::with_constants`], built once per device: a pass asked for again with the
+    /// same shader, bindings and constants is the one built first (concurrent askers wait
+    /// for it). The record passes of tail fill's coarser planes, of radiance records and
+    /// of temporal caching share their pipelines with the frame's record pass this way:
+    /// lavapipe spent 0.1-0.2 s creating and compiling each copy, in the middle of a
+    /// frame (docs/results.md, stop 59).
+    pub fn shared(
+        ctx: &GpuContext,
+        name: &'static str,
+        bindings: &[Binding],
+        constants: &[(&str, f64)],
+    ) -> Result<Arc<Self>> {
+        let key = PassKey {
+            name,
+            bindings: bindings.to_vec(),
+            constants: constants
+                .iter()
+                .map(|&(k, v)| (k.to_string(), v.to_bits()))
+                .collect(),
+        };
+        let slot = ctx
+            .built_passes
+            .slots
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .entry(key)
+            .or_default()
+            .clone();
+        let mut built = slot.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(pass) = built.as_ref() {
+            return Ok(Arc::clone(pass));
+        }
+        let pass = Arc::new(Self::with_constants(ctx, name, bindings, constants)?);
+        *built = Some(Arc::clone(&pass));
+        Ok(pass)
     }
 
     /// Compiles the pipeline by an empty dispatch before its first real one, timed on the

@@ -16,17 +16,19 @@ struct PrefixSumParams {
 
 /// The prefix-sum pipeline.
 pub struct PrefixSumPass {
-    pass: ComputePass,
+    /// One per device ([`ComputePass::shared`]): every pass that scans shares it.
+    pass: std::sync::Arc<ComputePass>,
 }
 
 impl PrefixSumPass {
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            pass: ComputePass::new(
+            pass: ComputePass::shared(
                 ctx,
                 "prefix_sum.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite],
+                &[],
             )?,
         })
     }

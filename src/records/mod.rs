@@ -1344,13 +1344,14 @@ impl PlaneTable {
 /// `hemisphere_plane.wgsl` (trace and shade the planes), `record_reduce.wgsl` (E, R,
 /// gradients), in batches sized to the device.
 pub struct RecordPass {
-    /// The pipelines are shared with the tail pass ([`Self::tail_pass`]): no plane
-    /// resolution is compiled into them.
+    /// Shared with every record pass of the device built from the same pipelines
+    /// ([`ComputePass::shared`]): tail fill's ([`Self::tail_pass`]), radiance records',
+    /// temporal caching's.
     sites: Arc<ComputePass>,
     plane: Arc<ComputePass>,
     reduce: Arc<ComputePass>,
     /// The grid over earlier records that neighbour clamping searches.
-    neighbour_grid: Arc<neighbour_grid::NeighbourGridPass>,
+    neighbour_grid: neighbour_grid::NeighbourGridPass,
     /// The plane table for `settings`.
     table: PlaneTable,
     /// Adaptive plane refinement, when `settings.plane_refine` selects any pixel.
@@ -1373,9 +1374,9 @@ pub struct RecordPass {
     vpl: Option<vpl_gather::VplGatherPass>,
     /// The pass of tail fill's records: planes at
     /// [`CacheSettings::tail_plane_resolution`] (irradiance records from planes, when that
-    /// is below the plane resolution). Built on first use, from this pass's pipelines
-    /// with its own plane table and buffers: a pipeline of its own cost lavapipe 0.1 s
-    /// to build at the tail's start, and its first dispatch's compilation too.
+    /// is below the plane resolution). Built on first use; no plane resolution is compiled
+    /// into a pipeline, so its pipelines are this pass's ([`ComputePass::shared`]) and
+    /// only its plane table and buffers are new.
     tail: std::sync::OnceLock<Box<RecordPass>>,
 }
 
@@ -1423,7 +1424,10 @@ impl RecordPass {
                 )?)
             }
         };
-        let batch = Self::batch(ctx, u64::from(settings.plane_resolution).pow(2) * 16);
+        let plane_bytes = u64::from(settings.plane_resolution).pow(2) * 16;
+        // As many records per dispatch as fit one binding, at most 256 (a few seconds of
+        // rays on a CPU device, so progress stays visible).
+        let batch = (ctx.max_binding_size() / plane_bytes).clamp(1, 256) as u32;
         // The refinement's selection compiles on a thread of their own while this one
         // compiles the plane's (which also refines: one copy of the traversal and
         // shading, which lavapipe compiles in about 0.1 s); the record pass is the longest
@@ -1460,15 +1464,16 @@ impl RecordPass {
     ) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            sites: Arc::new(ComputePass::new(
+            sites: ComputePass::shared(
                 ctx,
                 "record_sites.wgsl",
                 &[Uniform, Uniform, StorageRead, StorageRead, StorageReadWrite],
-            )?),
+                &[],
+            )?,
             // Traces the planes and refines them (`refine::RefinePass::record`). Ten storage
             // buffers: with the scene's six, the 16 a stage may bind
             // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
-            plane: Arc::new(ComputePass::with_constants(
+            plane: ComputePass::shared(
                 ctx,
                 "hemisphere_plane.wgsl",
                 &[
@@ -1485,10 +1490,10 @@ impl RecordPass {
                     StorageRead,
                 ],
                 &[features.constant()],
-            )?),
+            )?,
             // The Hessian's mesh sum only in the pipeline that uses it (lavapipe ran the
             // split-sphere reduction slower with the unused branch compiled in).
-            reduce: Arc::new(ComputePass::with_constants(
+            reduce: ComputePass::shared(
                 ctx,
                 "record_reduce.wgsl",
                 &[
@@ -1513,8 +1518,8 @@ impl RecordPass {
                     // built the larger pipeline 1.2x as slowly).
                     ("CORRAL", f64::from(u8::from(settings.corral.in_gathers()))),
                 ],
-            )?),
-            neighbour_grid: Arc::new(neighbour_grid::NeighbourGridPass::new(ctx)?),
+            )?,
+            neighbour_grid: neighbour_grid::NeighbourGridPass::new(ctx)?,
             table: PlaneTable::new(ctx, settings.plane_resolution, settings)?,
             refine: None,
             settings: settings.clone(),
@@ -1599,51 +1604,8 @@ impl RecordPass {
             plane_resolution: tail_resolution,
             ..self.settings.clone()
         };
-        let pass = self.coarser(ctx, &tail_settings)?;
+        let pass = Self::for_scene(ctx, &tail_settings, self.kind, self.features)?;
         Ok(self.tail.get_or_init(|| Box::new(pass)))
-    }
-
-    /// This pass at another plane resolution (`settings` differ from this pass's in
-    /// `plane_resolution` alone): the same pipelines, with the plane table, batch and
-    /// buffers of its own.
-    fn coarser(&self, ctx: &GpuContext, settings: &CacheSettings) -> Result<RecordPass> {
-        settings.validate()?;
-        debug_assert_eq!(
-            CacheSettings {
-                plane_resolution: self.settings.plane_resolution,
-                ..settings.clone()
-            },
-            self.settings
-        );
-        let plane_bytes = u64::from(settings.plane_resolution).pow(2) * 16;
-        Ok(Self {
-            sites: Arc::clone(&self.sites),
-            plane: Arc::clone(&self.plane),
-            reduce: Arc::clone(&self.reduce),
-            neighbour_grid: Arc::clone(&self.neighbour_grid),
-            table: PlaneTable::new(ctx, settings.plane_resolution, settings)?,
-            refine: match &self.refine {
-                Some(r) => Some(r.coarser(ctx, settings)?),
-                None => None,
-            },
-            settings: settings.clone(),
-            batch: Self::batch(ctx, plane_bytes),
-            no_light_maps: LightMaps::none(ctx)?,
-            no_noise: ctx.storage_buffer_sized("no plane noise", 16)?,
-            no_selection: ctx.storage_buffer_sized("no refinement selection", 16)?,
-            kind: self.kind,
-            features: self.features,
-            projection: None,
-            vpl: None,
-            tail: std::sync::OnceLock::new(),
-        })
-    }
-
-    /// Records per plane dispatch for planes of `plane_bytes` each: as many as fit one
-    /// binding, at most 256 (a few seconds of rays on a CPU device, so progress stays
-    /// visible).
-    fn batch(ctx: &GpuContext, plane_bytes: u64) -> u32 {
-        (ctx.max_binding_size() / plane_bytes).clamp(1, 256) as u32
     }
 
     /// The name [`Self::for_scene`] had while the features were only kinds of light.

@@ -74,9 +74,10 @@ impl GridParams {
 
 /// The grid's passes (one set per record pass).
 pub struct NeighbourGridPass {
-    count: ComputePass,
+    /// Shared by every record pass of the device ([`ComputePass::shared`]).
+    count: std::sync::Arc<ComputePass>,
     scan: crate::gpu::prefix_sum::PrefixSumPass,
-    scatter: ComputePass,
+    scatter: std::sync::Arc<ComputePass>,
     /// What a reduction binds when it searches no grid (made once).
     pub(crate) disabled: NeighbourGrid,
 }
@@ -93,16 +94,18 @@ impl NeighbourGridPass {
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            count: ComputePass::new(
+            count: ComputePass::shared(
                 ctx,
                 "neighbour_grid_count.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite],
+                &[],
             )?,
             scan: crate::gpu::prefix_sum::PrefixSumPass::new(ctx)?,
-            scatter: ComputePass::new(
+            scatter: ComputePass::shared(
                 ctx,
                 "neighbour_grid_scatter.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite, StorageReadWrite],
+                &[],
             )?,
             // A grid the reduction does not search (it loops over every earlier record).
             disabled: NeighbourGrid {

@@ -321,7 +321,7 @@ struct SelectParams {
 /// The GPU passes of refinement for one [`CacheSettings`] (built when `plane_refine`
 /// selects at least one pixel or dark planes are refined, `dark_plane_refine`).
 pub struct RefinePass {
-    /// Shared with the tail pass's refinement ([`Self::coarser`]).
+    /// Shared with the other record passes' refinements ([`ComputePass::shared`]).
     select: std::sync::Arc<ComputePass>,
     /// What the refinement binds for the plane pass's hits (it writes none).
     no_hits: wgpu::Buffer,
@@ -353,7 +353,7 @@ impl RefinePass {
         }
         // Nine storage buffers: with the scene's six, 15 of the 16 a stage may bind
         // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
-        let select = ComputePass::new(
+        let select = ComputePass::shared(
             ctx,
             "plane_refine_select.wgsl",
             &[
@@ -369,22 +369,9 @@ impl RefinePass {
                 StorageRead,
                 StorageReadWrite,
             ],
+            &[],
         )?;
-        Self::with_select(ctx, settings, std::sync::Arc::new(select)).map(Some)
-    }
-
-    /// This refinement for planes of another resolution (`settings`): the same selection
-    /// pipeline (no resolution is compiled into it), with buffers and counters of its own.
-    pub fn coarser(&self, ctx: &GpuContext, settings: &CacheSettings) -> Result<Self> {
-        Self::with_select(ctx, settings, std::sync::Arc::clone(&self.select))
-    }
-
-    fn with_select(
-        ctx: &GpuContext,
-        settings: &CacheSettings,
-        select: std::sync::Arc<ComputePass>,
-    ) -> Result<Self> {
-        Ok(Self {
+        Ok(Some(Self {
             select,
             no_hits: ctx.storage_buffer_sized("no refined hits", 16)?,
             dark_dispatch: ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -397,13 +384,13 @@ impl RefinePass {
             }),
             dark_planes: ctx.storage_buffer("dark planes", &[0u32; 3])?,
             resolution: settings.plane_resolution,
-            refined: settings.refined_pixels(),
+            refined,
             split: settings.plane_refine_split,
             light_samples: settings.plane_light_samples,
             light_choices: settings.plane_light_choices,
             dark_planes_refined: settings.dark_plane_refine,
             dark_plane_guide: settings.dark_plane_guide,
-        })
+        }))
     }
 
     /// Records the refinement of the `count` planes in `samples` (traced for `sites`, P^2
