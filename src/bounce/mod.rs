@@ -161,7 +161,7 @@ const SIDES_PER_DISPATCH: u32 = 1 << 18;
 
 /// The gather pass.
 pub struct BouncePass {
-    gather: ComputePass,
+    gather: std::sync::Arc<ComputePass>,
 }
 
 impl BouncePass {

@@ -62,7 +62,7 @@ pub struct RayBatch {
 
 /// The ray-tracing pass (`wgsl/trace_rays.wgsl`).
 pub struct TraceRaysPass {
-    pass: ComputePass,
+    pass: std::sync::Arc<ComputePass>,
 }
 
 impl TraceRaysPass {

@@ -21,7 +21,7 @@ pub struct DirectOutput {
 
 /// The direct-light pass (`wgsl/direct_light.wgsl`).
 pub struct DirectLightPass {
-    pass: ComputePass,
+    pass: std::sync::Arc<ComputePass>,
 }
 
 impl DirectLightPass {

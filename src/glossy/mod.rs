@@ -28,7 +28,7 @@ struct GlossyParams {
 
 /// The glossy indirect pass.
 pub struct GlossyIndirectPass {
-    pass: ComputePass,
+    pass: std::sync::Arc<ComputePass>,
 }
 
 impl GlossyIndirectPass {

@@ -83,7 +83,7 @@ pub struct GpuContext {
     /// timers are read when their submission is done.
     pub(crate) deferred_times: Arc<Mutex<Option<Vec<super::timer::DeferredTimes>>>>,
     /// The passes built on this device, by shader, bindings and constants
-    /// ([`super::pipeline::ComputePass::shared`]).
+    /// ([`super::pipeline::ComputePass::with_constants`]).
     pub(crate) built_passes: super::pipeline::BuiltPasses,
 }
 

@@ -23,7 +23,7 @@ struct PassKey {
     constants: Vec<(String, u64)>,
 }
 
-/// The passes [`ComputePass::shared`] built on one device: a slot per key, locked while
+/// The passes [`ComputePass::with_constants`] built on one device: a slot per key, locked while
 /// its pass is built (a failed build leaves it empty, for the next asker to try).
 #[derive(Default)]
 pub(crate) struct BuiltPasses {
@@ -55,14 +55,53 @@ pub struct ComputePass {
 }
 
 impl ComputePass {
-    /// Compiles `wgsl/<name>` (entry point `main`) with the given group-1 bindings.
-    pub fn new(ctx: &GpuContext, name: &'static str, bindings: &[Binding]) -> Result<Self> {
+    /// The pass of `wgsl/<name>` (entry point `main`) with the given group-1 bindings.
+    pub fn new(ctx: &GpuContext, name: &'static str, bindings: &[Binding]) -> Result<Arc<Self>> {
         Self::with_constants(ctx, name, bindings, &[])
     }
 
     /// [`Self::new`] with values for the shader's pipeline-overridable constants
     /// (`override` in WGSL): the driver compiles the branches they turn off away.
+    ///
+    /// A pass is built once per device: asked for again with the same shader, bindings and
+    /// constants, it is the one built first (concurrent askers wait for it). So the record
+    /// passes of tail fill's coarser planes, of radiance records and of temporal caching,
+    /// and temporal caching's stages for each kind of record, share the frame's pipelines:
+    /// lavapipe spent 0.05-0.2 s creating and compiling each copy, often in the middle of
+    /// a frame (docs/results.md, stop 59).
     pub fn with_constants(
+        ctx: &GpuContext,
+        name: &'static str,
+        bindings: &[Binding],
+        constants: &[(&str, f64)],
+    ) -> Result<Arc<Self>> {
+        let key = PassKey {
+            name,
+            bindings: bindings.to_vec(),
+            constants: constants
+                .iter()
+                .map(|&(k, v)| (k.to_string(), v.to_bits()))
+                .collect(),
+        };
+        let slot = ctx
+            .built_passes
+            .slots
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .entry(key)
+            .or_default()
+            .clone();
+        let mut built = slot.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(pass) = built.as_ref() {
+            return Ok(Arc::clone(pass));
+        }
+        let pass = Arc::new(Self::build(ctx, name, bindings, constants)?);
+        *built = Some(Arc::clone(&pass));
+        Ok(pass)
+    }
+
+    /// Creates the pipeline of [`Self::with_constants`].
+    fn build(
         ctx: &GpuContext,
         name: &'static str,
         bindings: &[Binding],
@@ -137,43 +176,6 @@ impl ComputePass {
             compile_times: ctx.compile_times.clone(),
             compiled: std::sync::atomic::AtomicBool::new(!lazy),
         })
-    }
-
-    /// [`Self::with_constants`], built once per device: a pass asked for again with the
-    /// same shader, bindings and constants is the one built first (concurrent askers wait
-    /// for it). The record passes of tail fill's coarser planes, of radiance records and
-    /// of temporal caching share their pipelines with the frame's record pass this way:
-    /// lavapipe spent 0.1-0.2 s creating and compiling each copy, in the middle of a
-    /// frame (docs/results.md, stop 59).
-    pub fn shared(
-        ctx: &GpuContext,
-        name: &'static str,
-        bindings: &[Binding],
-        constants: &[(&str, f64)],
-    ) -> Result<Arc<Self>> {
-        let key = PassKey {
-            name,
-            bindings: bindings.to_vec(),
-            constants: constants
-                .iter()
-                .map(|&(k, v)| (k.to_string(), v.to_bits()))
-                .collect(),
-        };
-        let slot = ctx
-            .built_passes
-            .slots
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .entry(key)
-            .or_default()
-            .clone();
-        let mut built = slot.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(pass) = built.as_ref() {
-            return Ok(Arc::clone(pass));
-        }
-        let pass = Arc::new(Self::with_constants(ctx, name, bindings, constants)?);
-        *built = Some(Arc::clone(&pass));
-        Ok(pass)
     }
 
     /// Compiles the pipeline by an empty dispatch before its first real one, timed on the

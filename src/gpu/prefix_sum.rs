@@ -16,7 +16,6 @@ struct PrefixSumParams {
 
 /// The prefix-sum pipeline.
 pub struct PrefixSumPass {
-    /// One per device ([`ComputePass::shared`]): every pass that scans shares it.
     pass: std::sync::Arc<ComputePass>,
 }
 
@@ -24,7 +23,7 @@ impl PrefixSumPass {
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            pass: ComputePass::shared(
+            pass: ComputePass::with_constants(
                 ctx,
                 "prefix_sum.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite],

@@ -104,7 +104,7 @@ impl LitGrid {
 
 /// Builds the coarser levels once level 0 is marked.
 pub struct LitGridReducePass {
-    reduce: ComputePass,
+    reduce: std::sync::Arc<ComputePass>,
 }
 
 impl LitGridReducePass {

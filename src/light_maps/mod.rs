@@ -219,7 +219,7 @@ pub fn layout(
 
 /// The trace pass (`wgsl/light_map_trace.wgsl`).
 pub struct LightMapPass {
-    trace: ComputePass,
+    trace: std::sync::Arc<ComputePass>,
     lit_grid: lit_grid::LitGridReducePass,
 }
 

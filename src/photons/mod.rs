@@ -148,7 +148,7 @@ impl Photon {
 
 /// The photon tracing pass.
 pub struct PhotonPass {
-    trace: ComputePass,
+    trace: std::sync::Arc<ComputePass>,
 }
 
 impl PhotonPass {

@@ -123,7 +123,7 @@ impl TailFill {
 
 /// The placement pass (`wgsl/placement_select.wgsl`) and its round loop.
 pub struct PlacementPass {
-    select: ComputePass,
+    select: std::sync::Arc<ComputePass>,
 }
 
 impl PlacementPass {

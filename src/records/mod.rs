@@ -1344,9 +1344,9 @@ impl PlaneTable {
 /// `hemisphere_plane.wgsl` (trace and shade the planes), `record_reduce.wgsl` (E, R,
 /// gradients), in batches sized to the device.
 pub struct RecordPass {
-    /// Shared with every record pass of the device built from the same pipelines
-    /// ([`ComputePass::shared`]): tail fill's ([`Self::tail_pass`]), radiance records',
-    /// temporal caching's.
+    /// Every record pass of a device has the same pipelines (built once per device,
+    /// [`ComputePass::with_constants`]): tail fill's ([`Self::tail_pass`]), radiance
+    /// records', temporal caching's.
     sites: Arc<ComputePass>,
     plane: Arc<ComputePass>,
     reduce: Arc<ComputePass>,
@@ -1375,8 +1375,8 @@ pub struct RecordPass {
     /// The pass of tail fill's records: planes at
     /// [`CacheSettings::tail_plane_resolution`] (irradiance records from planes, when that
     /// is below the plane resolution). Built on first use; no plane resolution is compiled
-    /// into a pipeline, so its pipelines are this pass's ([`ComputePass::shared`]) and
-    /// only its plane table and buffers are new.
+    /// into a pipeline, so its pipelines are this pass's and only its plane table and
+    /// buffers are new.
     tail: std::sync::OnceLock<Box<RecordPass>>,
 }
 
@@ -1464,7 +1464,7 @@ impl RecordPass {
     ) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            sites: ComputePass::shared(
+            sites: ComputePass::with_constants(
                 ctx,
                 "record_sites.wgsl",
                 &[Uniform, Uniform, StorageRead, StorageRead, StorageReadWrite],
@@ -1473,7 +1473,7 @@ impl RecordPass {
             // Traces the planes and refines them (`refine::RefinePass::record`). Ten storage
             // buffers: with the scene's six, the 16 a stage may bind
             // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
-            plane: ComputePass::shared(
+            plane: ComputePass::with_constants(
                 ctx,
                 "hemisphere_plane.wgsl",
                 &[
@@ -1493,7 +1493,7 @@ impl RecordPass {
             )?,
             // The Hessian's mesh sum only in the pipeline that uses it (lavapipe ran the
             // split-sphere reduction slower with the unused branch compiled in).
-            reduce: ComputePass::shared(
+            reduce: ComputePass::with_constants(
                 ctx,
                 "record_reduce.wgsl",
                 &[

@@ -74,7 +74,6 @@ impl GridParams {
 
 /// The grid's passes (one set per record pass).
 pub struct NeighbourGridPass {
-    /// Shared by every record pass of the device ([`ComputePass::shared`]).
     count: std::sync::Arc<ComputePass>,
     scan: crate::gpu::prefix_sum::PrefixSumPass,
     scatter: std::sync::Arc<ComputePass>,
@@ -94,14 +93,14 @@ impl NeighbourGridPass {
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            count: ComputePass::shared(
+            count: ComputePass::with_constants(
                 ctx,
                 "neighbour_grid_count.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite],
                 &[],
             )?,
             scan: crate::gpu::prefix_sum::PrefixSumPass::new(ctx)?,
-            scatter: ComputePass::shared(
+            scatter: ComputePass::with_constants(
                 ctx,
                 "neighbour_grid_scatter.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite, StorageReadWrite],

@@ -542,7 +542,7 @@ struct ReduceParams {
 
 /// The GPU reduction of photon sites into records (`photon_reduce.wgsl`).
 pub struct PhotonReducePass {
-    reduce: ComputePass,
+    reduce: std::sync::Arc<ComputePass>,
 }
 
 impl PhotonReducePass {

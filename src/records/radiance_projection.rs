@@ -281,10 +281,10 @@ pub fn limit_gradients(block: &mut [f32], order: u32, radius: f32, r_min: f32, r
 
 /// The GPU projection pass with its plane basis.
 pub struct RadianceProjectionPass {
-    pass: ComputePass,
+    pass: std::sync::Arc<ComputePass>,
     /// Ward's gradient limit on the coefficients (`radiance_limit.wgsl`), after the
     /// reduction has sized the records.
-    limit: ComputePass,
+    limit: std::sync::Arc<ComputePass>,
     pub basis: PlaneBasis,
     table: wgpu::Buffer,
 }

@@ -321,7 +321,6 @@ struct SelectParams {
 /// The GPU passes of refinement for one [`CacheSettings`] (built when `plane_refine`
 /// selects at least one pixel or dark planes are refined, `dark_plane_refine`).
 pub struct RefinePass {
-    /// Shared with the other record passes' refinements ([`ComputePass::shared`]).
     select: std::sync::Arc<ComputePass>,
     /// What the refinement binds for the plane pass's hits (it writes none).
     no_hits: wgpu::Buffer,
@@ -353,7 +352,7 @@ impl RefinePass {
         }
         // Nine storage buffers: with the scene's six, 15 of the 16 a stage may bind
         // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
-        let select = ComputePass::shared(
+        let select = ComputePass::with_constants(
             ctx,
             "plane_refine_select.wgsl",
             &[

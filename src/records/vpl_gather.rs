@@ -93,7 +93,7 @@ const PARTIAL_BYTES: u64 = 128;
 
 /// The gather pass.
 pub struct VplGatherPass {
-    gather: ComputePass,
+    gather: std::sync::Arc<ComputePass>,
 }
 
 impl VplGatherPass {

@@ -60,8 +60,8 @@ pub struct UpdateCounts {
 
 /// The three passes of an update.
 pub struct VplUpdatePass {
-    select: ComputePass,
-    trace: ComputePass,
+    select: std::sync::Arc<ComputePass>,
+    trace: std::sync::Arc<ComputePass>,
     gather: VplGatherPass,
 }
 

@@ -213,7 +213,7 @@ impl ReferenceFrame {
 
 /// The compiled reference pass (`wgsl/reference_indirect.wgsl`).
 pub struct ReferencePass {
-    pass: ComputePass,
+    pass: std::sync::Arc<ComputePass>,
 }
 
 impl ReferencePass {

@@ -32,7 +32,7 @@ pub enum GlossyInput<'a> {
 
 /// The resolve pass.
 pub struct ResolvePass {
-    pass: ComputePass,
+    pass: std::sync::Arc<ComputePass>,
     /// Bound as the glossy input when a frame has none (the shader does not read it).
     no_glossy: wgpu::Buffer,
 }

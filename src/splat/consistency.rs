@@ -24,7 +24,7 @@ struct ConsistencyParams {
 
 /// The pass of `wgsl/splat_consistency.wgsl`.
 pub struct ConsistencyPass {
-    pass: ComputePass,
+    pass: std::sync::Arc<ComputePass>,
 }
 
 impl ConsistencyPass {

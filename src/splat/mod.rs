@@ -84,9 +84,9 @@ const FILL_EXTRA_BINDINGS: &[Binding] = &[Binding::StorageRead, Binding::Storage
 struct GatherPipelines {
     name: &'static str,
     bindings: Vec<Binding>,
-    plain: ComputePass,
+    plain: std::sync::Arc<ComputePass>,
     /// Indexed by `2 counting + corral`; index 0 is `plain`.
-    others: [std::sync::OnceLock<ComputePass>; 3],
+    others: [std::sync::OnceLock<std::sync::Arc<ComputePass>>; 3],
 }
 
 impl GatherPipelines {
@@ -105,7 +105,7 @@ impl GatherPipelines {
         bindings: &[Binding],
         counting: bool,
         corral: bool,
-    ) -> Result<ComputePass> {
+    ) -> Result<std::sync::Arc<ComputePass>> {
         ComputePass::with_constants(
             ctx,
             name,
@@ -342,24 +342,24 @@ pub struct SplatSource<'a> {
 }
 
 pub struct SplatPass {
-    count: ComputePass,
+    count: std::sync::Arc<ComputePass>,
     scan: crate::gpu::prefix_sum::PrefixSumPass,
-    busy_tiles: ComputePass,
-    scatter: ComputePass,
-    sort: ComputePass,
+    busy_tiles: std::sync::Arc<ComputePass>,
+    scatter: std::sync::Arc<ComputePass>,
+    sort: std::sync::Arc<ComputePass>,
     gather: GatherPipelines,
     /// Tail fill's gather over the listed empty pixels.
     fill: GatherPipelines,
-    cover: ComputePass,
+    cover: std::sync::Arc<ComputePass>,
     /// Placement's cover weighing the records' corrals (`records::Corral::Placement`),
     /// built when first asked for.
-    cover_corral: std::sync::OnceLock<ComputePass>,
-    count_coverage: ComputePass,
-    bounds: ComputePass,
+    cover_corral: std::sync::OnceLock<std::sync::Arc<ComputePass>>,
+    count_coverage: std::sync::Arc<ComputePass>,
+    bounds: std::sync::Arc<ComputePass>,
     /// The tile bounds of the pixels tail fill's gather fills (`EMPTY_ONLY`).
-    fill_bounds: ComputePass,
+    fill_bounds: std::sync::Arc<ComputePass>,
     /// The blocks' bounds from their tiles' (after `bounds` or `fill_bounds`).
-    block_bounds: ComputePass,
+    block_bounds: std::sync::Arc<ComputePass>,
     /// What `bounds` binds for the sums it does not read and the empty pixels it does not
     /// list.
     no_sums: wgpu::Buffer,

@@ -217,8 +217,8 @@ impl RadianceTables {
 
 /// The radiance splat passes with one scene's tables on the GPU.
 pub struct RadianceSplatPass {
-    need: ComputePass,
-    gather: ComputePass,
+    need: std::sync::Arc<ComputePass>,
+    gather: std::sync::Arc<ComputePass>,
     pub tables: RadianceTables,
     lobe_table: wgpu::Buffer,
     rotations: wgpu::Buffer,

@@ -114,8 +114,8 @@ pub struct PlaneRefresh<'a> {
 
 /// The `plane_refresh` and `plane_retrace` passes.
 pub struct RefreshPass {
-    select: ComputePass,
-    retrace: ComputePass,
+    select: std::sync::Arc<ComputePass>,
+    retrace: std::sync::Arc<ComputePass>,
     /// The re-trace shades with shadow rays: animations have no light maps (they would
     /// need tracing again every frame), so it binds none.
     no_light_maps: crate::light_maps::LightMaps,

@@ -141,9 +141,9 @@ pub fn estimate_half_extent(settings: &CacheSettings) -> f32 {
 
 /// The `plane_reproject`, `plane_reshade` and `plane_fill` passes.
 pub struct ReprojectionPass {
-    reproject: ComputePass,
-    reshade: ComputePass,
-    fill: ComputePass,
+    reproject: std::sync::Arc<ComputePass>,
+    reshade: std::sync::Arc<ComputePass>,
+    fill: std::sync::Arc<ComputePass>,
     /// The estimate moves every `stride`-th plane sample each way (1: all of them).
     pub stride: u32,
     /// The table of the estimated plane (P / stride cells each way), for its reduction.

@@ -126,7 +126,7 @@ pub fn check_resolution(ctx: &GpuContext, width: u32, height: u32) -> Result<()>
 
 /// The visibility pass (`wgsl/visibility.wgsl`).
 pub struct VisibilityPass {
-    pass: ComputePass,
+    pass: std::sync::Arc<ComputePass>,
 }
 
 impl VisibilityPass {

@@ -317,7 +317,7 @@ struct TraceParams {
 
 /// The VPL tracing pass.
 pub struct VplPass {
-    trace: ComputePass,
+    trace: std::sync::Arc<ComputePass>,
 }
 
 impl VplPass {
