@@ -138,7 +138,7 @@ const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
 
 /// Loads an OpenEXR or Radiance RGBE image (format from the file's first bytes).
 pub fn load_image(path: &Path) -> Result<RgbImage> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::input::read(path, crate::input::MAX_DATA_BYTES)?;
     if bytes.starts_with(&EXR_MAGIC) {
         load_exr(path)
     } else if bytes.starts_with(b"#?") {

@@ -24,6 +24,7 @@ pub mod frame;
 pub mod glossy;
 pub mod gpu;
 pub mod hsh;
+pub mod input;
 pub mod light_maps;
 pub mod output;
 pub mod parallel;

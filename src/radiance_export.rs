@@ -243,7 +243,7 @@ pub fn view_options(scene: &Scene) -> String {
 /// every glossy lobe (`specular = [0, 0, 0]`), for texture-less, Lambertian comparisons
 /// with Radiance. `scene` is the same file, loaded.
 pub fn notex_scene_toml(scene_path: &Path, scene: &Scene) -> Result<String> {
-    let text = std::fs::read_to_string(scene_path).map_err(|e| Error::io(scene_path, e))?;
+    let text = crate::input::read_to_string(scene_path, crate::input::MAX_TEXT_BYTES)?;
     let mut table: toml::Table = text
         .parse()
         .map_err(|e: toml::de::Error| Error::invalid(scene_path, "TOML", e.to_string()))?;

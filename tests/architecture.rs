@@ -17,6 +17,7 @@ fn layers() -> BTreeMap<&'static str, u32> {
         ("parallel", 0),
         ("scene", 0),
         ("hsh", 0),
+        ("input", 0),
         // The GPU scene: the BVH and the device that holds it (each uses the other).
         ("bvh", 1),
         ("gpu", 1),

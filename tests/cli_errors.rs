@@ -95,6 +95,100 @@ fn output_into_missing_directory_fails_cleanly() {
     no_files_in(&dir);
 }
 
+/// Outputs are renamed into place, so one named by a device or FIFO would replace it
+/// (`--stats /dev/null` run as root replaced the system's /dev/null): refused before any
+/// work. A PNG-only flag refuses a name that says another format.
+#[cfg(unix)]
+#[test]
+fn outputs_onto_devices_or_in_the_wrong_format_are_refused() {
+    let dir = tmp_dir("special-out");
+    let exr = dir.join("out.exr");
+    let scene = common::bundled("cornell-box.toml");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            exr.to_str().unwrap(),
+            "--size",
+            "16x16",
+            "--quiet",
+        ];
+        args.extend_from_slice(extra);
+        radsplat(&args)
+    };
+    let (code, err) = run(&["--stats", "/dev/null"]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("/dev/null") && err.contains("not a regular file"),
+        "{err}"
+    );
+    let jpg = dir.join("out.jpg");
+    let (code, err) = run(&["--png", jpg.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(err.contains("out.jpg") && err.contains(".png"), "{err}");
+    no_files_in(&dir);
+    let meta = std::fs::metadata("/dev/null").expect("/dev/null");
+    assert!(!meta.is_file(), "/dev/null is still a device");
+}
+
+/// A transform that carries geometry past what f32 resolves is refused, naming where the
+/// scene reaches (a cube moved 1e20 away rendered without indirect light, silently).
+#[test]
+fn a_scene_carried_beyond_f32_precision_is_refused() {
+    let dir = tmp_dir("far-scene");
+    let cube = common::bundled("cube.obj");
+    let scene = dir.join("far.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "[camera]\nposition = [0.0, 0.5, 3.0]\ntarget = [0.0, 0.5, 0.0]\nfov_y = 50.0\n\
+             resolution = [8, 8]\n\n[[mesh]]\nfile = \"{}\"\n\n[[mesh]]\nfile = \"{}\"\n\
+             translate = [1e20, 0.0, 0.0]\n\n[[light]]\ntype = \"point\"\n\
+             position = [0.0, 3.0, 0.0]\nintensity = [10.0, 10.0, 10.0]\n",
+            cube.display(),
+            cube.display()
+        ),
+    )
+    .expect("scene");
+    let out = dir.join("out");
+    std::fs::create_dir(&out).expect("out dir");
+    let exr = out.join("far.exr");
+    let (code, err) = radsplat(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("1e20") && err.contains("1e15"), "{err}");
+    no_files_in(&out);
+}
+
+/// A reference of more bounce directions than a run could ever trace is refused at once
+/// (`--spp 4294967295` planned its dispatches until the machine ran out of memory).
+#[test]
+fn reference_samples_beyond_the_cap_are_refused() {
+    let dir = tmp_dir("spp");
+    let exr = dir.join("ref.exr");
+    let scene = common::bundled("cornell-box.toml");
+    let (code, err) = radsplat(&[
+        "reference",
+        scene.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--size",
+        "8x8",
+        "--spp",
+        "4294967295",
+        "--quiet",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--spp") && err.contains("16777216"), "{err}");
+    no_files_in(&dir);
+}
+
 #[test]
 fn render_writes_exr_and_png() {
     let dir = tmp_dir("ok");

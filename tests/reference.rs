@@ -287,7 +287,7 @@ fn reference_command_writes_indirect_aov_and_refuses_zero_spp() {
     let zero = args("0");
     let (code, err) = radsplat(&zero.iter().map(String::as_str).collect::<Vec<_>>());
     assert_ne!(code, 0);
-    assert!(err.contains("--spp must be at least 1"), "{err}");
+    assert!(err.contains("--spp 0 must be between 1 and"), "{err}");
     assert!(!exr.exists());
     let ok = args("4");
     let (code, err) = radsplat(&ok.iter().map(String::as_str).collect::<Vec<_>>());

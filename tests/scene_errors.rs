@@ -175,6 +175,81 @@ fn inf_coordinate_names_v_line() {
     assert_mentions(&message, &["bad.obj", "line 3", "not finite"]);
 }
 
+/// A coordinate too far for f32 (near 1e19 the scene's diagonal overflowed and turned the
+/// indirect light off without a word) names its line.
+#[test]
+fn far_coordinate_names_v_line() {
+    let dir = test_dir("far-coordinate");
+    write(
+        &dir,
+        "far.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv -1e20 0 -1e20\nf 1 2 3\n",
+    );
+    let path = scene_with_mesh(&dir, "far.obj");
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["far.obj", "line 4", "1e15"]);
+}
+
+/// MTL exponents that are not finite, or so large that the normalised lobe is no longer
+/// exact in f32 (images 1e30 times too bright), name their line; so does a scene's
+/// `exponent` override.
+#[test]
+fn unusable_phong_exponents_name_their_line() {
+    let dir = test_dir("phong-exponent");
+    write(
+        &dir,
+        "box.obj",
+        &format!("mtllib box.mtl\nusemtl paint\n{TRIANGLE_OBJ}"),
+    );
+    for (ns, expect) in [
+        ("inf", "not finite"),
+        ("nan", "not finite"),
+        ("1e38", "1e6"),
+    ] {
+        write(
+            &dir,
+            "box.mtl",
+            &format!("newmtl paint\nKd 0.5 0.5 0.5\nKs 0.3 0.3 0.3\nNs {ns}\n"),
+        );
+        let path = scene_with_mesh(&dir, "box.obj");
+        let (_, message) = load_error(&path);
+        assert_mentions(&message, &["box.mtl", "line 4", "Ns", expect]);
+    }
+    write(
+        &dir,
+        "box.mtl",
+        "newmtl paint\nKd 0.5 0.5 0.5\nKs 0.3 0.3 0.3\nNs 20\n",
+    );
+    let path = write(
+        &dir,
+        "scene.toml",
+        &format!(
+            "{CAMERA}\n[[mesh]]\nfile = \"box.obj\"\n\n[[material]]\nname = \"paint\"\nexponent = 3e38\n"
+        ),
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["scene.toml", "exponent", "1e6"]);
+}
+
+/// A scene file that is a device or FIFO is refused before it is read (`/dev/zero` took
+/// the machine's memory, a FIFO blocked forever).
+#[cfg(unix)]
+#[test]
+fn a_scene_that_is_not_a_regular_file_is_refused() {
+    let (_, message) = load_error(Path::new("/dev/zero"));
+    assert_mentions(&message, &["/dev/zero", "not a regular file"]);
+    let dir = test_dir("fifo-scene");
+    let fifo = dir.join("scene.toml");
+    if std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        let (_, message) = load_error(&fifo);
+        assert_mentions(&message, &["scene.toml", "not a regular file"]);
+    }
+}
+
 #[test]
 fn nan_normal_names_vn_line() {
     let dir = test_dir("nan-normal");

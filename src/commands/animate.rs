@@ -98,6 +98,7 @@ pub fn animate(mut args: AnimateArgs) -> Result<()> {
         ));
     }
     if let Some(map) = &args.lifespan_map {
+        crate::output::check_png_name(map, "--lifespan-map")?;
         if args.temporal.is_none() {
             return Err(Error::Usage(
                 "--lifespan-map needs temporal caching (drop --temporal off)".into(),

@@ -25,6 +25,9 @@ pub fn compare(
         ));
     }
     let mut outputs = OutputSet::new();
+    if let Some(p) = diff {
+        crate::output::check_png_name(p, "--diff")?;
+    }
     outputs.plan_opt(diff)?;
     outputs.plan_opt(json)?;
     let mut ia = load_image(a)?;
@@ -114,6 +117,12 @@ pub fn compare_seq(
     downsample: u32,
 ) -> Result<()> {
     let mut outputs = OutputSet::new();
+    if let Some(p) = &plot {
+        crate::output::check_png_name(p, "--plot")?;
+    }
+    if let Some(p) = &flicker_map {
+        crate::output::check_png_name(p, "--flicker-map")?;
+    }
     outputs.plan_opt(plot.as_deref())?;
     outputs.plan_opt(json.as_deref())?;
     outputs.plan_opt(flicker_map.as_deref())?;

@@ -22,8 +22,11 @@ pub fn reference(
 ) -> Result<()> {
     use crate::reference::ReferencePass;
     let spp = options.spp;
-    if spp == 0 {
-        return Err(Error::Usage("--spp must be at least 1".into()));
+    if !(1..=crate::reference::MAX_SPP).contains(&spp) {
+        return Err(Error::Usage(format!(
+            "--spp {spp} must be between 1 and {}",
+            crate::reference::MAX_SPP
+        )));
     }
     let scene = load_scene_with(scene_path, frame, size, light_samples)?;
     let output = output.unwrap_or_else(|| {
@@ -33,6 +36,9 @@ pub fn reference(
     let format = ImageFormat::from_path(&output)?;
     let mut outputs = OutputSet::new();
     outputs.plan(&output)?;
+    if let Some(p) = &png {
+        crate::output::check_png_name(p, "--png")?;
+    }
     outputs.plan_opt(png.as_deref())?;
     outputs.plan_opt(stats.as_deref())?;
     let t0 = std::time::Instant::now();

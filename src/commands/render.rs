@@ -47,6 +47,12 @@ pub fn render(args: RenderArgs) -> Result<()> {
     if let Some(c) = &cache {
         c.validate()?;
     }
+    if let Some(p) = &png {
+        crate::output::check_png_name(p, "--png")?;
+    }
+    if let Some(p) = &record_map {
+        crate::output::check_png_name(p, "--record-map")?;
+    }
     if record_map.is_some() && cache.is_none() {
         return Err(Error::Usage(
             "--record-map needs GI (drop --direct-only)".into(),

@@ -395,6 +395,17 @@ impl GpuScene {
                 bvh.instances.len()
             )));
         }
+        // Transforms can carry vertices far past their file's coordinates.
+        let (lo, hi) = bvh.world_bounds();
+        let far = lo.abs().max(hi.abs()).max_element();
+        if !far.is_finite() || far > crate::scene::limits::MAX_COORDINATE {
+            return Err(Error::Usage(format!(
+                "the scene reaches {far:e} from the origin (world bounds {lo} to {hi}): \
+                 beyond +-{:e} f32 keeps no precision; check the instances' transforms and \
+                 keyframes, or rescale the scene",
+                crate::scene::limits::MAX_COORDINATE
+            )));
+        }
         if bvh.max_depth >= BVH_STACK_SIZE {
             let (mesh, need) = bvh.deepest_blas.unwrap_or((0, 0));
             let name = scene

@@ -3,18 +3,22 @@
 //! A run that writes several files (an EXR, a PNG, a record map, a stats JSON) must not
 //! leave some of them written, or an older file replaced, when it then fails: a user who
 //! sees "error" trusts that nothing changed. [`OutputSet`] checks every path before the
-//! work starts (its directory exists and takes a new file there), holds each file's bytes
-//! in a temporary file beside it, and renames them all into place only in
+//! work starts (its directory exists and takes a new file there, it names no device or
+//! FIFO; a symbolic link is written through to its target), writes each file's bytes to a
+//! temporary file beside it once they are ready, and renames them all into place only in
 //! [`OutputSet::commit`], after every file was staged. Dropped without a commit, it removes
-//! its temporary files and leaves every existing output as it was.
+//! its temporary files and leaves every existing output as it was. No temporary file exists
+//! while the work runs, so a run stopped by a signal (Ctrl-C) leaves none behind.
 
 use crate::{Error, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// One planned output: where it goes and the temporary file that holds it until commit.
+/// One planned output: the path it was named by, the file it replaces (the path, or a
+/// symbolic link's target) and the temporary file that holds it until commit.
 struct Planned {
     path: PathBuf,
+    target: PathBuf,
     tmp: PathBuf,
     staged: bool,
 }
@@ -32,24 +36,26 @@ impl OutputSet {
     }
 
     /// Plans `path` as an output of this run, before any work: refuses a path named twice,
-    /// a directory, a missing directory or one that does not take a new file (the
-    /// temporary file is created now, so permissions and a full disk show up before
-    /// rendering rather than after it).
+    /// a directory, a device, FIFO or socket ([`super::output_target`]), a missing
+    /// directory or one that does not take a new file (a temporary file is created and
+    /// removed now, so permissions show up before rendering rather than after it).
     pub fn plan(&mut self, path: &Path) -> Result<()> {
         let err = |message: String| Error::Output {
             path: path.to_path_buf(),
             message,
         };
-        if self.planned.iter().any(|p| same_file(&p.path, path)) {
+        let target = super::output_target(path)?;
+        if self
+            .planned
+            .iter()
+            .any(|p| same_file(&p.path, path) || same_file(&p.target, &target))
+        {
             return Err(err(
                 "named twice as an output of this run: each output needs its own path".into(),
             ));
         }
-        if path.is_dir() {
-            return Err(err("is a directory, not a file name".into()));
-        }
-        let dir = super::output_dir(path)?;
-        let file_name = path
+        let dir = super::output_dir(&target)?;
+        let file_name = target
             .file_name()
             .ok_or_else(|| err("not a file name".into()))?
             .to_string_lossy();
@@ -59,8 +65,10 @@ impl OutputSet {
             self.planned.len()
         ));
         std::fs::File::create(&tmp).map_err(|e| err(format!("cannot be written: {e}")))?;
+        let _ = std::fs::remove_file(&tmp);
         self.planned.push(Planned {
             path: path.to_path_buf(),
+            target,
             tmp,
             staged: false,
         });
@@ -131,7 +139,7 @@ impl OutputSet {
             });
         }
         for p in &self.planned {
-            std::fs::rename(&p.tmp, &p.path).map_err(|e| Error::Output {
+            std::fs::rename(&p.tmp, &p.target).map_err(|e| Error::Output {
                 path: p.path.clone(),
                 message: e.to_string(),
             })?;
@@ -145,7 +153,9 @@ impl Drop for OutputSet {
     /// failed part way, of what was not renamed yet).
     fn drop(&mut self) {
         for p in &self.planned {
-            // A renamed file's temporary name is gone already: nothing to remove.
+            // A renamed file's temporary name is gone already, and an unstaged one may
+            // never have been written: nothing to remove then (the name is this
+            // process's own).
             let _ = std::fs::remove_file(&p.tmp);
         }
     }
@@ -237,6 +247,81 @@ mod tests {
         }
         assert_eq!(std::fs::read(&a).expect("a"), b"old");
         assert_eq!(entries(&dir), ["a.exr"], "no temporary file left");
+    }
+
+    /// A device or FIFO is refused before any work (renaming a file into place would have
+    /// replaced `/dev/null` itself); a symbolic link is written through: its target gets
+    /// the output and the link stays.
+    #[cfg(unix)]
+    #[test]
+    fn devices_are_refused_and_links_written_through() {
+        let dir = tmp_dir("special");
+        let mut set = OutputSet::new();
+        let e = set
+            .plan(Path::new("/dev/null"))
+            .expect_err("a device")
+            .to_string();
+        assert!(
+            e.contains("/dev/null") && e.contains("not a regular file"),
+            "{e}"
+        );
+        let fifo = dir.join("fifo");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if made.is_ok_and(|s| s.success()) {
+            let e = set.plan(&fifo).expect_err("a FIFO").to_string();
+            assert!(e.contains("not a regular file"), "{e}");
+            std::fs::remove_file(&fifo).expect("remove fifo");
+        }
+        let target = dir.join("real.json");
+        std::fs::write(&target, b"old").expect("target");
+        let link = dir.join("link.json");
+        std::os::unix::fs::symlink("real.json", &link).expect("symlink");
+        set.plan(&link).expect("plan the link");
+        let e = set
+            .plan(&target)
+            .expect_err("the link's target is the same output")
+            .to_string();
+        assert!(e.contains("twice"), "{e}");
+        set.stage(&link, b"new").expect("stage");
+        set.commit().expect("commit");
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .expect("link")
+                .file_type()
+                .is_symlink(),
+            "the link stays a link"
+        );
+        assert_eq!(std::fs::read(&target).expect("target"), b"new");
+        // A dangling link: the file it names is created.
+        let dangling = dir.join("dangling.png");
+        std::os::unix::fs::symlink("made.png", &dangling).expect("symlink");
+        write_through(&dangling);
+        assert_eq!(std::fs::read(dir.join("made.png")).expect("made"), b"x");
+        assert_eq!(
+            entries(&dir),
+            ["dangling.png", "link.json", "made.png", "real.json"],
+            "no temporary file left"
+        );
+    }
+
+    #[cfg(unix)]
+    fn write_through(path: &Path) {
+        let mut set = OutputSet::new();
+        set.plan(path).expect("plan");
+        set.stage(path, b"x").expect("stage");
+        set.commit().expect("commit");
+    }
+
+    /// Planning leaves no file behind: a run stopped during its work (a signal, which runs
+    /// no destructor) leaves the output directory as it was.
+    #[test]
+    fn planning_leaves_no_file_behind() {
+        let dir = tmp_dir("plan");
+        let mut set = OutputSet::new();
+        set.plan(&dir.join("a.exr")).expect("plan");
+        assert!(entries(&dir).is_empty(), "{:?}", entries(&dir));
+        std::mem::forget(set); // as a signal would: no drop
+        assert!(entries(&dir).is_empty(), "{:?}", entries(&dir));
     }
 
     #[test]

@@ -18,7 +18,7 @@ pub use sequence::{check_pattern, frame_path, parse_frame_range};
 
 use crate::{Error, Result};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The kind of image an output path asks for, from its extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -121,6 +121,21 @@ pub fn check_finite(path: &Path, frame: &crate::frame::Frame) -> Result<()> {
     Ok(())
 }
 
+/// Refuses an output that `flag` writes as PNG whose name says otherwise (`--png o.jpg`
+/// would have written PNG bytes under a JPEG name).
+pub fn check_png_name(path: &Path, flag: &str) -> Result<()> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if ext.as_deref() == Some("png") {
+        return Ok(());
+    }
+    Err(Error::Output {
+        path: path.to_path_buf(),
+        message: format!("{flag} writes a PNG image: name a .png file"),
+    })
+}
+
 /// The directory `path` will be written in, checked to exist (so long jobs can refuse a
 /// bad output path before they start).
 pub fn output_dir(path: &Path) -> Result<&Path> {
@@ -137,14 +152,58 @@ pub fn output_dir(path: &Path) -> Result<&Path> {
     Ok(dir)
 }
 
-/// Writes `bytes` to `path` atomically (temp file in the same directory, fsync, rename).
+/// The file an output named `path` replaces: `path` itself, or where a symbolic link at
+/// `path` points (followed through every link, so the link stays and its target gets the
+/// output). Refuses a path that names something other than a regular file or nothing (a
+/// directory, a device such as `/dev/null`, a FIFO, a socket): outputs are written by
+/// renaming a finished file into place, which would replace it.
+pub fn output_target(path: &Path) -> Result<PathBuf> {
+    let err = |message: String| Error::Output {
+        path: path.to_path_buf(),
+        message,
+    };
+    let mut target = path.to_path_buf();
+    // A chain of links, followed by hand so that a link to a file not yet written works.
+    for _ in 0..40 {
+        let Ok(meta) = std::fs::symlink_metadata(&target) else {
+            return Ok(target); // nothing there yet: a new file
+        };
+        let kind = meta.file_type();
+        if kind.is_symlink() {
+            let link = std::fs::read_link(&target)
+                .map_err(|e| err(format!("cannot read the link {}: {e}", target.display())))?;
+            target = match target.parent() {
+                Some(dir) if link.is_relative() => dir.join(link),
+                _ => link,
+            };
+            continue;
+        }
+        if kind.is_dir() {
+            return Err(err("is a directory, not a file name".into()));
+        }
+        if !kind.is_file() {
+            return Err(err(
+                "is not a regular file (a device, FIFO or socket): outputs are written to a \
+                 temporary file and renamed into place, which would replace it; name a \
+                 regular file"
+                    .into(),
+            ));
+        }
+        return Ok(target);
+    }
+    Err(err("too many levels of symbolic links".into()))
+}
+
+/// Writes `bytes` to `path` atomically (temp file in the same directory, fsync, rename;
+/// through a symbolic link to its target, [`output_target`]).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     let err = |message: String| Error::Output {
         path: path.to_path_buf(),
         message,
     };
-    let dir = output_dir(path)?;
-    let file_name = path
+    let target = output_target(path)?;
+    let dir = output_dir(&target)?;
+    let file_name = target
         .file_name()
         .ok_or_else(|| err("not a file name".into()))?
         .to_string_lossy();
@@ -153,7 +212,7 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
-        std::fs::rename(&tmp, path)
+        std::fs::rename(&tmp, &target)
     })();
     if let Err(e) = result {
         let _ = std::fs::remove_file(&tmp);

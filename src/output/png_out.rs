@@ -18,7 +18,9 @@ pub fn linear_to_srgb(c: f32) -> f32 {
 /// (2015), which rolls highlights off smoothly instead of clipping them.
 pub fn tonemap_to_srgb8(pixels: &[[f32; 4]], exposure: f32) -> Vec<u8> {
     let aces = |x: f32| {
-        let x = (x * exposure).max(0.0);
+        // Capped where the curve is long flat at 1: past about 1e19 its products overflow
+        // to inf / inf = NaN, which turned the brightest pixels black.
+        let x = (x * exposure).clamp(0.0, 1e6);
         ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
     };
     let mut out = Vec::with_capacity(pixels.len() * 3);
@@ -51,4 +53,25 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()>
         message,
     })?;
     write_atomically(path, &bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The brightest pixels a scene may hold (lights up to 1e20, any exposure) are white,
+    /// not black; black stays black and the curve rises in between.
+    #[test]
+    fn bright_pixels_tone_map_to_white() {
+        for (value, exposure) in [(1e20, 1.0), (1e6, 1.0), (1.0, 3e38), (f32::MAX, 1.0)] {
+            let rgb = tonemap_to_srgb8(&[[value, value, value, 1.0]], exposure);
+            assert_eq!(rgb, [255, 255, 255], "{value} at exposure {exposure}");
+        }
+        assert_eq!(tonemap_to_srgb8(&[[0.0; 4]], 1.0), [0, 0, 0]);
+        let mid = tonemap_to_srgb8(&[[0.2, 0.5, 1.0, 1.0]], 1.0);
+        assert!(
+            mid[0] < mid[1] && mid[1] < mid[2] && mid[2] < 255,
+            "{mid:?}"
+        );
+    }
 }

@@ -846,6 +846,17 @@ impl CacheSettings {
                 "must be in [0, 1]",
             );
         }
+        // 0: chosen from the irradiance records' P and the sharpest lobe
+        // (`RadianceSettings::plane_resolution_for`).
+        if r.plane_resolution != 0 && !(2..=512).contains(&r.plane_resolution) {
+            return bad(
+                "radiance plane resolution",
+                "--radiance-plane-resolution",
+                r.plane_resolution.to_string(),
+                "must be in 2..=512, or 0 to choose it from --plane-resolution and the \
+                 sharpest lobe",
+            );
+        }
         if !(2..=512).contains(&self.plane_resolution) {
             return bad(
                 "plane_resolution",

@@ -100,7 +100,7 @@ pub fn plan_chunks(width: u32, height: u32, spp: u32, work: u64, max_samples: u3
     let mut chunks = Vec::new();
     let mut s = 0;
     while s < spp {
-        let s_end = (s + samples_per).min(spp);
+        let s_end = s.saturating_add(samples_per).min(spp);
         let mut r = 0;
         while r < height {
             let r_end = r.saturating_add(rows_per).min(height);
@@ -114,6 +114,11 @@ pub fn plan_chunks(width: u32, height: u32, spp: u32, work: u64, max_samples: u3
     }
     chunks
 }
+
+/// The most bounce directions per pixel a reference takes: 2^24, hours of rays for one
+/// pixel on a fast GPU, well inside the Sobol sequence's 2^32 points (more would only plan
+/// dispatches that never finish).
+pub const MAX_SPP: u32 = 1 << 24;
 
 /// Options of a reference render.
 #[derive(Clone, Copy, Debug)]
@@ -246,8 +251,11 @@ impl ReferencePass {
         options: &ReferenceOptions,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<ReferenceFrame> {
-        if options.spp == 0 {
-            return Err(Error::Usage("spp must be at least 1".into()));
+        if !(1..=MAX_SPP).contains(&options.spp) {
+            return Err(Error::Usage(format!(
+                "spp {} must be between 1 and {MAX_SPP}",
+                options.spp
+            )));
         }
         let ctx = &renderer.ctx;
         let t0 = Instant::now();

@@ -73,6 +73,7 @@ impl EnvironmentMap {
 
     /// Loads a Radiance `.hdr` (RGBE) or OpenEXR file (its R, G, B channels).
     pub fn load(path: &Path, scale: Vec3, rotation_degrees: f32) -> Result<Self> {
+        crate::input::check_file(path, crate::input::MAX_DATA_BYTES)?;
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
@@ -108,6 +109,22 @@ impl EnvironmentMap {
                 path,
                 format!("texel ({}, {})", k as u32 % width, k as u32 / width),
                 format!("radiance must be finite and >= 0, got {c}"),
+            ));
+        }
+        // Scaled, as every other light value, at most MAX_LIGHT_VALUE (the products the
+        // renderer forms from it stay finite).
+        let max = super::limits::MAX_LIGHT_VALUE;
+        if let Some((k, c)) = texels.iter().enumerate().find(|(_, c)| {
+            let scaled = (**c * scale).max_element();
+            !scaled.is_finite() || scaled > max
+        }) {
+            return Err(Error::invalid(
+                path,
+                format!("texel ({}, {})", k as u32 % width, k as u32 / width),
+                format!(
+                    "radiance {c} times `[environment].radiance` {scale} exceeds \
+                     {max:e}, the most any light value may be"
+                ),
             ));
         }
         Ok(Self::new(width, height, texels, scale, rotation_degrees))

@@ -34,7 +34,7 @@ pub const RECT_LIGHT_PREFIX: &str = "__rect_light_";
 /// Meshes are shared between entries naming the same OBJ file. Errors name the file and the
 /// line or field at fault.
 pub fn load_scene(path: &Path) -> Result<Scene> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::input::read_to_string(path, crate::input::MAX_TEXT_BYTES)?;
     parse_scene(&text, path)
 }
 
@@ -627,10 +627,11 @@ impl<'a> SceneBuilder<'a> {
             .map(|v| ctx.unit_range3(&field("specular"), v))
             .transpose()?;
         if let Some(e) = def.exponent {
-            if !(e.is_finite() && e >= 0.0) {
+            let max = super::limits::MAX_PHONG_EXPONENT;
+            if !(e.is_finite() && (0.0..=max).contains(&e)) {
                 return Err(ctx.field_error(
                     &field("exponent"),
-                    format!("must be a finite number >= 0, got {e}"),
+                    format!("must be a number from 0 to {max:e}, got {e}"),
                 ));
             }
         }

@@ -29,6 +29,17 @@ pub const MAX_IMAGE_SAMPLES: u64 = 1 << 30;
 /// stay finite.
 pub const MAX_LIGHT_VALUE: f32 = 1e20;
 
+/// The largest Phong exponent accepted (MTL `Ns`, a material's `exponent`): a lobe of a
+/// few thousandths of a degree, a mirror in effect. The normalised lobe's peak (n + 2) / 2π
+/// times cos^n stays exact in f32 only while cos θ can resolve the lobe's width: at 1e10
+/// the images were 1.5x too bright, at 3e38 1e30x.
+pub const MAX_PHONG_EXPONENT: f32 = 1e6;
+
+/// The largest coordinate a vertex may have, in its file and in the world: f32 keeps about
+/// 7 digits, so at 1e15 neighbouring positions are 1e8 apart, and near 1e19 a scene's
+/// diagonal no longer fits f32 (it became infinite and turned the indirect light off).
+pub const MAX_COORDINATE: f32 = 1e15;
+
 /// The largest value of radiance x area of a rect light (its power over π): the same
 /// headroom argument as [`MAX_LIGHT_VALUE`], for the area-sampling estimator, which
 /// multiplies the radiance by the light's area.
@@ -70,11 +81,10 @@ pub fn check_image_size(
     Ok(())
 }
 
-/// The length of the file at `path` in bytes.
+/// The length of the file at `path` in bytes, checked to be a regular file within
+/// [`crate::input::MAX_DATA_BYTES`].
 pub fn file_len(path: &Path) -> Result<u64> {
-    std::fs::metadata(path)
-        .map(|m| m.len())
-        .map_err(|e| Error::io(path, e))
+    crate::input::check_file(path, crate::input::MAX_DATA_BYTES)
 }
 
 #[cfg(test)]

@@ -166,7 +166,7 @@ pub fn load_obj(path: &Path) -> Result<ObjData> {
 /// keyword that is not ASCII: a binary file, or the wrong file) is an error naming the first
 /// such line, since tobj would silently ignore every line of it.
 fn read_text(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::input::read(path, crate::input::MAX_DATA_BYTES)?;
     let mut text = match String::from_utf8(bytes) {
         Ok(text) => text,
         Err(e) => String::from_utf8_lossy(e.as_bytes()).into_owned(),
@@ -458,6 +458,14 @@ fn check_position(args: &[&str]) -> std::result::Result<(), String> {
             args.join(" ")
         ));
     }
+    if position.abs().max_element() > super::limits::MAX_COORDINATE {
+        return Err(format!(
+            "vertex position '{}' is beyond +-{:e}: f32 keeps no precision there (rescale \
+             the model)",
+            args.join(" "),
+            super::limits::MAX_COORDINATE
+        ));
+    }
     Ok(())
 }
 
@@ -627,6 +635,19 @@ fn scan_mtl(path: &Path, text: &str) -> Result<HashMap<String, usize>> {
             }
             "Ns" | "Ni" | "d" if parse_floats::<1>(&args).is_none() => {
                 return Err(err(format!("expected a number after '{keyword}'")));
+            }
+            "Ns" | "Ni" | "d" => {
+                let value = parse_floats::<1>(&args).map_or(f32::NAN, |[v]| v);
+                if !value.is_finite() {
+                    return Err(err(format!("'{keyword}' is not finite: '{rest}'")));
+                }
+                let max = super::limits::MAX_PHONG_EXPONENT;
+                if keyword == "Ns" && value > max {
+                    return Err(err(format!(
+                        "'Ns' (the Phong exponent) {value} is above {max:e}, a mirror in \
+                         effect; radsplat's glossy lobes stay exact below it"
+                    )));
+                }
             }
             "illum" if args.first().and_then(|w| w.parse::<u8>().ok()).is_none() => {
                 return Err(err(
