@@ -456,6 +456,9 @@ pub fn compare(a: &RgbImage, b: &RgbImage) -> Result<Comparison> {
         }
         _ => (None, None),
     };
+    if let Some(albedo) = &b.albedo {
+        check_finite(b, "albedo", albedo)?;
+    }
     let surfaces = b.albedo.as_ref().map(|albedo| {
         let (sa, sb): (Vec<[f32; 3]>, Vec<[f32; 3]>) = a
             .beauty
@@ -626,6 +629,28 @@ mod tests {
         assert_eq!(d.beauty, vec![[2.5, 0.0, 1.0], [4.5, 0.0, 1.0]]);
         assert!(img.downsample(0).is_err());
         assert!(img.downsample(5).is_err());
+    }
+
+    /// A reference whose `albedo.*` holds a NaN is refused, naming the pixel (its surface
+    /// error had been reported over no pixel at all).
+    #[test]
+    fn a_non_finite_reference_albedo_is_refused() {
+        let image = |albedo: [f32; 3]| RgbImage {
+            path: PathBuf::from("ref.exr"),
+            width: 2,
+            height: 1,
+            beauty: vec![[1.0; 3]; 2],
+            indirect: None,
+            albedo: Some(vec![[0.5; 3], albedo]),
+        };
+        assert!(compare(&image([0.5; 3]), &image([0.5; 3])).is_ok());
+        let e = compare(&image([0.5; 3]), &image([f32::NAN, 0.5, 0.5]))
+            .expect_err("NaN albedo")
+            .to_string();
+        assert!(
+            e.contains("ref.exr") && e.contains("albedo") && e.contains("(1, 0)"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -190,6 +190,22 @@ fn far_coordinate_names_v_line() {
     assert_mentions(&message, &["far.obj", "line 4", "1e15"]);
 }
 
+/// A camera beyond f32's precision names its field (its distance to the target overflowed
+/// and was reported as "must differ from camera.position").
+#[test]
+fn far_camera_names_its_field() {
+    let dir = test_dir("far-camera");
+    write(&dir, "t.obj", TRIANGLE_OBJ);
+    let path = write(
+        &dir,
+        "scene.toml",
+        "[camera]\nposition = [0.0, 0.0, 1e30]\ntarget = [0.0, 0.0, 0.0]\nfov_y = 40.0\n\
+         resolution = [8, 8]\n\n[[mesh]]\nfile = \"t.obj\"\n",
+    );
+    let (_, message) = load_error(&path);
+    assert_mentions(&message, &["scene.toml", "camera.position", "1e15"]);
+}
+
 /// MTL exponents that are not finite, or so large that the normalised lobe is no longer
 /// exact in f32 (images 1e30 times too bright), name their line; so does a scene's
 /// `exponent` override.

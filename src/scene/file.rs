@@ -765,6 +765,15 @@ fn camera_view(
     let field = |name: &str| format!("{prefix}.{name}");
     let position = ctx.finite3(&field("position"), position)?;
     let target = ctx.finite3(&field("target"), target)?;
+    let max = super::limits::MAX_COORDINATE;
+    for (name, p) in [("position", position), ("target", target)] {
+        if p.abs().max_element() > max {
+            return Err(ctx.field_error(
+                &field(name),
+                format!("{p} is beyond +-{max:e}: f32 keeps no precision there"),
+            ));
+        }
+    }
     let up = ctx.direction3(&field("up"), up)?;
     let view = (target - position).try_normalize().ok_or_else(|| {
         ctx.field_error(
