@@ -1108,12 +1108,17 @@ impl Renderer {
             radiance,
         } = options;
         let ctx = &self.ctx;
-        // Shadow rays of each plane hit (its re-shading and plane refresh cast the same).
+        // Shadow rays of each plane hit (its re-shading and plane refresh cast the same):
+        // the samples per rect light and for the environment, one per other light.
+        let rects = scene
+            .lights
+            .iter()
+            .filter(|l| l.a[3].to_bits() == crate::gpu::scene_buffers::LIGHT_RECT)
+            .count() as u64;
+        let sampled = rects + u64::from(scene.gpu.features().has_environment());
         ctx.check_shadow_rays(
-            scene
-                .gpu
-                .info
-                .max_shadow_rays(pass.settings.plane_light_samples),
+            sampled * u64::from(pass.settings.plane_light_samples) + scene.lights.len() as u64
+                - rects,
             "--plane-light-samples",
         )?;
         let t0 = Instant::now();
@@ -1556,13 +1561,21 @@ impl Renderer {
         build_ms: f64,
         previous: Option<&PreparedScene>,
     ) -> Result<PreparedScene> {
-        // Direct light casts `light_samples` shadow rays per light and for the environment.
-        let sampled = scene.lights.len() as u64
-            + u64::from(scene.environment != glam::Vec3::ZERO || scene.environment_map.is_some());
-        self.ctx.check_shadow_rays(
-            sampled * u64::from(scene.settings.light_samples),
-            "render.light_samples",
-        )?;
+        // Direct light casts `light_samples` shadow rays per rect light and for the
+        // environment, one per point, spot or sun.
+        let rays = crate::scene::shadow_rays_per_hit(scene, scene.settings.light_samples);
+        let delta = crate::scene::shadow_rays_per_hit(scene, 0);
+        if self.ctx.stops_long_loops()
+            && delta > u64::from(crate::gpu::context::LLVMPIPE_MAX_SHADOW_RAYS)
+        {
+            return Err(Error::Usage(format!(
+                "the scene has {delta} point, spot and sun lights, each casting a shadow ray \
+                 per pixel; lavapipe (llvmpipe) silently stops loops after 65,535 iterations \
+                 per invocation, so at most {} are allowed on it: merge lights or render on a GPU",
+                crate::gpu::context::LLVMPIPE_MAX_SHADOW_RAYS
+            )));
+        }
+        self.ctx.check_shadow_rays(rays, "render.light_samples")?;
         let gpu = GpuScene::upload_frame(
             &self.ctx,
             scene,

@@ -565,7 +565,8 @@ struct CacheArgs {
     /// shadow ray per light sample at every plane hit (exact); `auto` maps the sun, point
     /// and spot lights and traces rays to rect lights (whose maps approximate penumbrae).
     /// With maps, a plane hit still traces its ray where the map cannot decide (creases and
-    /// contact shadows). `animate` always uses rays.
+    /// contact shadows). `animate` with temporal caching always uses rays (its records
+    /// outlive a frame); `animate --temporal off` follows this setting.
     #[arg(long, value_enum, default_value_t = CacheSettings::default().plane_shadows)]
     plane_shadows: radsplat::records::PlaneShadows,
     /// Texels per side of a sun's light map (point and rect-light maps get half).

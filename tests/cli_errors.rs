@@ -162,7 +162,79 @@ fn a_scene_carried_beyond_f32_precision_is_refused() {
         "--quiet",
     ]);
     assert_ne!(code, 0);
-    assert!(err.contains("1e20") && err.contains("1e15"), "{err}");
+    assert!(err.contains("1e20") && err.contains("1e9"), "{err}");
+    // A cube alone, 1e5 from the origin: within the coordinates' range, but rays would
+    // leave its surfaces 3 units off them, more than the cube.
+    std::fs::write(
+        &scene,
+        format!(
+            "[camera]\nposition = [1e5, 0.5, 3.0]\ntarget = [1e5, 0.5, 0.0]\nfov_y = 50.0\n\
+             resolution = [8, 8]\n\n[[mesh]]\nfile = \"{}\"\ntranslate = [1e5, 0.0, 0.0]\n\n\
+             [[light]]\ntype = \"point\"\nposition = [1e5, 3.0, 0.0]\n\
+             intensity = [10.0, 10.0, 10.0]\n",
+            cube.display()
+        ),
+    )
+    .expect("scene");
+    let (code, err) = radsplat(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("from the origin") && err.contains("of the scene"),
+        "{err}"
+    );
+    no_files_in(&out);
+}
+
+/// Point lights cast one shadow ray each, whatever `light_samples` says: 17 of them with
+/// 16 samples render on lavapipe (they were counted as 272 rays and refused), and past its
+/// limit of 256 rays the message names the lights, not a setting already at 1.
+#[test]
+fn point_lights_count_one_shadow_ray_each() {
+    let dir = tmp_dir("many-points");
+    let cube = common::bundled("cube.obj");
+    let scene_with = |lights: usize, samples: u32| {
+        let mut text = format!(
+            "[camera]\nposition = [0.0, 0.5, 3.0]\ntarget = [0.0, 0.5, 0.0]\nfov_y = 50.0\n\
+             resolution = [8, 8]\n\n[render]\nlight_samples = {samples}\n\n[[mesh]]\n\
+             file = \"{}\"\n",
+            cube.display()
+        );
+        for i in 0..lights {
+            text += &format!(
+                "\n[[light]]\ntype = \"point\"\nposition = [{}, 3.0, 1.0]\n\
+                 intensity = [0.1, 0.1, 0.1]\n",
+                i as f32 * 0.01
+            );
+        }
+        let path = dir.join(format!("points{lights}.toml"));
+        std::fs::write(&path, text).expect("scene");
+        path
+    };
+    let out = dir.join("out");
+    std::fs::create_dir(&out).expect("out dir");
+    let exr = out.join("o.exr");
+    let render = |scene: &Path| {
+        radsplat(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            exr.to_str().unwrap(),
+            "--direct-only",
+            "--quiet",
+        ])
+    };
+    let (code, err) = render(&scene_with(17, 16));
+    assert_eq!(code, 0, "{err}");
+    std::fs::remove_file(&exr).expect("rendered");
+    let (code, err) = render(&scene_with(257, 1));
+    assert_ne!(code, 0);
+    assert!(err.contains("257 point, spot and sun lights"), "{err}");
     no_files_in(&out);
 }
 
@@ -376,7 +448,7 @@ fn nonsense_cache_and_table_settings_name_the_flag_and_value() {
     let exr = dir.join("out.exr");
     let exr = exr.to_str().unwrap();
     // (arguments, what the message must contain)
-    let cases: [(&[&str], &[&str]); 12] = [
+    let cases: [(&[&str], &[&str]); 18] = [
         (
             &["render", scene, "-o", exr, "-a", "0"],
             &["--accuracy", "'0'", "(0, 1]"],
@@ -478,6 +550,47 @@ fn nonsense_cache_and_table_settings_name_the_flag_and_value() {
                 "photons",
             ],
             &["--records photons", "--temporal off"],
+        ),
+        // Counts past any use, which had filled the memory or wrapped around.
+        (
+            &["render", scene, "-o", exr, "--glossy-samples", "4294967295"],
+            &["--glossy-samples", "4294967295", "65536"],
+        ),
+        (
+            &[
+                "animate",
+                scene,
+                "--frames",
+                "0..1",
+                "-o",
+                "out_##.exr",
+                "--max-lifespan",
+                "4294967295",
+            ],
+            &["--max-lifespan", "4294967295", "65536"],
+        ),
+        (
+            &["plane-error", scene, "--points", "4294967295"],
+            &["--points (4294967295)", "1048576"],
+        ),
+        (
+            &["plane-error", scene, "--mc-samples", "4294967295"],
+            &["--mc-samples (4294967295)", "1048576"],
+        ),
+        (
+            &["temporal-error", scene, "--frame", "4294967295"],
+            &["--frame 4294967295", "past the last frame"],
+        ),
+        (
+            &[
+                "render",
+                scene,
+                "-o",
+                exr,
+                "--radiance-plane-resolution",
+                "1",
+            ],
+            &["--radiance-plane-resolution", "1", "2..=512"],
         ),
     ];
     for (args, parts) in cases {

@@ -154,3 +154,39 @@ fn plane_hits_shaded_from_maps_agree_with_shadow_rays() {
     assert!((all_mean - 1.0).abs() < 0.03, "mean ratio {all_mean}");
     assert!(all_rmse < 0.08, "relative RMSE {all_rmse}");
 }
+
+/// A point light exactly on the ceiling (a lamp modelled on it): its octahedral map's rays
+/// start a little out from the light (`light_maps::OCTAHEDRAL_TMIN`), as exact shadow rays
+/// stop short of it. Starting at the light, every ray found the ceiling at t = 0 and the
+/// plane hits read the whole room as shadowed: no indirect light at all.
+#[test]
+fn a_light_on_a_surface_lights_plane_hits_from_its_map() {
+    let mut scene = common::load("cornell-box.toml", Some((32, 32)));
+    // On the ceiling (y = 0.5488), beside the rect light's quad (whose emission the scene
+    // keeps: without its light it is an emitter plane hits see).
+    scene.lights = vec![Light::Point {
+        position: Vec3::new(0.1, 0.5488, 0.12),
+        intensity: Vec3::splat(0.05),
+    }];
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let mean_indirect = |shadows: PlaneShadows| {
+        let settings = CacheSettings {
+            plane_shadows: shadows,
+            ..CacheSettings::default()
+        };
+        let mut cache = renderer.new_cache(&settings).expect("cache");
+        let frame = renderer
+            .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
+            .expect("frame");
+        let indirect = frame.indirect.expect("indirect");
+        indirect.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / indirect.len() as f32
+    };
+    let rays = mean_indirect(PlaneShadows::Rays);
+    let maps = mean_indirect(PlaneShadows::Auto);
+    assert!(rays > 0.0, "the lamp lights the room");
+    assert!(
+        (maps / rays - 1.0).abs() < 0.01,
+        "indirect light from the map {maps} against shadow rays {rays}"
+    );
+}

@@ -48,10 +48,14 @@ pub fn plane_error(
         }
         .validate()?;
     }
-    if points == 0 || mc_samples == 0 {
-        return Err(Error::Usage(
-            "--points and --mc-samples must be positive".into(),
-        ));
+    // A table of one run: a million points or Monte Carlo samples per point is far past
+    // where its error bars stop moving (Table 4.1 uses 1,000 and 4,096), and more asked
+    // for memory or hours with no end in sight.
+    const MAX: u32 = 1 << 20;
+    if points == 0 || mc_samples == 0 || points > MAX as usize || mc_samples > MAX {
+        return Err(Error::Usage(format!(
+            "--points ({points}) and --mc-samples ({mc_samples}) must be from 1 to {MAX}"
+        )));
     }
     let mut outputs = OutputSet::new();
     outputs.plan_opt(json.as_deref())?;

@@ -39,7 +39,12 @@ pub fn temporal_error(
     let mut scene = load_scene_with(scene_path, None, size, None)?;
     let mut next = scene.clone();
     scene.try_set_frame(frame as f32)?;
-    next.try_set_frame((frame + 1) as f32)?;
+    let Some(following) = frame.checked_add(1) else {
+        return Err(Error::Usage(format!(
+            "--frame {frame}: the frame after it is past the last frame number"
+        )));
+    };
+    next.try_set_frame(following as f32)?;
     let renderer = Renderer::new(GpuContext::new()?)?;
     let anchored = record_anchor == "instance";
     // The scene's a_t and dt_max, as `animate` would use them.

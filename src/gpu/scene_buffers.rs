@@ -401,10 +401,37 @@ impl GpuScene {
         if !far.is_finite() || far > crate::scene::limits::MAX_COORDINATE {
             return Err(Error::Usage(format!(
                 "the scene reaches {far:e} from the origin (world bounds {lo} to {hi}): \
-                 beyond +-{:e} f32 keeps no precision; check the instances' transforms and \
-                 keyframes, or rescale the scene",
+                 beyond +-{:e} a triangle's normal overflows f32; check the instances' \
+                 transforms and keyframes, or rescale the scene",
                 crate::scene::limits::MAX_COORDINATE
             )));
+        }
+        // Ray origins leave surfaces by up to 256 ULPs of their coordinates
+        // (`scene::limits::ray_offset`): a scene far from the origin, or tiny, loses its
+        // details below that (light leaks through walls, contact shadows vanish). Said once
+        // per process (an animation uploads every frame).
+        let diagonal = (hi - lo).length();
+        let offset = crate::scene::limits::ray_offset(far);
+        if offset > 0.05 * diagonal {
+            return Err(Error::Usage(format!(
+                "the scene is {diagonal:.3e} across and reaches {far:.3e} from the origin: \
+                 rays would leave surfaces up to {offset:.2e} off them, {:.0} % of the scene \
+                 (light through walls, no contact shadows); move the scene to the origin and \
+                 use units of about its size",
+                100.0 * offset / diagonal.max(f32::MIN_POSITIVE)
+            )));
+        }
+        if offset > 1e-3 * diagonal {
+            static WARNED: std::sync::Once = std::sync::Once::new();
+            WARNED.call_once(|| {
+                log::warn!(
+                    "the scene is {diagonal:.3e} across and reaches {far:.3e} from the origin: \
+                     rays leave surfaces up to {offset:.2e} off them ({:.2} % of the scene), so \
+                     smaller details are lost (light leaks, missing contact shadows); move the \
+                     scene to the origin and use units of about its size",
+                    100.0 * offset / diagonal.max(f32::MIN_POSITIVE)
+                );
+            });
         }
         if bvh.max_depth >= BVH_STACK_SIZE {
             let (mesh, need) = bvh.deepest_blas.unwrap_or((0, 0));

@@ -31,6 +31,10 @@ pub const MAP_OCTAHEDRAL: u32 = 1;
 /// `NO_MAP` in `wgsl/shared/light_map_lookup.wgsl`: a light without maps.
 pub const NO_MAP: u32 = u32::MAX;
 
+/// Where an octahedral map's rays start, as a fraction of the scene's diagonal (`dir.w` of
+/// such a map, [`layout`]).
+pub const OCTAHEDRAL_TMIN: f32 = 1e-4;
+
 /// How big the maps are.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LightMapSettings {
@@ -63,7 +67,8 @@ pub struct GpuLightMap {
     /// Orthographic: unit axes across the map (xyz) and the map's extent along them (w).
     pub axis_u: [f32; 4],
     pub axis_v: [f32; 4],
-    /// Orthographic: the rays' unit direction (away from the sun).
+    /// Orthographic: the rays' unit direction (away from the sun). Octahedral: w, the
+    /// distance from the light where the rays start ([`OCTAHEDRAL_TMIN`]).
     pub dir: [f32; 4],
 }
 
@@ -144,6 +149,11 @@ pub fn layout(
             // An octahedral texel spans about 4 / resolution radians on the sphere's
             // widest parts (the square's side is 2 pi over the equator's four faces).
             origin: v4(origin, 4.0 / point_res as f32),
+            // w: where the rays start, OCTAHEDRAL_TMIN of the scene's diagonal out: a light
+            // on a surface (a ceiling lamp) would otherwise find that surface at t = 0 in
+            // every direction and shadow the whole scene, where exact shadow rays stop
+            // 1e-4 of their length short of the light (`shadow_ray` in shading.wgsl).
+            dir: [0.0, 0.0, 0.0, OCTAHEDRAL_TMIN * diagonal],
             ..Default::default()
         });
     };
@@ -342,9 +352,14 @@ pub fn reference_depths(
         for j in 0..m.resolution {
             for i in 0..m.resolution {
                 let (o, d) = texel_ray(m, i, j);
+                let tmin = if m.kind == MAP_OCTAHEDRAL {
+                    m.dir[3]
+                } else {
+                    0.0
+                };
                 out.push(
                     tracer
-                        .closest_hit(o, d, 0.0, f32::INFINITY)
+                        .closest_hit(o, d, tmin, f32::INFINITY)
                         .map_or(1.0e30, |h| h.t),
                 );
             }

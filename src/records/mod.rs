@@ -393,6 +393,10 @@ pub(crate) fn nearer_depth(a: f32, b: f32) -> f32 {
     }
 }
 
+/// The most Monte Carlo rays a glossy pixel traces through its lobe (`--glossy-samples`):
+/// a dispatch each per chunk of them, so 2^32 filled the memory with commands.
+pub const MAX_GLOSSY_SAMPLES: u32 = 1 << 16;
+
 /// Settings of the irradiance cache (scene file `[cache]`, CLI flags).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct CacheSettings {
@@ -811,6 +815,14 @@ impl CacheSettings {
                 "--noise-widening",
                 self.noise_widening.to_string(),
                 "must be a finite fraction of the accuracy >= 0 (0: never widen)",
+            );
+        }
+        if !(1..=MAX_GLOSSY_SAMPLES).contains(&self.glossy_samples) {
+            return bad(
+                "glossy samples",
+                "--glossy-samples",
+                self.glossy_samples.to_string(),
+                &format!("must be from 1 to {MAX_GLOSSY_SAMPLES}"),
             );
         }
         let r = &self.radiance;

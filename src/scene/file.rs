@@ -770,7 +770,7 @@ fn camera_view(
         if p.abs().max_element() > max {
             return Err(ctx.field_error(
                 &field(name),
-                format!("{p} is beyond +-{max:e}: f32 keeps no precision there"),
+                format!("{p} is beyond +-{max:e}: rescale the scene"),
             ));
         }
     }

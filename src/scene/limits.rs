@@ -35,10 +35,19 @@ pub const MAX_LIGHT_VALUE: f32 = 1e20;
 /// the images were 1.5x too bright, at 3e38 1e30x.
 pub const MAX_PHONG_EXPONENT: f32 = 1e6;
 
-/// The largest coordinate a vertex may have, in its file and in the world: f32 keeps about
-/// 7 digits, so at 1e15 neighbouring positions are 1e8 apart, and near 1e19 a scene's
-/// diagonal no longer fits f32 (it became infinite and turned the indirect light off).
-pub const MAX_COORDINATE: f32 = 1e15;
+/// The largest coordinate a vertex (or the camera) may have, in its file and in the world:
+/// past about 4e9 a triangle's edge cross product overflows f32 when normalised (a Cornell
+/// box scaled by 3e10 rendered black), and near 1e19 the scene's diagonal (it turned the
+/// indirect light off). Precision gives out long before for a scene far from the origin
+/// ([`ray_offset`]): `GpuScene::upload` warns then.
+pub const MAX_COORDINATE: f32 = 1e9;
+
+/// How far a ray leaving a surface at distance `far` from the origin starts off it, at
+/// most: Ray Tracing Gems' offset (`offset_ray_origin` in wgsl/shared/ray.wgsl) moves it
+/// by 256 units in the last place of each coordinate, 1/65536 near the origin.
+pub fn ray_offset(far: f32) -> f32 {
+    (256.0 * f32::EPSILON * far).max(1.0 / 65536.0)
+}
 
 /// The largest value of radiance x area of a rect light (its power over π): the same
 /// headroom argument as [`MAX_LIGHT_VALUE`], for the area-sampling estimator, which

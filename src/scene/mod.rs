@@ -178,6 +178,21 @@ impl Scene {
 }
 
 /// A scene bundled in `scenes/`, loaded (unit tests of several modules).
+/// Shadow rays one surface hit casts for `scene`'s lights with `samples` samples per light
+/// (Scene `light_samples`, `--plane-light-samples`): `samples` for each rect light and for
+/// the environment, one for each point, spot or sun (`shadow_loop_next` in
+/// wgsl/shared/shading.wgsl).
+pub fn shadow_rays_per_hit(scene: &Scene, samples: u32) -> u64 {
+    let rects = scene
+        .lights
+        .iter()
+        .filter(|l| matches!(l, Light::Rect { .. }))
+        .count() as u64;
+    let delta = scene.lights.len() as u64 - rects;
+    let environment = u64::from(scene.environment != Vec3::ZERO || scene.environment_map.is_some());
+    (rects + environment) * u64::from(samples) + delta
+}
+
 #[cfg(test)]
 pub(crate) fn bundled(name: &str) -> Scene {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -460,8 +460,8 @@ fn check_position(args: &[&str]) -> std::result::Result<(), String> {
     }
     if position.abs().max_element() > super::limits::MAX_COORDINATE {
         return Err(format!(
-            "vertex position '{}' is beyond +-{:e}: f32 keeps no precision there (rescale \
-             the model)",
+            "vertex position '{}' is beyond +-{:e}: a triangle's normal overflows f32 there \
+             (rescale the model)",
             args.join(" "),
             super::limits::MAX_COORDINATE
         ));

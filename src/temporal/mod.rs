@@ -41,6 +41,11 @@ use crate::{Error, Result};
 use glam::Mat4;
 use std::collections::{HashSet, VecDeque};
 
+/// The longest record lifespan accepted, in frames (45 minutes of animation at 24 frames
+/// a second): per-frame statistics hold a bin per frame of lifespan (4294967295 asked for
+/// 17 GB).
+pub const MAX_LIFESPAN: u32 = 1 << 16;
+
 /// Settings of temporal caching (decision 9; CLI `animate`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct TemporalSettings {
@@ -211,10 +216,12 @@ impl TemporalSettings {
                 self.accuracy
             )));
         }
-        if self.max_lifespan == 0 {
-            return Err(Error::Usage(
-                "the maximum record lifespan must be at least 1 frame".into(),
-            ));
+        if !(1..=MAX_LIFESPAN).contains(&self.max_lifespan) {
+            return Err(Error::Usage(format!(
+                "the maximum record lifespan (--max-lifespan, or the scene's \
+                 animation.max_lifespan) must be from 1 to {MAX_LIFESPAN} frames, not {}",
+                self.max_lifespan
+            )));
         }
         if self.max_new_records == Some(0) {
             return Err(Error::Usage(

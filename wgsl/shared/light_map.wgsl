@@ -20,7 +20,8 @@ struct LightMap {
                         // the point rays start from. w: texel size (world units, or radians)
     axis_u: vec4f,      // orthographic: unit u and v across the map (xyz), and the map's
     axis_v: vec4f,      // extent along them (w)
-    dir: vec4f,         // orthographic: the rays' unit direction (away from the sun)
+    dir: vec4f,         // orthographic: the rays' unit direction (away from the sun);
+                        // octahedral: w, where the rays start (OCTAHEDRAL_TMIN)
 }
 
 // Octahedral encoding of a unit direction onto [0, 1]^2 (Engelhardt & Dachsbacher 2008).
@@ -51,5 +52,7 @@ fn light_map_ray(m: LightMap, texel: vec2u) -> Ray {
         let o = m.origin.xyz + uv.x * m.axis_u.w * m.axis_u.xyz + uv.y * m.axis_v.w * m.axis_v.xyz;
         return Ray(o, 0.0, m.dir.xyz, INF);
     }
-    return Ray(m.origin.xyz, 0.0, octahedral_decode(uv), INF);
+    // Starting dir.w out (light_maps::OCTAHEDRAL_TMIN): a light on a surface would
+    // otherwise hit it at t = 0 in every direction.
+    return Ray(m.origin.xyz, m.dir.w, octahedral_decode(uv), INF);
 }
