@@ -38,7 +38,7 @@ fn check_against_cpu(scene: &Scene) -> (usize, usize) {
         for x in 0..cam.width {
             let g = frame.visibility[(y * cam.width + x) as usize];
             let dir = cam.ray_dir(x, y);
-            let c = tracer.closest_hit(origin, dir, 0.0, f32::INFINITY);
+            let c = tracer.closest_hit(origin, dir, cam.tmin, f32::INFINITY);
             let same = match c {
                 None => !g.is_hit(),
                 Some(c) => {
@@ -111,4 +111,33 @@ fn sponza_visibility_matches_cpu() {
     let (hits, ties) = check_against_cpu(&scene);
     eprintln!("sponza: {hits} hits, {ties} ambiguous (edge or tie)");
     assert!(hits > 160 * 160 / 2);
+}
+
+/// A camera placed exactly on a surface, looking away from it (on the Cornell box's back
+/// wall, into the room), sees the room and matches the CPU traversal from the same start:
+/// camera rays start a few ulps out (`GpuCamera::tmin`), where starting at t = 0 every
+/// pixel hit the wall it stands on.
+#[test]
+fn a_camera_on_a_wall_sees_past_it() {
+    let mut scene = common::load("cornell-box.toml", Some((24, 24)));
+    scene.camera.position = Vec3::new(0.278, 0.273, 0.5592);
+    scene.camera.target = Vec3::new(0.278, 0.273, 0.0);
+    let (hits, _) = check_against_cpu(&scene);
+    // The box is open at the front: the outer pixels look out of it.
+    assert!(
+        hits > 24 * 24 / 2,
+        "{hits} of {} pixels hit the room",
+        24 * 24
+    );
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let frame = renderer
+        .render_frame(&prepared, &scene.camera)
+        .expect("frame");
+    let near = frame
+        .visibility
+        .iter()
+        .filter(|v| v.t >= 0.0 && v.t < 0.01)
+        .count();
+    assert_eq!(near, 0, "{near} pixels hit the wall the camera stands on");
 }

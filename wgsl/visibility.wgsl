@@ -15,7 +15,7 @@ fn main(
         return;
     }
     let dir = camera_ray_dir(camera, id.xy);
-    let hit = trace_closest(Ray(camera.origin, 0.0, dir, INF));
+    let hit = trace_closest(Ray(camera.origin, camera.tmin, dir, INF));
     var out: VisSample;
     if hit.instance == NO_HIT {
         out.t = -1.0;

@@ -326,9 +326,9 @@ impl<'a> DirectReference<'a> {
     /// Renders one pixel.
     pub fn pixel(&self, camera: &GpuCamera, x: u32, y: u32) -> ReferencePixel {
         let dir = camera.ray_dir(x, y);
-        let Some(hit) = self
-            .tracer
-            .closest_hit(camera.origin.into(), dir, 0.0, f32::INFINITY)
+        let Some(hit) =
+            self.tracer
+                .closest_hit(camera.origin.into(), dir, camera.tmin, f32::INFINITY)
         else {
             return ReferencePixel {
                 beauty: match &self.scene.environment_map {

@@ -89,12 +89,12 @@ fn visible_sites(
         let x = h % camera.width;
         let y = hash_combine(h, 1) % camera.height;
         let dir = camera.ray_dir(x, y);
-        let Some(hit) =
-            reference
-                .shading
-                .tracer
-                .closest_hit(camera.origin.into(), dir, 0.0, f32::INFINITY)
-        else {
+        let Some(hit) = reference.shading.tracer.closest_hit(
+            camera.origin.into(),
+            dir,
+            camera.tmin,
+            f32::INFINITY,
+        ) else {
             continue;
         };
         let s = reference.shading.surface_at(&hit, dir);

@@ -143,7 +143,7 @@ impl<'a> IndirectReference<'a> {
         let Some(hit) =
             self.direct
                 .tracer
-                .closest_hit(camera.origin.into(), dir, 0.0, f32::INFINITY)
+                .closest_hit(camera.origin.into(), dir, camera.tmin, f32::INFINITY)
         else {
             return IndirectPixel {
                 direct,
@@ -225,10 +225,10 @@ pub fn glossy_indirect(
     samples: u32,
 ) -> Vec3 {
     let dir = camera.ray_dir(x, y);
-    let Some(hit) = r
-        .direct
-        .tracer
-        .closest_hit(camera.origin.into(), dir, 0.0, f32::INFINITY)
+    let Some(hit) =
+        r.direct
+            .tracer
+            .closest_hit(camera.origin.into(), dir, camera.tmin, f32::INFINITY)
     else {
         return Vec3::ZERO;
     };

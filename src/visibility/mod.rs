@@ -17,7 +17,10 @@ pub struct GpuCamera {
     pub forward: [f32; 3],
     pub height: u32,
     pub right: [f32; 3],
-    pub _pad0: u32,
+    /// Where camera rays start: Ray Tracing Gems' offset at the camera's position
+    /// (`scene::limits::ray_offset`), so a camera placed exactly on a surface sees past it
+    /// rather than that surface alone (a hit at t = 0 in every pixel).
+    pub tmin: f32,
     pub up: [f32; 3],
     pub _pad1: u32,
 }
@@ -35,7 +38,7 @@ impl GpuCamera {
             forward: forward.into(),
             height: c.height,
             right: (right * tan_half * aspect).into(),
-            _pad0: 0,
+            tmin: crate::scene::limits::ray_offset(c.position.abs().max_element()),
             up: (up * tan_half).into(),
             _pad1: 0,
         }

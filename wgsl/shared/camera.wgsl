@@ -6,7 +6,7 @@ struct Camera {
     forward: vec3f,
     height: u32,
     right: vec3f,    // scaled by tan(fov_y / 2) * aspect
-    _pad0: u32,
+    tmin: f32,       // where camera rays start (visibility::GpuCamera::tmin)
     up: vec3f,       // scaled by tan(fov_y / 2)
     _pad1: u32,
 }
