@@ -70,6 +70,13 @@ pub fn plane_error(
         |done| bar.set_position(done as u64),
     );
     bar.finish_and_clear();
+    if table.points == 0 {
+        return Err(Error::Usage(format!(
+            "{}: no point the camera sees receives indirect light (nothing visible, or no \
+             light): the table's relative errors would be over no point",
+            scene_path.display()
+        )));
+    }
     print!("{}", crate::records::plane_error::format_table(&table));
     if let Some(path) = json {
         let text = serde_json::to_string_pretty(&table).map_err(|e| Error::Output {

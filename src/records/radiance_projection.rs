@@ -294,6 +294,19 @@ impl RadianceProjectionPass {
     /// pixel for the basis integrals).
     pub fn new(ctx: &GpuContext, plane: &HemispherePlane, order: u32, sub: u32) -> Result<Self> {
         use Binding::*;
+        // The table's size is known before its integrals are computed (they took 39 s for
+        // a 512 x 512 plane at order 10, only for the buffer to be refused then).
+        let least = plane.pixels.len() as u64 * 3 * coefficient_count(order) as u64 * 4;
+        if least > ctx.max_binding_size() {
+            return Err(crate::Error::DeviceLimit(format!(
+                "radiance records' plane basis integrals ({0} x {0} plane, order {order}) \
+                 need {1} MiB or more in one storage buffer; this device allows {2} MiB: \
+                 lower --radiance-plane-resolution or --radiance-order",
+                plane.resolution,
+                least.div_ceil(1 << 20),
+                ctx.max_binding_size() >> 20
+            )));
+        }
         let basis = PlaneBasis::new(plane, order, sub);
         Ok(Self {
             pass: ComputePass::new(
