@@ -1561,6 +1561,15 @@ impl Renderer {
         build_ms: f64,
         previous: Option<&PreparedScene>,
     ) -> Result<PreparedScene> {
+        // A scene built in code (an engine's) has not been through the loader's checks:
+        // a light that is not finite or past the light cap would render NaN pixels.
+        for (i, light) in scene.lights.iter().enumerate() {
+            crate::scene::animation::check_light(light).map_err(|(field, message)| {
+                Error::Usage(format!("light[{i}].{field}: {message}"))
+            })?;
+        }
+        crate::scene::animation::check_light_value(scene.environment)
+            .map_err(|m| Error::Usage(format!("environment.radiance: {m}")))?;
         // Direct light casts `light_samples` shadow rays per rect light and for the
         // environment, one per point, spot or sun.
         let rays = crate::scene::shadow_rays_per_hit(scene, scene.settings.light_samples);

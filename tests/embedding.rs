@@ -40,3 +40,25 @@ fn renders_on_a_callers_device_with_the_documented_limits() {
         "image is not black"
     );
 }
+
+/// A scene an engine builds in code skips the loader's checks: a light that is not finite
+/// is refused when the scene is prepared, naming it, where it rendered NaN pixels.
+#[test]
+fn a_scene_built_in_code_with_a_bad_light_is_refused() {
+    use glam::Vec3;
+    use radsplat::scene::Light;
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let mut scene = common::load("cornell-box.toml", Some((16, 16)));
+    scene.lights.push(Light::Point {
+        position: Vec3::new(0.2, 0.3, 0.2),
+        intensity: Vec3::splat(f32::NAN),
+    });
+    let index = scene.lights.len() - 1;
+    let e = match renderer.prepare(&scene) {
+        Ok(_) => panic!("a NaN light was prepared"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains(&format!("light[{index}].intensity")), "{e}");
+    scene.lights.pop();
+    renderer.prepare(&scene).expect("the scene without it");
+}
