@@ -1570,6 +1570,37 @@ impl Renderer {
         }
         crate::scene::animation::check_light_value(scene.environment)
             .map_err(|m| Error::Usage(format!("environment.radiance: {m}")))?;
+        for (i, m) in scene.materials.iter().enumerate() {
+            let bad = |field: &str, rule: &str| {
+                Error::Usage(format!("material[{i}] '{}'.{field}: {rule}", m.name))
+            };
+            let unit =
+                |v: glam::Vec3| v.is_finite() && v.min_element() >= 0.0 && v.max_element() <= 1.0;
+            if !unit(m.albedo) {
+                return Err(bad(
+                    "albedo",
+                    &format!("{} must be within [0, 1]", m.albedo),
+                ));
+            }
+            crate::scene::animation::check_light_value(m.emission)
+                .map_err(|e| bad("emission", &e))?;
+            if let Some(crate::scene::GlossyLobe::Phong { specular, exponent }) = m.glossy {
+                // The loaders scale Ks so that Kd + Ks <= 1, within rounding.
+                if !unit(specular) || !unit((m.albedo + specular) / 1.0001) {
+                    return Err(bad(
+                        "specular",
+                        &format!("{specular} must be within [0, 1], with the albedo at most 1"),
+                    ));
+                }
+                let max = crate::scene::limits::MAX_PHONG_EXPONENT;
+                if !(exponent.is_finite() && (0.0..=max).contains(&exponent)) {
+                    return Err(bad(
+                        "exponent",
+                        &format!("{exponent} must be from 0 to {max:e}"),
+                    ));
+                }
+            }
+        }
         // Direct light casts `light_samples` shadow rays per rect light and for the
         // environment, one per point, spot or sun.
         let rays = crate::scene::shadow_rays_per_hit(scene, scene.settings.light_samples);

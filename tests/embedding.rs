@@ -41,10 +41,11 @@ fn renders_on_a_callers_device_with_the_documented_limits() {
     );
 }
 
-/// A scene an engine builds in code skips the loader's checks: a light that is not finite
-/// is refused when the scene is prepared, naming it, where it rendered NaN pixels.
+/// A scene an engine builds in code skips the loader's checks: a light or material that is
+/// not finite is refused when the scene is prepared, naming it, where it rendered NaN
+/// pixels.
 #[test]
-fn a_scene_built_in_code_with_a_bad_light_is_refused() {
+fn a_scene_built_in_code_with_a_bad_light_or_material_is_refused() {
     use glam::Vec3;
     use radsplat::scene::Light;
     let renderer = Renderer::new(common::gpu()).expect("renderer");
@@ -61,4 +62,14 @@ fn a_scene_built_in_code_with_a_bad_light_is_refused() {
     assert!(e.contains(&format!("light[{index}].intensity")), "{e}");
     scene.lights.pop();
     renderer.prepare(&scene).expect("the scene without it");
+    // A material likewise (a NaN albedo rendered NaN pixels).
+    let kept = scene.materials[0].albedo;
+    scene.materials[0].albedo = Vec3::new(0.5, f32::NAN, 0.5);
+    let e = match renderer.prepare(&scene) {
+        Ok(_) => panic!("a NaN albedo was prepared"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("material[0]") && e.contains("albedo"), "{e}");
+    scene.materials[0].albedo = kept;
+    renderer.prepare(&scene).expect("the scene as loaded");
 }
