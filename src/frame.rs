@@ -28,6 +28,9 @@ pub struct PreparedScene {
     /// from.
     pub lights: Vec<GpuLight>,
     pub bounds: (glam::Vec3, glam::Vec3),
+    /// Shadow rays a hit casts: this many per light sample (rect lights and the
+    /// environment), plus `.1` (one per point, spot or sun): `scene::shadow_rays_per_hit`.
+    shadow_rays: (u64, u64),
     /// The light maps traced for this scene, with what they were traced for: they depend
     /// on the scene, not the camera, so every frame rendered from it (a walkthrough, an
     /// engine's views) reuses them.
@@ -1108,17 +1111,10 @@ impl Renderer {
             radiance,
         } = options;
         let ctx = &self.ctx;
-        // Shadow rays of each plane hit (its re-shading and plane refresh cast the same):
-        // the samples per rect light and for the environment, one per other light.
-        let rects = scene
-            .lights
-            .iter()
-            .filter(|l| l.a[3].to_bits() == crate::gpu::scene_buffers::LIGHT_RECT)
-            .count() as u64;
-        let sampled = rects + u64::from(scene.gpu.features().has_environment());
+        // Shadow rays of each plane hit (its re-shading and plane refresh cast the same).
+        let (sampled, delta) = scene.shadow_rays;
         ctx.check_shadow_rays(
-            sampled * u64::from(pass.settings.plane_light_samples) + scene.lights.len() as u64
-                - rects,
+            sampled * u64::from(pass.settings.plane_light_samples) + delta,
             "--plane-light-samples",
         )?;
         let t0 = Instant::now();
@@ -1603,8 +1599,9 @@ impl Renderer {
         }
         // Direct light casts `light_samples` shadow rays per rect light and for the
         // environment, one per point, spot or sun.
-        let rays = crate::scene::shadow_rays_per_hit(scene, scene.settings.light_samples);
         let delta = crate::scene::shadow_rays_per_hit(scene, 0);
+        let sampled = crate::scene::shadow_rays_per_hit(scene, 1) - delta;
+        let rays = sampled * u64::from(scene.settings.light_samples) + delta;
         if self.ctx.stops_long_loops()
             && delta > u64::from(crate::gpu::context::LLVMPIPE_MAX_SHADOW_RAYS)
         {
@@ -1625,6 +1622,7 @@ impl Renderer {
         )?;
         self.ctx.check()?;
         Ok(PreparedScene {
+            shadow_rays: (sampled, delta),
             lights: scene.lights.iter().map(GpuLight::new).collect(),
             bounds: bvh.world_bounds(),
             light_maps: Default::default(),

@@ -15,37 +15,26 @@ pub const MAX_DATA_BYTES: u64 = 16 << 30;
 
 /// Checks that `path` names a regular file of at most `max` bytes; returns its size.
 pub fn check_file(path: &Path, max: u64) -> Result<u64> {
+    let refuse = |message: String| {
+        Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::InvalidInput, message),
+        )
+    };
     let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
     if meta.is_dir() {
-        return Err(Error::io(
-            path,
-            std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                "is a directory, not a file",
-            ),
-        ));
+        return Err(refuse("is a directory, not a file".into()));
     }
     if !meta.is_file() {
-        return Err(Error::io(
-            path,
-            std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                "not a regular file (a device, FIFO or socket): name the file itself",
-            ),
+        return Err(refuse(
+            "not a regular file (a device, FIFO or socket): name the file itself".into(),
         ));
     }
     if meta.len() > max {
-        return Err(Error::io(
-            path,
-            std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                format!(
-                    "{} bytes, more than the {} an input of this kind may have",
-                    meta.len(),
-                    max
-                ),
-            ),
-        ));
+        return Err(refuse(format!(
+            "{} bytes, more than the {max} an input of this kind may have",
+            meta.len()
+        )));
     }
     Ok(meta.len())
 }

@@ -169,17 +169,14 @@ fn a_light_on_a_surface_lights_plane_hits_from_its_map() {
         intensity: Vec3::splat(0.05),
     }];
     let renderer = Renderer::new(common::gpu()).expect("renderer");
-    let prepared = renderer.prepare(&scene).expect("prepare");
     let mean_indirect = |shadows: PlaneShadows| {
         let settings = CacheSettings {
             plane_shadows: shadows,
             ..CacheSettings::default()
         };
-        let mut cache = renderer.new_cache(&settings).expect("cache");
-        let frame = renderer
-            .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
-            .expect("frame");
-        let indirect = frame.indirect.expect("indirect");
+        let indirect = common::render_gi(&renderer, &scene, &settings)
+            .indirect
+            .expect("indirect");
         indirect.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / indirect.len() as f32
     };
     let rays = mean_indirect(PlaneShadows::Rays);

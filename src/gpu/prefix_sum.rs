@@ -23,11 +23,10 @@ impl PrefixSumPass {
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            pass: ComputePass::with_constants(
+            pass: ComputePass::new(
                 ctx,
                 "prefix_sum.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite],
-                &[],
             )?,
         })
     }

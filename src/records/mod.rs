@@ -1487,11 +1487,10 @@ impl RecordPass {
     ) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            sites: ComputePass::with_constants(
+            sites: ComputePass::new(
                 ctx,
                 "record_sites.wgsl",
                 &[Uniform, Uniform, StorageRead, StorageRead, StorageReadWrite],
-                &[],
             )?,
             // Traces the planes and refines them (`refine::RefinePass::record`). Ten storage
             // buffers: with the scene's six, the 16 a stage may bind

@@ -93,18 +93,16 @@ impl NeighbourGridPass {
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            count: ComputePass::with_constants(
+            count: ComputePass::new(
                 ctx,
                 "neighbour_grid_count.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite],
-                &[],
             )?,
             scan: crate::gpu::prefix_sum::PrefixSumPass::new(ctx)?,
-            scatter: ComputePass::with_constants(
+            scatter: ComputePass::new(
                 ctx,
                 "neighbour_grid_scatter.wgsl",
                 &[Uniform, StorageRead, StorageReadWrite, StorageReadWrite],
-                &[],
             )?,
             // A grid the reduction does not search (it loops over every earlier record).
             disabled: NeighbourGrid {

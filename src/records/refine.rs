@@ -350,28 +350,27 @@ impl RefinePass {
         if refined == 0 && !settings.dark_plane_refine {
             return Ok(None);
         }
-        // Nine storage buffers: with the scene's six, 15 of the 16 a stage may bind
-        // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
-        let select = ComputePass::with_constants(
-            ctx,
-            "plane_refine_select.wgsl",
-            &[
-                Uniform,
-                StorageRead,
-                StorageRead,
-                StorageReadWrite,
-                StorageReadWrite,
-                StorageReadWrite,
-                StorageRead,
-                StorageRead,
-                Uniform,
-                StorageRead,
-                StorageReadWrite,
-            ],
-            &[],
-        )?;
+        let split = settings.plane_refine_split;
         Ok(Some(Self {
-            select,
+            // Nine storage buffers: with the scene's six, 15 of the 16 a stage may bind
+            // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
+            select: ComputePass::new(
+                ctx,
+                "plane_refine_select.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                    StorageRead,
+                    StorageRead,
+                    Uniform,
+                    StorageRead,
+                    StorageReadWrite,
+                ],
+            )?,
             no_hits: ctx.storage_buffer_sized("no refined hits", 16)?,
             dark_dispatch: ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("dark plane refinement dispatch"),
@@ -384,7 +383,7 @@ impl RefinePass {
             dark_planes: ctx.storage_buffer("dark planes", &[0u32; 3])?,
             resolution: settings.plane_resolution,
             refined,
-            split: settings.plane_refine_split,
+            split,
             light_samples: settings.plane_light_samples,
             light_choices: settings.plane_light_choices,
             dark_planes_refined: settings.dark_plane_refine,

@@ -74,22 +74,17 @@ impl SplatPass {
         if bins.total == 0 {
             return Ok(());
         }
-        // The records' corrals only in the pipeline built with them (`CORRAL`).
+        // The records' corrals only in the pipeline built with them (`CORRAL`; built when
+        // first asked for, then kept by the device).
         let cover = if src.corral {
-            match self.cover_corral.get() {
-                Some(pass) => pass,
-                None => {
-                    let pass = crate::gpu::pipeline::ComputePass::with_constants(
-                        ctx,
-                        "splat_cover.wgsl",
-                        super::COVER_BINDINGS,
-                        &[("CORRAL", 1.0)],
-                    )?;
-                    self.cover_corral.get_or_init(|| pass)
-                }
-            }
+            crate::gpu::pipeline::ComputePass::with_constants(
+                ctx,
+                "splat_cover.wgsl",
+                super::COVER_BINDINGS,
+                &[("CORRAL", 1.0)],
+            )?
         } else {
-            &self.cover
+            std::sync::Arc::clone(&self.cover)
         };
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());

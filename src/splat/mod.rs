@@ -78,15 +78,14 @@ const FILL_EXTRA_BINDINGS: &[Binding] = &[Binding::StorageRead, Binding::Storage
 /// without (`CORRAL` in `wgsl/shared/splat_weight.wgsl`). Still frames count nothing and,
 /// by default, weigh no corral: that pipeline is built up front, the others when a splat
 /// first asks for one (temporal caching counts; `records::Corral` other than Off weighs
-/// corrals). Lavapipe runs the count's loads and atomic for every record of a tile's list
-/// even when nothing is counted (on Sponza 400x400 the gather without them took 0.80 of
-/// its time, the same bytes), and builds a pipeline with the corral's code 1.2x as slowly.
+/// corrals; the device keeps them once built, `ComputePass::with_constants`). Lavapipe runs
+/// the count's loads and atomic for every record of a tile's list even when nothing is
+/// counted (on Sponza 400x400 the gather without them took 0.80 of its time, the same
+/// bytes), and builds a pipeline with the corral's code 1.2x as slowly.
 struct GatherPipelines {
     name: &'static str,
     bindings: Vec<Binding>,
     plain: std::sync::Arc<ComputePass>,
-    /// Indexed by `2 counting + corral`; index 0 is `plain`.
-    others: [std::sync::OnceLock<std::sync::Arc<ComputePass>>; 3],
 }
 
 impl GatherPipelines {
@@ -95,7 +94,6 @@ impl GatherPipelines {
             name,
             plain: Self::build(ctx, name, &bindings, false, false)?,
             bindings,
-            others: Default::default(),
         })
     }
 
@@ -119,18 +117,17 @@ impl GatherPipelines {
 
     /// The pipeline for a splat counting `coverage_mode` (`COUNT_NONE`, `COUNT_ALL` or
     /// `COUNT_NEEDED`), weighing the records' corrals or not.
-    fn for_mode(&self, ctx: &GpuContext, coverage_mode: u32, corral: bool) -> Result<&ComputePass> {
+    fn for_mode(
+        &self,
+        ctx: &GpuContext,
+        coverage_mode: u32,
+        corral: bool,
+    ) -> Result<std::sync::Arc<ComputePass>> {
         let counting = coverage_mode != COUNT_NONE;
-        let index = 2 * usize::from(counting) + usize::from(corral);
-        if index == 0 {
-            return Ok(&self.plain);
+        if !counting && !corral {
+            return Ok(std::sync::Arc::clone(&self.plain));
         }
-        let slot = &self.others[index - 1];
-        if let Some(pass) = slot.get() {
-            return Ok(pass);
-        }
-        let pass = Self::build(ctx, self.name, &self.bindings, counting, corral)?;
-        Ok(slot.get_or_init(|| pass))
+        Self::build(ctx, self.name, &self.bindings, counting, corral)
     }
 }
 
@@ -351,9 +348,6 @@ pub struct SplatPass {
     /// Tail fill's gather over the listed empty pixels.
     fill: GatherPipelines,
     cover: std::sync::Arc<ComputePass>,
-    /// Placement's cover weighing the records' corrals (`records::Corral::Placement`),
-    /// built when first asked for.
-    cover_corral: std::sync::OnceLock<std::sync::Arc<ComputePass>>,
     count_coverage: std::sync::Arc<ComputePass>,
     bounds: std::sync::Arc<ComputePass>,
     /// The tile bounds of the pixels tail fill's gather fills (`EMPTY_ONLY`).
@@ -415,7 +409,6 @@ impl SplatPass {
                 [GATHER_BINDINGS, FILL_EXTRA_BINDINGS].concat(),
             )?,
             cover: ComputePass::new(ctx, "splat_cover.wgsl", COVER_BINDINGS)?,
-            cover_corral: std::sync::OnceLock::new(),
             count_coverage: ComputePass::new(
                 ctx,
                 "coverage_count.wgsl",
