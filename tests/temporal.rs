@@ -780,13 +780,29 @@ fn animate_cube<T>(
     frames: std::ops::RangeInclusive<u32>,
     cache: CacheSettings,
     temporal: Option<TemporalSettings>,
+    keep: impl FnMut(&Frame) -> T,
+) -> (
+    Vec<T>,
+    Vec<radsplat::temporal::animation::AnimationFrameStats>,
+) {
+    let scene = common::load("cube-in-box-anim.toml", Some((size, size)));
+    animate(renderer, &scene, frames, cache, temporal, keep)
+}
+
+/// Frames `frames` of `scene` through the library's animation loop: what `keep` takes of
+/// each frame, and each frame's statistics.
+fn animate<T>(
+    renderer: &Renderer,
+    scene: &Scene,
+    frames: std::ops::RangeInclusive<u32>,
+    cache: CacheSettings,
+    temporal: Option<TemporalSettings>,
     mut keep: impl FnMut(&Frame) -> T,
 ) -> (
     Vec<T>,
     Vec<radsplat::temporal::animation::AnimationFrameStats>,
 ) {
     use radsplat::temporal::animation::{AnimationOptions, render_animation};
-    let scene = common::load("cube-in-box-anim.toml", Some((size, size)));
     let options = AnimationOptions {
         frames,
         cache,
@@ -795,7 +811,7 @@ fn animate_cube<T>(
     let (mut kept, mut stats) = (Vec::new(), Vec::new());
     render_animation(
         renderer,
-        &scene,
+        scene,
         &options,
         |f| {
             kept.push(keep(f.frame));
@@ -1154,5 +1170,72 @@ fn placed_records_bound_the_reuse_by_their_true_lifespans() {
         l.truth[0] > 0,
         "no record changes by a_t in one frame: {:?}",
         l.truth
+    );
+}
+
+/// A lamp switched on at frame 12 (lamp-switch.toml; nothing moves). Records born while
+/// it was off saw no change from t to t+1 and lived dt_max frames: the lamp's light on
+/// the walls showed late, and with interpolated gradients, which move each record
+/// towards its successor, it faded in over the frames before the switch (the scene's
+/// dt_max 20 at 64 x 64: frame 11 26 % off per-frame recomputation). Here dt_max is 8, so
+/// that both happen within 18 frames: the records born at 8 live to 15, the late light,
+/// and fade towards successors born at 16, the early one. The lights' horizon ends them
+/// at frame 11 and keeps them off the interpolation: every frame within 2 % of per-frame
+/// recomputation's indirect light, and no record of frames 0-11 reused after the switch.
+#[test]
+fn a_lamp_switched_on_shows_in_its_frame_under_temporal_caching() {
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let scene = common::load("lamp-switch.toml", Some((24, 24)));
+    let mean_indirect = |frame: &Frame| {
+        let indirect = frame.indirect.as_ref().expect("indirect AOV");
+        indirect
+            .iter()
+            .map(|c| f64::from(0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]))
+            .sum::<f64>()
+            / indirect.len() as f64
+    };
+    let frames = 0..=17;
+    let (temporal, stats) = animate(
+        &renderer,
+        &scene,
+        frames.clone(),
+        settings(),
+        Some(TemporalSettings {
+            max_lifespan: 8,
+            ..TemporalSettings::default()
+        }),
+        mean_indirect,
+    );
+    let (per_frame, _) = animate(&renderer, &scene, frames, settings(), None, mean_indirect);
+    assert!(
+        per_frame[12] > 1.2 * per_frame[11],
+        "the lamp adds little: {} -> {}",
+        per_frame[11],
+        per_frame[12]
+    );
+    for (f, (t, p)) in temporal.iter().zip(&per_frame).enumerate() {
+        let off = (t - p).abs() / p;
+        eprintln!(
+            "frame {f}: temporal {t:.5}, per frame {p:.5} ({:.2} %)",
+            100.0 * off
+        );
+        assert!(
+            off < 0.02,
+            "frame {f}: {:.1} % off per-frame recomputation",
+            100.0 * off
+        );
+    }
+    // Records were reused on both sides of the switch, not across it.
+    assert!(
+        stats[1..8].iter().all(|s| s.temporal.kept > 0),
+        "no reuse before the switch"
+    );
+    assert!(
+        stats[13..].iter().all(|s| s.temporal.kept > 0),
+        "no reuse after the switch"
+    );
+    assert_eq!(
+        stats[12].temporal.kept, 0,
+        "records of the dark room kept with the lamp on"
     );
 }

@@ -51,7 +51,8 @@ def main():
     ap.add_argument("--runs", type=int, default=3, help="timed runs per variant")
     ap.add_argument("--refs", required=True, help="folder of the references (reused)")
     ap.add_argument("--variant", action="append", required=True,
-                    help="NAME=FLAGS for radsplat animate; the last one is the baseline")
+                    help="NAME=FLAGS for radsplat animate, or NAME@BINARY=FLAGS to run another "
+                         "build (an earlier stop's, side by side); the last one is the baseline")
     ap.add_argument("--bin", default=str(REPO / "target" / "release" / "radsplat"))
     args = ap.parse_args()
     first, last = frame_range(args.frames)
@@ -63,8 +64,11 @@ def main():
             run([args.bin, "reference", args.scene, "--frame", str(f), "--spp", str(args.spp),
                  "--size", args.size, "-o", str(ref), "--quiet"])
     variants = []
+    binaries = {}
     for v in args.variant:
         name, _, flags = v.partition("=")
+        name, _, binary = name.partition("@")
+        binaries[name] = binary or args.bin
         variants.append((name, shlex.split(flags)))
     out = Path(tempfile.mkdtemp(prefix="radsplat-worst-frame-"))
     results = {}
@@ -75,7 +79,7 @@ def main():
         for name, flags in variants:
             folder = out / name.replace(" ", "_")
             folder.mkdir(exist_ok=True)
-            times[name].append(run([args.bin, "animate", args.scene, "--frames", args.frames,
+            times[name].append(run([binaries[name], "animate", args.scene, "--frames", args.frames,
                                     "--size", args.size, "-o", str(folder / "f_####.exr"),
                                     "--quiet", *flags]))
     for name, _ in variants:

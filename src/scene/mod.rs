@@ -177,7 +177,6 @@ impl Scene {
     }
 }
 
-/// A scene bundled in `scenes/`, loaded (unit tests of several modules).
 /// Shadow rays one surface hit casts for `scene`'s lights with `samples` samples per light
 /// (Scene `light_samples`, `--plane-light-samples`): `samples` for each rect light and for
 /// the environment, one for each point, spot or sun (`shadow_loop_next` in
@@ -193,6 +192,7 @@ pub fn shadow_rays_per_hit(scene: &Scene, samples: u32) -> u64 {
     (rects + environment) * u64::from(samples) + delta
 }
 
+/// A scene bundled in `scenes/`, loaded (unit tests of several modules).
 #[cfg(test)]
 pub(crate) fn bundled(name: &str) -> Scene {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -14,6 +14,7 @@ pub mod animation;
 pub mod buried;
 pub mod estimate_error;
 pub mod estimate_rule;
+pub mod horizon;
 pub mod instant;
 pub mod lookahead;
 pub mod motion;
@@ -270,6 +271,11 @@ pub struct TemporalRecord {
     pub tau: f32,
     /// The record that replaced this one at the same place, once it expired.
     pub successor: Option<u32>,
+    /// Its life ends where a light leaves the course its estimate saw ([`horizon`]): its
+    /// successor, born after that break, is not interpolated towards (the light switched
+    /// on at the break would fade in over the record's whole life, before it is on); it
+    /// keeps its own extrapolated gradient instead.
+    pub before_break: bool,
     /// The instance it moves with; None: it keeps its world position.
     pub anchor: Option<Anchor>,
     /// Where its plane was traced from (its successor inherits it while the record has
@@ -513,6 +519,9 @@ struct FramePlan {
     lights: FrameLights,
     /// Whether the records computed this frame are estimated at t+1 ([`estimate_rule`]).
     estimate: bool,
+    /// How far the records' estimates can see the lights ahead (None: no light animated
+    /// or no next frame).
+    horizon: Option<horizon::Horizon>,
 }
 
 /// Radiance records over an animation: a temporal cache of their own beside the
@@ -1270,6 +1279,14 @@ impl TemporalCache {
             retraced_lists,
             lights,
             estimate,
+            horizon: scenes.next.and_then(|_| {
+                horizon::Horizon::ahead(
+                    scenes.scene,
+                    t,
+                    self.settings.max_lifespan,
+                    self.settings.accuracy,
+                )
+            }),
         })
     }
 
@@ -1297,6 +1314,7 @@ impl TemporalCache {
             retraced_lists,
             lights,
             estimate,
+            horizon,
             ..
         } = plan;
         stats.new = new;
@@ -1320,6 +1338,7 @@ impl TemporalCache {
             one_frame,
             &transforms,
             &moves_next,
+            horizon.as_ref(),
         )?;
         if has_next && dynamic {
             // Records on movers were not estimated (`NextFrame::skip_movers`): the ledger
@@ -1499,7 +1518,8 @@ impl TemporalCache {
     /// history: each with its tau and last frame (decision 9), its anchor, its site and
     /// its plane if kept (`kept_planes`, by cache index); the first `replace.len()` of them
     /// succeed the records of `replace`; `moves_next` says per instance whether it moves
-    /// to t+1 ([`MoverRecords`]). Returns their ids, their lifespan histogram (entry i:
+    /// to t+1 ([`MoverRecords`]); `horizon` ends lifespans where the lights leave the
+    /// course the estimate saw ([`horizon`]). Returns their ids, their lifespan histogram (entry i:
     /// records used in i + 1 frames) and how many of them lie on movers and live one frame
     /// for that.
     #[allow(clippy::too_many_arguments)]
@@ -1514,6 +1534,7 @@ impl TemporalCache {
         one_frame: bool,
         transforms: &[Mat4],
         moves_next: &[bool],
+        horizon: Option<&horizon::Horizon>,
     ) -> Result<(Vec<u32>, Vec<u32>, u64)> {
         let movers_one_frame = self.settings.mover_records == MoverRecords::OneFrame;
         let first_id = self.next_id();
@@ -1568,6 +1589,7 @@ impl TemporalCache {
                     .copied()
                     .unwrap_or(false);
             movers += u64::from(on_mover);
+            let mut before_break = false;
             let (tau, last) = if one_frame || on_mover {
                 (f32::NAN, t)
             } else {
@@ -1576,7 +1598,15 @@ impl TemporalCache {
                 } else {
                     temporal_ratio(record.irradiance, next.irradiance)
                 };
-                (tau, last_frame(t, tau, &self.settings, dynamic))
+                let last = last_frame(t, tau, &self.settings, dynamic);
+                // Not past what the estimate can see of the lights (horizon.rs).
+                match horizon.and_then(|h| h.last_frame(record.position())) {
+                    Some(seen) if seen <= last => {
+                        before_break = true;
+                        (tau, seen)
+                    }
+                    _ => (tau, last),
+                }
             };
             let anchor = match self.settings.anchor {
                 RecordAnchor::World => None,
@@ -1598,6 +1628,7 @@ impl TemporalCache {
                 last_frame: last,
                 tau,
                 successor: None,
+                before_break,
                 anchor,
                 site,
             });
@@ -1803,7 +1834,7 @@ impl TemporalCache {
     fn record_at_with(&self, id: u32, t: u32, transforms: &[Mat4]) -> Record {
         let r = self.rec(id);
         let at_birth_place = match (self.settings.gradients, r.successor) {
-            (TemporalGradients::Interpolated, Some(l)) => {
+            (TemporalGradients::Interpolated, Some(l)) if !r.before_break => {
                 let mut successor = *self.rec(l);
                 // The successor as it would be at this record's place at its first frame
                 // (the same place on the instance).
@@ -1829,7 +1860,7 @@ impl TemporalCache {
             return Vec::new();
         }
         let at_birth_place = match (self.settings.gradients, r.successor) {
-            (TemporalGradients::Interpolated, Some(l)) => {
+            (TemporalGradients::Interpolated, Some(l)) if !r.before_break => {
                 let successor = self.rec(l);
                 let mut to = self.blocks[(l - self.history_base) as usize].now.clone();
                 if let (Some(mine), Some(its)) = (r.anchor, successor.anchor) {
