@@ -274,7 +274,7 @@ impl Interpolate for CameraKey {
 
 impl Animation {
     /// The transform track of instance `i`, if it has one.
-    fn instance_track(&self, i: usize) -> Option<&Track<TransformKey>> {
+    pub(crate) fn instance_track(&self, i: usize) -> Option<&Track<TransformKey>> {
         self.instances
             .binary_search_by_key(&i, |(j, _)| *j)
             .ok()

@@ -1,87 +1,135 @@
-//! How far ahead a record's estimate can see: the lights' horizon.
+//! How far ahead a record's estimate can see: the animation's horizon.
 //!
 //! A record's lifespan comes from its estimate at t+1 (`tau = E(t+1) / E(t)`, seed 000
 //! eqs. 6-8): the change from t to t+1, extrapolated over the lifespan by the temporal
 //! gradient. That holds only while the scene keeps changing as it did from t to t+1. A
-//! light switched on at a later keyframe, or one that starts to move, or turns, is a
-//! change the estimate cannot see: a record born before it said "nothing changes" and
-//! kept the old light for up to dt_max frames (a light switched back on showed up to
-//! `max_lifespan` frames late).
+//! light switched on at a later keyframe, a light or an object that starts to move, stops
+//! or turns, is a change the estimate cannot see: a record born before it said "nothing
+//! changes" and kept the old light for up to dt_max frames (a light switched back on
+//! showed up to `max_lifespan` frames late; with interpolated gradients it faded in over
+//! the frames before it was switched on).
 //!
 //! The animation is known ahead, so the horizon looks at it: for each frame f after t+1
-//! it extrapolates every animated light along the straight path through its states at t
-//! and t+1 (what the estimate assumed), compares with the light's true state at f, and
-//! ends the records' lifespan at the last frame at which every light is within the
-//! temporal accuracy a_t of that path (the seed's own bound on a record's relative change
-//! over its life, `|tau - 1| (t - t_k) <= a_t`). The deviations are first-order estimates
-//! of the relative change the departure makes to a record's light:
-//! - intensity, radiance or irradiance: the relative difference (largest channel);
+//! it extrapolates every animated light and object along its course through its states
+//! at t and t+1 (what the estimate assumed), compares with its keyed state at f, and ends
+//! the records' lifespan at the last frame at which every one is within the temporal
+//! accuracy a_t of that course (the seed's own bound on a record's relative change over
+//! its life, `|tau - 1| (t - t_k) <= a_t`). The departures are first-order estimates of
+//! the relative change they make to a record's light:
+//! - a light's intensity, radiance or irradiance: the relative difference (largest
+//!   channel);
 //! - a point, spot or rect light's position: `2 delta / d`, `delta` the distance between
 //!   the true and the extrapolated position (for a rect light, the largest over its
 //!   corners) and `d` the record's distance to the light (irradiance falls as `1 / d^2`);
 //! - a sun's or spot's direction: the angle between true and extrapolated direction, in
 //!   radians (a cosine's relative change for unit change of angle at 45 degrees), for a
-//!   spot relative to its cone's half-angle.
+//!   spot relative to its cone's half-angle;
+//! - an object: its bounding box's largest corner departure `delta` against the radius
+//!   `r` of the sphere around the box, `min(1, delta / r)`, times the share of the
+//!   record's cosine-weighted hemisphere the sphere covers, `(r / d)^2` (1 within it).
 //!
-//! A light that follows a straight path between keyframes (the tracks are piecewise
-//! linear) leaves records their lifespan inside a keyframe interval; only where its
-//! course bends do the records born within dt_max before the bend end at it. Lights the
-//! record does not see are counted too (which light a record sees is not known here): a
-//! conservative bound that costs replacements, never light.
+//! Lights and objects follow straight courses between keyframes (positions, intensities
+//! and scales are interpolated linearly; rotations are slerped, which the extrapolation
+//! continues exactly), so records keep their lifespan inside a keyframe interval; only
+//! where a course bends or jumps do the records born within dt_max before it end there.
+//! Lights the record does not see count too (which light a record sees is not known
+//! here): a conservative bound that costs replacements, never light.
 
+use crate::scene::animation::{Track, TransformKey};
 use crate::scene::{Light, Scene};
 use glam::Vec3;
 
-/// One animated light's departure from its extrapolated path at one frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct Departure {
-    /// Relative departure that holds at every record (intensity, direction).
-    everywhere: f32,
-    /// A position's departure (`delta`, m) and the light's true position there: the
-    /// relative departure at a record is `2 delta / d`.
-    moved: Option<(f32, Vec3)>,
+/// One animated light's or object's departure from its extrapolated course at one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Departure {
+    Light {
+        /// Relative departure that holds at every record (intensity, direction).
+        everywhere: f32,
+        /// A position's departure (`delta`, m) and the light's true position there: the
+        /// relative departure at a record is `2 delta / d`.
+        moved: Option<(f32, Vec3)>,
+    },
+    /// An object: its bounding box's largest corner departure `delta`, and the sphere
+    /// around the box where it truly is.
+    Object {
+        delta: f32,
+        center: Vec3,
+        radius: f32,
+    },
 }
 
 impl Departure {
     /// The relative change at a record at `position`.
     fn at(&self, position: Vec3) -> f32 {
-        let moved = self.moved.map_or(0.0, |(delta, light)| {
-            if delta <= 0.0 {
-                0.0
-            } else {
-                let d = position.distance(light);
-                if d > 0.0 {
-                    2.0 * delta / d
-                } else {
-                    f32::INFINITY
-                }
+        match *self {
+            Departure::Light { everywhere, moved } => {
+                let moved = moved.map_or(0.0, |(delta, light)| {
+                    if delta <= 0.0 {
+                        0.0
+                    } else {
+                        let d = position.distance(light);
+                        if d > 0.0 {
+                            2.0 * delta / d
+                        } else {
+                            f32::INFINITY
+                        }
+                    }
+                });
+                everywhere.max(moved)
             }
-        });
-        self.everywhere.max(moved)
+            // The object covers about (radius / d)^2 of the record's cosine-weighted
+            // hemisphere; moved off its course by its own size, all of that changes.
+            Departure::Object {
+                delta,
+                center,
+                radius,
+            } => {
+                if delta <= 0.0 {
+                    return 0.0;
+                }
+                let d = position.distance(center);
+                let seen = if d > radius {
+                    (radius / d).powi(2)
+                } else {
+                    1.0
+                };
+                let moved = if radius > 0.0 {
+                    (delta / radius).min(1.0)
+                } else {
+                    1.0
+                };
+                seen * moved
+            }
+        }
     }
 }
 
-/// The frames after t+1 up to dt_max, and what each animated light does there beyond the
-/// estimate's straight path ([`Horizon::last_frame`]).
+/// The frames after t+1 up to dt_max, and what each animated light and object does there
+/// beyond the estimate's course ([`Horizon::last_frame`]).
 #[derive(Clone, Debug)]
 pub struct Horizon {
     /// The frame the records are born in.
     birth: u32,
     accuracy: f32,
-    /// Per frame `birth + 2 + i`: each animated light's departure.
+    /// Per frame `birth + 2 + i`: each animated light's and object's departure.
     frames: Vec<Vec<Departure>>,
 }
 
 impl Horizon {
     /// The horizon of records born at `t` that live at most `max_lifespan` frames, under
-    /// temporal accuracy `accuracy`. None when no light is animated (nothing to see).
+    /// temporal accuracy `accuracy`. None when no light or object is animated.
     pub fn ahead(scene: &Scene, t: u32, max_lifespan: u32, accuracy: f32) -> Option<Self> {
-        let animated: Vec<usize> = scene
-            .animation
-            .as_ref()
-            .map(|a| a.lights.iter().map(|(i, _)| *i).collect())
-            .unwrap_or_default();
-        if animated.is_empty() {
+        let animation = scene.animation.as_ref()?;
+        let lights: Vec<usize> = animation.lights.iter().map(|(i, _)| *i).collect();
+        let objects: Vec<(&Track<TransformKey>, [Vec3; 8])> = animation
+            .instances
+            .iter()
+            .filter_map(|(i, track)| {
+                let mesh = scene.meshes.get(scene.instances.get(*i)?.mesh as usize)?;
+                Some((track, box_corners(&mesh.positions)?))
+            })
+            .collect();
+        if lights.is_empty() && objects.is_empty() {
             return None;
         }
         let latest = t.saturating_add(max_lifespan.max(1) - 1);
@@ -91,12 +139,13 @@ impl Horizon {
             .map(|f| {
                 let steps = (f - t) as f32;
                 let truth = scene.lights_at(f as f32);
-                animated
+                let lights = lights.iter().filter_map(|&i| {
+                    Some(departure(now.get(i)?, next.get(i)?, truth.get(i)?, steps))
+                });
+                let objects = objects
                     .iter()
-                    .filter_map(|&i| {
-                        Some(departure(now.get(i)?, next.get(i)?, truth.get(i)?, steps))
-                    })
-                    .collect()
+                    .map(|(track, corners)| object_departure(track, corners, t as f32, f as f32));
+                lights.chain(objects).collect()
             })
             .collect();
         Some(Self {
@@ -106,8 +155,8 @@ impl Horizon {
         })
     }
 
-    /// The last frame up to which every animated light stays within a_t of its straight
-    /// path through t and t+1, as seen from a record at `position`: at least t+1 (where
+    /// The last frame up to which every animated light and object stays within a_t of its
+    /// course through t and t+1, as seen from a record at `position`: at least t+1 (where
     /// the estimate is exact). None when none departs up to dt_max.
     pub fn last_frame(&self, position: Vec3) -> Option<u32> {
         self.frames.iter().enumerate().find_map(|(i, lights)| {
@@ -120,6 +169,55 @@ impl Horizon {
                 })
                 .then_some(self.birth + 1 + i as u32)
         })
+    }
+}
+
+/// The corners of the box around `points` (None for no points).
+fn box_corners(points: &[Vec3]) -> Option<[Vec3; 8]> {
+    let first = *points.first()?;
+    let (lo, hi) = points
+        .iter()
+        .fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    Some(std::array::from_fn(|k| {
+        Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        )
+    }))
+}
+
+/// An object's departure at frame `f` from the course through its transforms at `t` and
+/// t+1: translation and scale continued in a straight line, the rotation from t to t+1
+/// continued about the same axis at the same rate (the motion between two keyframes
+/// exactly), against its keyed transform at `f`; measured at its box's corners.
+fn object_departure(track: &Track<TransformKey>, corners: &[Vec3; 8], t: f32, f: f32) -> Departure {
+    let (a, b, truth) = (track.sample(t), track.sample(t + 1.0), track.sample(f));
+    let steps = f - t;
+    let mut turn = a.rotation.inverse() * b.rotation;
+    if turn.w < 0.0 {
+        turn = -turn; // the shortest arc, as the keys are slerped
+    }
+    let (axis, angle) = turn.to_axis_angle();
+    let course = TransformKey {
+        translate: a.translate + (b.translate - a.translate) * steps,
+        rotation: (a.rotation * glam::Quat::from_axis_angle(axis, angle * steps)).normalize(),
+        scale: a.scale + (b.scale - a.scale) * steps,
+    }
+    .matrix();
+    let truth = truth.matrix();
+    let at = corners.map(|c| truth.transform_point3(c));
+    let delta = corners
+        .iter()
+        .zip(&at)
+        .map(|(&c, &p)| course.transform_point3(c).distance(p))
+        .fold(0.0f32, f32::max);
+    let center = at.iter().copied().sum::<Vec3>() / 8.0;
+    let radius = at.iter().map(|p| p.distance(center)).fold(0.0f32, f32::max);
+    Departure::Object {
+        delta,
+        center,
+        radius,
     }
 }
 
@@ -146,7 +244,7 @@ fn departure(now: &Light, next: &Light, truth: &Light, steps: f32) -> Departure 
                 position,
                 intensity,
             },
-        ) => Departure {
+        ) => Departure::Light {
             everywhere: relative(ahead(*i0, *i1), *intensity),
             moved: Some((ahead(*p0, *p1).distance(*position), *position)),
         },
@@ -172,7 +270,7 @@ fn departure(now: &Light, next: &Light, truth: &Light, steps: f32) -> Departure 
             },
         ) => {
             let half_angle = cos_outer.clamp(-1.0, 1.0).acos().max(1e-3);
-            Departure {
+            Departure::Light {
                 everywhere: relative(ahead(*i0, *i1), *intensity)
                     .max(turn(*d0, *d1, *direction) / half_angle),
                 moved: Some((ahead(*p0, *p1).distance(*position), *position)),
@@ -207,7 +305,7 @@ fn departure(now: &Light, next: &Light, truth: &Light, steps: f32) -> Departure 
             let delta = (0..4)
                 .map(|k| ahead(a[k], b[k]).distance(truth[k]))
                 .fold(0.0f32, f32::max);
-            Departure {
+            Departure::Light {
                 everywhere: relative(ahead(*r0, *r1), *radiance),
                 moved: Some((delta, *corner + 0.5 * (*edge_u + *edge_v))),
             }
@@ -225,12 +323,12 @@ fn departure(now: &Light, next: &Light, truth: &Light, steps: f32) -> Departure 
                 direction,
                 irradiance,
             },
-        ) => Departure {
+        ) => Departure::Light {
             everywhere: relative(ahead(*e0, *e1), *irradiance).max(turn(*d0, *d1, *direction)),
             moved: None,
         },
         // A track keeps its light's type (checked at load); a mismatch departs at once.
-        _ => Departure {
+        _ => Departure::Light {
             everywhere: f32::INFINITY,
             moved: None,
         },
@@ -328,10 +426,8 @@ mod tests {
         assert_eq!(h.last_frame(Vec3::ZERO), None);
         let h = Horizon::ahead(&scene, 3, 4, 0.05).expect("horizon");
         assert_eq!(h.last_frame(Vec3::ZERO), None);
-        // No animated light: no horizon.
-        assert!(
-            Horizon::ahead(&crate::scene::bundled("cube-in-box-anim.toml"), 0, 20, 0.05).is_none()
-        );
+        // Nothing animated: no horizon.
+        assert!(Horizon::ahead(&crate::scene::bundled("cube-in-box.toml"), 0, 20, 0.05).is_none());
     }
 
     #[test]
@@ -348,5 +444,53 @@ mod tests {
         // Inside a leg the panel follows its straight path.
         let h = Horizon::ahead(&scene, 20, 20, 0.02).expect("horizon");
         assert_eq!(h.last_frame(Vec3::new(0.5, 3.0, -1.0)), None);
+    }
+
+    fn unit_box() -> [Vec3; 8] {
+        box_corners(&[Vec3::splat(-0.5), Vec3::splat(0.5)]).expect("corners")
+    }
+
+    fn key(x: f32, degrees: f32) -> TransformKey {
+        TransformKey::from_trs(
+            Vec3::new(x, 0.0, 0.0),
+            Vec3::new(0.0, degrees, 0.0),
+            Vec3::ONE,
+        )
+    }
+
+    #[test]
+    fn an_object_turning_and_sliding_between_keyframes_departs_nowhere() {
+        let track = Track {
+            keys: vec![(0.0, key(0.0, 0.0)), (100.0, key(2.0, 170.0))],
+        };
+        let d = object_departure(&track, &unit_box(), 10.0, 29.0);
+        let Departure::Object { delta, .. } = d else {
+            panic!("{d:?}")
+        };
+        assert!(delta < 1e-4, "{delta}");
+    }
+
+    #[test]
+    fn an_object_that_starts_to_move_departs_near_it_first() {
+        // Still until frame 20, then 5 cm a frame along x.
+        let track = Track {
+            keys: vec![
+                (0.0, key(0.0, 0.0)),
+                (20.0, key(0.0, 0.0)),
+                (40.0, key(1.0, 0.0)),
+            ],
+        };
+        let d = object_departure(&track, &unit_box(), 10.0, 22.0);
+        // 10 cm off its course: all of it (10 % of its size) seen from on it, a
+        // hundredth of that from 10 box radii away.
+        let radius = 0.75f32.sqrt();
+        assert!((d.at(Vec3::ZERO) - 0.1 / radius).abs() < 1e-4, "{d:?}");
+        // (The box's centre is at x = 0.1 at frame 22.)
+        let far = d.at(Vec3::new(10.0 * radius + 0.1, 0.0, 0.0));
+        assert!((far - 0.001 / radius).abs() < 1e-5, "{far}");
+        assert_eq!(
+            object_departure(&track, &unit_box(), 10.0, 20.0).at(Vec3::ZERO),
+            0.0
+        );
     }
 }

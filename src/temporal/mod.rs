@@ -271,10 +271,10 @@ pub struct TemporalRecord {
     pub tau: f32,
     /// The record that replaced this one at the same place, once it expired.
     pub successor: Option<u32>,
-    /// Its life ends where a light leaves the course its estimate saw ([`horizon`]): its
-    /// successor, born after that break, is not interpolated towards (the light switched
-    /// on at the break would fade in over the record's whole life, before it is on); it
-    /// keeps its own extrapolated gradient instead.
+    /// Its life ends where a light or an object leaves the course its estimate saw
+    /// ([`horizon`]): its successor, born after that break, is not interpolated towards
+    /// (a light switched on at the break would fade in over the record's whole life,
+    /// before it is on); it keeps its own extrapolated gradient instead.
     pub before_break: bool,
     /// The instance it moves with; None: it keeps its world position.
     pub anchor: Option<Anchor>,
@@ -519,8 +519,8 @@ struct FramePlan {
     lights: FrameLights,
     /// Whether the records computed this frame are estimated at t+1 ([`estimate_rule`]).
     estimate: bool,
-    /// How far the records' estimates can see the lights ahead (None: no light animated
-    /// or no next frame).
+    /// How far the records' estimates can see the animation ahead (None: nothing
+    /// animated or no next frame).
     horizon: Option<horizon::Horizon>,
 }
 
@@ -1518,10 +1518,10 @@ impl TemporalCache {
     /// history: each with its tau and last frame (decision 9), its anchor, its site and
     /// its plane if kept (`kept_planes`, by cache index); the first `replace.len()` of them
     /// succeed the records of `replace`; `moves_next` says per instance whether it moves
-    /// to t+1 ([`MoverRecords`]); `horizon` ends lifespans where the lights leave the
-    /// course the estimate saw ([`horizon`]). Returns their ids, their lifespan histogram (entry i:
-    /// records used in i + 1 frames) and how many of them lie on movers and live one frame
-    /// for that.
+    /// to t+1 ([`MoverRecords`]); `horizon` ends lifespans where a light or an object
+    /// leaves the course the estimate saw ([`horizon`]). Returns their ids, their lifespan
+    /// histogram (entry i: records used in i + 1 frames) and how many of them lie on
+    /// movers and live one frame for that.
     #[allow(clippy::too_many_arguments)]
     fn register_computed(
         &mut self,
@@ -1599,7 +1599,7 @@ impl TemporalCache {
                     temporal_ratio(record.irradiance, next.irradiance)
                 };
                 let last = last_frame(t, tau, &self.settings, dynamic);
-                // Not past what the estimate can see of the lights (horizon.rs).
+                // Not past what the estimate can see of the animation (horizon.rs).
                 match horizon.and_then(|h| h.last_frame(record.position())) {
                     Some(seen) if seen <= last => {
                         before_break = true;
