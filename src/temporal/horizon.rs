@@ -28,6 +28,14 @@
 //!   `r` of the sphere around the box, `min(1, delta / r)`, times the share of the
 //!   record's cosine-weighted hemisphere the sphere covers, `(r / d)^2` (1 within it).
 //!
+//! An object on its course may still change a record's light otherwise than in a straight
+//! line: coming nearer, it takes a growing share of the hemisphere. That drift, the share
+//! at f against the straight line through the shares at t and t+1, ends the records too
+//! when it passes a_t; it is a continuous change, so a record it ends is still
+//! interpolated towards its successor, while one ended by a break (a course left: a lamp
+//! switched on, an object that starts) keeps its own extrapolated gradient
+//! ([`HorizonEnd::broken`]).
+//!
 //! Lights and objects follow straight courses between keyframes (positions, intensities
 //! and scales are interpolated linearly; rotations are slerped, which the extrapolation
 //! continues exactly), so records keep their lifespan inside a keyframe interval; only
@@ -55,12 +63,19 @@ enum Departure {
         delta: f32,
         center: Vec3,
         radius: f32,
+        /// The centres of its bounding sphere at t and t+1, and `f - t`: how much of a
+        /// record's hemisphere the estimate saw it take, continued in a straight line.
+        seen_from: [Vec3; 2],
+        steps: f32,
     },
 }
 
 impl Departure {
-    /// The relative change at a record at `position`.
-    fn at(&self, position: Vec3) -> f32 {
+    /// The relative change at a record at `position`: (departure from the course, drift
+    /// along it). The drift is an object's share of the record's hemisphere changing
+    /// otherwise than in a straight line while the object keeps its course (it comes
+    /// nearer): a continuous change, which a record's successor still continues.
+    fn at(&self, position: Vec3) -> (f32, f32) {
         match *self {
             Departure::Light { everywhere, moved } => {
                 let moved = moved.map_or(0.0, |(delta, light)| {
@@ -75,7 +90,7 @@ impl Departure {
                         }
                     }
                 });
-                everywhere.max(moved)
+                (everywhere.max(moved), 0.0)
             }
             // The object covers about (radius / d)^2 of the record's cosine-weighted
             // hemisphere; moved off its course by its own size, all of that changes.
@@ -83,25 +98,44 @@ impl Departure {
                 delta,
                 center,
                 radius,
+                seen_from,
+                steps,
             } => {
-                if delta <= 0.0 {
-                    return 0.0;
-                }
-                let d = position.distance(center);
-                let seen = if d > radius {
-                    (radius / d).powi(2)
-                } else {
-                    1.0
+                let share = |c: Vec3| {
+                    let d = position.distance(c);
+                    if d > radius {
+                        (radius / d).powi(2)
+                    } else {
+                        1.0
+                    }
                 };
-                let moved = if radius > 0.0 {
+                let seen = share(center);
+                let moved = if delta <= 0.0 {
+                    0.0
+                } else if radius > 0.0 {
                     (delta / radius).min(1.0)
                 } else {
                     1.0
                 };
-                seen * moved
+                // On its course, an object that comes nearer takes more of the record's
+                // hemisphere than the straight line through t and t+1 said.
+                let (a, b) = (share(seen_from[0]), share(seen_from[1]));
+                let course = (seen - (a + (b - a) * steps)).abs();
+                (seen * moved, course)
             }
         }
     }
+}
+
+/// Where a record's view of the animation ends ([`Horizon::end`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HorizonEnd {
+    /// The last frame at which the record's estimate still holds.
+    pub last_frame: u32,
+    /// A light or an object left its course there (a break: the record's successor, born
+    /// after it, must not be interpolated towards); false when an object on its course
+    /// came nearer than the straight line said (a continuous change).
+    pub broken: bool,
 }
 
 /// The frames after t+1 up to dt_max, and what each animated light and object does there
@@ -155,19 +189,22 @@ impl Horizon {
         })
     }
 
-    /// The last frame up to which every animated light and object stays within a_t of its
-    /// course through t and t+1, as seen from a record at `position`: at least t+1 (where
-    /// the estimate is exact). None when none departs up to dt_max.
-    pub fn last_frame(&self, position: Vec3) -> Option<u32> {
-        self.frames.iter().enumerate().find_map(|(i, lights)| {
-            lights
-                .iter()
-                .any(|d| {
-                    let change = d.at(position);
-                    // NaN (a light of infinite intensity is refused at load) departs.
-                    change.is_nan() || change > self.accuracy
-                })
-                .then_some(self.birth + 1 + i as u32)
+    /// Where the view from a record at `position` ends: the last frame up to which every
+    /// animated light and object stays within a_t of its course through t and t+1, and
+    /// an object's share of the record's hemisphere within a_t of its straight line; at
+    /// least t+1 (where the estimate is exact). None when nothing departs up to dt_max.
+    pub fn end(&self, position: Vec3) -> Option<HorizonEnd> {
+        // NaN (a light of infinite intensity is refused at load) departs.
+        let beyond = |x: f32| x.is_nan() || x > self.accuracy;
+        self.frames.iter().enumerate().find_map(|(i, departures)| {
+            let (left, drift) = departures.iter().fold((false, false), |(l, d), dep| {
+                let (course, along) = dep.at(position);
+                (l || beyond(course), d || beyond(along))
+            });
+            (left || drift).then_some(HorizonEnd {
+                last_frame: self.birth + 1 + i as u32,
+                broken: left,
+            })
         })
     }
 }
@@ -212,12 +249,16 @@ fn object_departure(track: &Track<TransformKey>, corners: &[Vec3; 8], t: f32, f:
         .zip(&at)
         .map(|(&c, &p)| course.transform_point3(c).distance(p))
         .fold(0.0f32, f32::max);
+    let centre_of =
+        |m: glam::Mat4| corners.iter().map(|&c| m.transform_point3(c)).sum::<Vec3>() / 8.0;
     let center = at.iter().copied().sum::<Vec3>() / 8.0;
     let radius = at.iter().map(|p| p.distance(center)).fold(0.0f32, f32::max);
     Departure::Object {
         delta,
         center,
         radius,
+        seen_from: [centre_of(a.matrix()), centre_of(b.matrix())],
+        steps,
     }
 }
 
@@ -365,7 +406,7 @@ mod tests {
             &point(Vec3::X * 0.5, 1.5),
             5.0,
         );
-        assert!(d.at(Vec3::Y) < 1e-5, "{d:?}");
+        assert!(d.at(Vec3::Y).0 < 1e-5, "{d:?}");
     }
 
     #[test]
@@ -376,7 +417,7 @@ mod tests {
             &point(Vec3::ZERO, 2.0),
             3.0,
         );
-        assert_eq!(d.at(Vec3::splat(100.0)), 1.0);
+        assert_eq!(d.at(Vec3::splat(100.0)), (1.0, 0.0));
         // Dark throughout: nothing to see.
         let d = departure(
             &point(Vec3::ZERO, 0.0),
@@ -384,7 +425,7 @@ mod tests {
             &point(Vec3::ZERO, 0.0),
             3.0,
         );
-        assert_eq!(d.at(Vec3::ONE), 0.0);
+        assert_eq!(d.at(Vec3::ONE), (0.0, 0.0));
     }
 
     #[test]
@@ -396,8 +437,8 @@ mod tests {
             &point(Vec3::X * 0.1, 1.0),
             4.0,
         );
-        assert!((d.at(Vec3::new(0.1, 4.0, 0.0)) - 0.05).abs() < 1e-6);
-        assert!(d.at(Vec3::new(0.1, 1.0, 0.0)) > 0.19);
+        assert!((d.at(Vec3::new(0.1, 4.0, 0.0)).0 - 0.05).abs() < 1e-6);
+        assert!(d.at(Vec3::new(0.1, 1.0, 0.0)).0 > 0.19);
     }
 
     #[test]
@@ -407,7 +448,7 @@ mod tests {
             irradiance: Vec3::ONE,
         };
         let d = departure(&sun(0.0), &sun(0.0), &sun(0.1), 2.0);
-        assert!((d.at(Vec3::ZERO) - 0.1f32.atan()).abs() < 1e-5, "{d:?}");
+        assert!((d.at(Vec3::ZERO).0 - 0.1f32.atan()).abs() < 1e-5, "{d:?}");
     }
 
     #[test]
@@ -417,15 +458,19 @@ mod tests {
         for t in [0, 5, 10] {
             let h = Horizon::ahead(&scene, t, 20, 0.05).expect("the lamp is animated");
             for p in anywhere {
-                assert_eq!(h.last_frame(p), Some(11), "born at {t}");
+                let end = HorizonEnd {
+                    last_frame: 11,
+                    broken: true,
+                };
+                assert_eq!(h.end(p), Some(end), "born at {t}");
             }
         }
         // Born with the lamp on: nothing changes any more. Born at 3 with dt_max 4 (its
         // last frame 6 at most): the switch lies beyond its life.
         let h = Horizon::ahead(&scene, 12, 20, 0.05).expect("horizon");
-        assert_eq!(h.last_frame(Vec3::ZERO), None);
+        assert_eq!(h.end(Vec3::ZERO), None);
         let h = Horizon::ahead(&scene, 3, 4, 0.05).expect("horizon");
-        assert_eq!(h.last_frame(Vec3::ZERO), None);
+        assert_eq!(h.end(Vec3::ZERO), None);
         // Nothing animated: no horizon.
         assert!(Horizon::ahead(&crate::scene::bundled("cube-in-box.toml"), 0, 20, 0.05).is_none());
     }
@@ -437,13 +482,15 @@ mod tests {
         // sooner than one across the room.
         let scene = crate::scene::bundled("moving-light.toml");
         let h = Horizon::ahead(&scene, 95, 20, 0.02).expect("horizon");
-        let near = h.last_frame(Vec3::new(0.5, 3.0, -1.0)).expect("departs");
-        let far = h.last_frame(Vec3::new(-1.9, 0.0, 1.9)).expect("departs");
+        let near = h.end(Vec3::new(0.5, 3.0, -1.0)).expect("departs");
+        let far = h.end(Vec3::new(-1.9, 0.0, 1.9)).expect("departs");
+        assert!(near.broken && far.broken);
+        let (near, far) = (near.last_frame, far.last_frame);
         assert!((100..=104).contains(&near), "{near}");
         assert!(far > near && far < 95 + 20, "{near} {far}");
         // Inside a leg the panel follows its straight path.
         let h = Horizon::ahead(&scene, 20, 20, 0.02).expect("horizon");
-        assert_eq!(h.last_frame(Vec3::new(0.5, 3.0, -1.0)), None);
+        assert_eq!(h.end(Vec3::new(0.5, 3.0, -1.0)), None);
     }
 
     fn unit_box() -> [Vec3; 8] {
@@ -484,13 +531,13 @@ mod tests {
         // 10 cm off its course: all of it (10 % of its size) seen from on it, a
         // hundredth of that from 10 box radii away.
         let radius = 0.75f32.sqrt();
-        assert!((d.at(Vec3::ZERO) - 0.1 / radius).abs() < 1e-4, "{d:?}");
+        assert!((d.at(Vec3::ZERO).0 - 0.1 / radius).abs() < 1e-4, "{d:?}");
         // (The box's centre is at x = 0.1 at frame 22.)
-        let far = d.at(Vec3::new(10.0 * radius + 0.1, 0.0, 0.0));
+        let far = d.at(Vec3::new(10.0 * radius + 0.1, 0.0, 0.0)).0;
         assert!((far - 0.001 / radius).abs() < 1e-5, "{far}");
         assert_eq!(
             object_departure(&track, &unit_box(), 10.0, 20.0).at(Vec3::ZERO),
-            0.0
+            (0.0, 0.0)
         );
     }
 }

@@ -1600,10 +1600,10 @@ impl TemporalCache {
                 };
                 let last = last_frame(t, tau, &self.settings, dynamic);
                 // Not past what the estimate can see of the animation (horizon.rs).
-                match horizon.and_then(|h| h.last_frame(record.position())) {
-                    Some(seen) if seen <= last => {
-                        before_break = true;
-                        (tau, seen)
+                match horizon.and_then(|h| h.end(record.position())) {
+                    Some(end) if end.last_frame <= last => {
+                        before_break = end.broken;
+                        (tau, end.last_frame)
                     }
                     _ => (tau, last),
                 }
