@@ -166,6 +166,11 @@ pub fn render_animation(
         .temporal
         .as_ref()
         .is_some_and(|t| t.gradients == TemporalGradients::Interpolated);
+    // The records alive at the range's end are closed there, so that the last frames
+    // interpolate too (TemporalCache::close_range_at).
+    if let (Some(cache), true) = (temporal.as_mut(), two_pass && dynamic) {
+        cache.close_range_at(last);
+    }
     let mut summary = AnimationSummary::default();
     // Frames the first pass computed that wait for the second (at most dt_max + 1), and
     // the second pass's own scene (it runs behind the first).
