@@ -1253,11 +1253,13 @@ fn a_lamp_switched_on_shows_in_its_frame_under_temporal_caching() {
 /// on and, with interpolated gradients, moved towards successors that saw the cube gone,
 /// so the floor around the cube changed for frames before the cube moved (48 x 48: the
 /// indirect error rose from 3.0 to 8.8 % by frame 12; here frame 12 differs from frame 0
-/// by 6.9 % RMS). The horizon ends them where the cube leaves its course, as seen from
-/// each: records far enough for the departure to stay under a_t may still move towards
-/// their successors (0.28 % by frame 12), no frame up to 12 by more than 1 %.
+/// by 6.9 % RMS). The horizon ends the records beside the cube at frame 12, where it
+/// leaves its course, so they are replaced in frame 13. They are still interpolated
+/// towards those replacements (objects move continuously; as breaks, extrapolated, the
+/// bouncing balls of Spheres flickered more): the change of frame 13 shows in frames
+/// 9-12 as a part of one frame's change (3.6 % RMS at frame 12), not of several.
 #[test]
-fn a_cube_that_starts_to_move_changes_nothing_before_it_does() {
+fn a_cube_that_starts_to_move_shows_at_most_one_frames_change_before_it_does() {
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let scene = common::load("cube-starts.toml", Some((24, 24)));
     let (temporal, stats) = animate(
@@ -1273,24 +1275,33 @@ fn a_cube_that_starts_to_move_changes_nothing_before_it_does() {
     );
     let luminance = |c: &[f32; 4]| f64::from(0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]);
     let mean = temporal[0].iter().map(luminance).sum::<f64>() / temporal[0].len() as f64;
-    for (f, image) in temporal.iter().enumerate().take(13) {
-        let rms = (image
+    let change = |image: &[[f32; 4]]| {
+        (image
             .iter()
             .zip(&temporal[0])
             .map(|(a, b)| (luminance(a) - luminance(b)).powi(2))
             .sum::<f64>()
             / image.len() as f64)
-            .sqrt();
-        eprintln!("frame {f}: {:.3} % of the mean changed", 100.0 * rms / mean);
-        assert!(
-            rms < 0.01 * mean,
-            "frame {f}: {:.2} % RMS changed before the cube moved",
-            100.0 * rms / mean
+            .sqrt()
+            / mean
+    };
+    for (f, image) in temporal.iter().enumerate().take(13) {
+        eprintln!(
+            "frame {f}: {:.3} % of the mean changed",
+            100.0 * change(image)
         );
     }
+    // Nothing before the generation born at 8, which ends where the cube starts.
+    assert!(temporal[1..=8].iter().all(|image| image == &temporal[0]));
+    let early = change(&temporal[12]);
     assert!(
-        stats[1..8].iter().all(|s| s.temporal.kept > 0),
-        "no reuse before the start"
+        early < 0.045,
+        "frame 12: {:.2} % RMS changed before the cube moved",
+        100.0 * early
+    );
+    assert!(
+        stats[13].temporal.replaced > 0,
+        "no record replaced where the cube started"
     );
     // The cube's motion shows from frame 13 on.
     assert!(
