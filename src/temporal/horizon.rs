@@ -143,7 +143,7 @@ pub struct HorizonEnd {
 }
 
 /// The frames after t+1 up to dt_max, and what each animated light and object does there
-/// beyond the estimate's course ([`Horizon::last_frame`]).
+/// beyond the estimate's course ([`Horizon::end`]).
 #[derive(Clone, Debug)]
 pub struct Horizon {
     /// The frame the records are born in.
