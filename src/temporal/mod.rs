@@ -271,10 +271,10 @@ pub struct TemporalRecord {
     pub tau: f32,
     /// The record that replaced this one at the same place, once it expired.
     pub successor: Option<u32>,
-    /// Its life ends where a light or an object leaves the course its estimate saw
-    /// ([`horizon`]): its successor, born after that break, is not interpolated towards
-    /// (a light switched on at the break would fade in over the record's whole life,
-    /// before it is on); it keeps its own extrapolated gradient instead.
+    /// Its life ends where a light leaves the course its estimate saw ([`horizon`]): its
+    /// successor, born after that break, is not interpolated towards (a light switched
+    /// on at the break would fade in over the record's whole life, before it is on); it
+    /// keeps its own extrapolated gradient instead. (Ends by objects are not breaks.)
     pub before_break: bool,
     /// The instance it moves with; None: it keeps its world position.
     pub anchor: Option<Anchor>,
@@ -878,7 +878,7 @@ impl TemporalCache {
     /// Says that frame `last` ends the range rendered. With interpolated gradients a record
     /// moves towards its successor; one still alive at the range's end has none, and would
     /// be extrapolated from its estimate at t+1 over up to dt_max frames (cube in a box,
-    /// frames 0..59: the indirect error climbed from 2.4 to 4.2 % over frames 40-59, while
+    /// frames 0..59: the indirect error climbed from 2.4 to 4.5 % over frames 40-59, while
     /// the same frames of a longer range stayed at 2.4-2.7 %). So in frame `last` every
     /// live record at least two frames old expires and is replaced (or deleted) as any
     /// expired record is: the frames before it then interpolate towards a recomputation
