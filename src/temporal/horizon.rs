@@ -45,7 +45,7 @@
 //! Lights the record does not see count too (which light a record sees is not known
 //! here): a conservative bound that costs replacements, never light.
 
-use crate::scene::animation::{Track, TransformKey};
+use crate::scene::animation::{Interpolate, Track, TransformKey};
 use crate::scene::{Light, Scene};
 use glam::Vec3;
 
@@ -131,6 +131,28 @@ impl Departure {
     }
 }
 
+/// A scene's animated objects: each instance with a transform track and the box of its
+/// mesh (object space), found once per scene ([`Horizon::ahead`] runs every frame).
+#[derive(Clone, Debug, Default)]
+pub struct AnimatedObjects {
+    boxes: Vec<(usize, [Vec3; 8])>,
+}
+
+impl AnimatedObjects {
+    pub fn of(scene: &Scene) -> Self {
+        let boxes = scene
+            .animation
+            .iter()
+            .flat_map(|a| &a.instances)
+            .filter_map(|(i, _)| {
+                let mesh = scene.meshes.get(scene.instances.get(*i)?.mesh as usize)?;
+                Some((*i, box_corners(&mesh.positions)?))
+            })
+            .collect();
+        Self { boxes }
+    }
+}
+
 /// Where a record's view of the animation ends ([`Horizon::end`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct HorizonEnd {
@@ -155,17 +177,21 @@ pub struct Horizon {
 
 impl Horizon {
     /// The horizon of records born at `t` that live at most `max_lifespan` frames, under
-    /// temporal accuracy `accuracy`. None when no light or object is animated.
-    pub fn ahead(scene: &Scene, t: u32, max_lifespan: u32, accuracy: f32) -> Option<Self> {
+    /// temporal accuracy `accuracy`, for `scene` and its `objects`. None when no light or
+    /// object is animated.
+    pub fn ahead(
+        scene: &Scene,
+        objects: &AnimatedObjects,
+        t: u32,
+        max_lifespan: u32,
+        accuracy: f32,
+    ) -> Option<Self> {
         let animation = scene.animation.as_ref()?;
         let lights: Vec<usize> = animation.lights.iter().map(|(i, _)| *i).collect();
-        let objects: Vec<(&Track<TransformKey>, [Vec3; 8])> = animation
-            .instances
+        let objects: Vec<(&Track<TransformKey>, &[Vec3; 8])> = objects
+            .boxes
             .iter()
-            .filter_map(|(i, track)| {
-                let mesh = scene.meshes.get(scene.instances.get(*i)?.mesh as usize)?;
-                Some((track, box_corners(&mesh.positions)?))
-            })
+            .filter_map(|(i, corners)| Some((animation.instance_track(*i)?, corners)))
             .collect();
         if lights.is_empty() && objects.is_empty() {
             return None;
@@ -235,6 +261,8 @@ fn box_corners(points: &[Vec3]) -> Option<[Vec3; 8]> {
 fn object_departure(track: &Track<TransformKey>, corners: &[Vec3; 8], t: f32, f: f32) -> Departure {
     let (a, b, truth) = (track.sample(t), track.sample(t + 1.0), track.sample(f));
     let steps = f - t;
+    // Not `slerp` past 1: glam's falls back to a normalised lerp for rotations this
+    // close (a few degrees a frame), which drifts off the arc when continued.
     let mut turn = a.rotation.inverse() * b.rotation;
     if turn.w < 0.0 {
         turn = -turn; // the shortest arc, as the keys are slerped
@@ -255,7 +283,7 @@ fn object_departure(track: &Track<TransformKey>, corners: &[Vec3; 8], t: f32, f:
         .fold(0.0f32, f32::max);
     let centre_of =
         |m: glam::Mat4| corners.iter().map(|&c| m.transform_point3(c)).sum::<Vec3>() / 8.0;
-    let center = at.iter().copied().sum::<Vec3>() / 8.0;
+    let center = centre_of(truth);
     let radius = at.iter().map(|p| p.distance(center)).fold(0.0f32, f32::max);
     Departure::Object {
         delta,
@@ -267,43 +295,30 @@ fn object_departure(track: &Track<TransformKey>, corners: &[Vec3; 8], t: f32, f:
 }
 
 /// A light's departure at `steps` frames after t from the straight path through its
-/// states `now` (t) and `next` (t+1), against its true state `truth`.
+/// states `now` (t) and `next` (t+1), against its true state `truth`. The path is the
+/// keys' own interpolation continued past t+1 (positions, edges and colours lerped,
+/// directions lerped and normalised).
 fn departure(now: &Light, next: &Light, truth: &Light, steps: f32) -> Departure {
-    let ahead = |a: Vec3, b: Vec3| a + (b - a) * steps;
-    let turn = |a: Vec3, b: Vec3, truth: Vec3| {
-        ahead(a, b)
-            .try_normalize()
-            .map_or(std::f32::consts::PI, |p| p.angle_between(truth))
-    };
-    match (now, next, truth) {
+    let course = Light::interpolate(now, next, steps);
+    match (&course, truth) {
         (
             Light::Point {
-                position: p0,
-                intensity: i0,
-            },
-            Light::Point {
-                position: p1,
-                intensity: i1,
+                position: p,
+                intensity: i,
             },
             Light::Point {
                 position,
                 intensity,
             },
         ) => Departure::Light {
-            everywhere: relative(ahead(*i0, *i1), *intensity),
-            moved: Some((ahead(*p0, *p1).distance(*position), *position)),
+            everywhere: relative(*i, *intensity),
+            moved: Some((p.distance(*position), *position)),
         },
         (
             Light::Spot {
-                position: p0,
-                direction: d0,
-                intensity: i0,
-                ..
-            },
-            Light::Spot {
-                position: p1,
-                direction: d1,
-                intensity: i1,
+                position: p,
+                direction: d,
+                intensity: i,
                 ..
             },
             Light::Spot {
@@ -316,23 +331,16 @@ fn departure(now: &Light, next: &Light, truth: &Light, steps: f32) -> Departure 
         ) => {
             let half_angle = cos_outer.clamp(-1.0, 1.0).acos().max(1e-3);
             Departure::Light {
-                everywhere: relative(ahead(*i0, *i1), *intensity)
-                    .max(turn(*d0, *d1, *direction) / half_angle),
-                moved: Some((ahead(*p0, *p1).distance(*position), *position)),
+                everywhere: relative(*i, *intensity).max(d.angle_between(*direction) / half_angle),
+                moved: Some((p.distance(*position), *position)),
             }
         }
         (
             Light::Rect {
-                corner: c0,
-                edge_u: u0,
-                edge_v: v0,
-                radiance: r0,
-            },
-            Light::Rect {
-                corner: c1,
-                edge_u: u1,
-                edge_v: v1,
-                radiance: r1,
+                corner: c,
+                edge_u: u,
+                edge_v: v,
+                radiance: r,
             },
             Light::Rect {
                 corner,
@@ -342,34 +350,26 @@ fn departure(now: &Light, next: &Light, truth: &Light, steps: f32) -> Departure 
             },
         ) => {
             let corners = |c: Vec3, u: Vec3, v: Vec3| [c, c + u, c + v, c + u + v];
-            let (a, b, truth) = (
-                corners(*c0, *u0, *v0),
-                corners(*c1, *u1, *v1),
-                corners(*corner, *edge_u, *edge_v),
-            );
+            let (a, truth) = (corners(*c, *u, *v), corners(*corner, *edge_u, *edge_v));
             let delta = (0..4)
-                .map(|k| ahead(a[k], b[k]).distance(truth[k]))
+                .map(|k| a[k].distance(truth[k]))
                 .fold(0.0f32, f32::max);
             Departure::Light {
-                everywhere: relative(ahead(*r0, *r1), *radiance),
+                everywhere: relative(*r, *radiance),
                 moved: Some((delta, *corner + 0.5 * (*edge_u + *edge_v))),
             }
         }
         (
             Light::Sun {
-                direction: d0,
-                irradiance: e0,
-            },
-            Light::Sun {
-                direction: d1,
-                irradiance: e1,
+                direction: d,
+                irradiance: e,
             },
             Light::Sun {
                 direction,
                 irradiance,
             },
         ) => Departure::Light {
-            everywhere: relative(ahead(*e0, *e1), *irradiance).max(turn(*d0, *d1, *direction)),
+            everywhere: relative(*e, *irradiance).max(d.angle_between(*direction)),
             moved: None,
         },
         // A track keeps its light's type (checked at load); a mismatch departs at once.
@@ -394,6 +394,16 @@ fn relative(predicted: Vec3, truth: Vec3) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn ahead(scene: &Scene, t: u32, max_lifespan: u32, accuracy: f32) -> Option<Horizon> {
+        Horizon::ahead(
+            scene,
+            &AnimatedObjects::of(scene),
+            t,
+            max_lifespan,
+            accuracy,
+        )
+    }
 
     fn point(position: Vec3, intensity: f32) -> Light {
         Light::Point {
@@ -460,7 +470,7 @@ mod tests {
         let scene = crate::scene::bundled("lamp-switch.toml");
         let anywhere = [Vec3::ZERO, Vec3::new(1.9, 3.9, 1.9)];
         for t in [0, 5, 10] {
-            let h = Horizon::ahead(&scene, t, 20, 0.05).expect("the lamp is animated");
+            let h = ahead(&scene, t, 20, 0.05).expect("the lamp is animated");
             for p in anywhere {
                 let end = HorizonEnd {
                     last_frame: 11,
@@ -471,12 +481,12 @@ mod tests {
         }
         // Born with the lamp on: nothing changes any more. Born at 3 with dt_max 4 (its
         // last frame 6 at most): the switch lies beyond its life.
-        let h = Horizon::ahead(&scene, 12, 20, 0.05).expect("horizon");
+        let h = ahead(&scene, 12, 20, 0.05).expect("horizon");
         assert_eq!(h.end(Vec3::ZERO), None);
-        let h = Horizon::ahead(&scene, 3, 4, 0.05).expect("horizon");
+        let h = ahead(&scene, 3, 4, 0.05).expect("horizon");
         assert_eq!(h.end(Vec3::ZERO), None);
         // Nothing animated: no horizon.
-        assert!(Horizon::ahead(&crate::scene::bundled("cube-in-box.toml"), 0, 20, 0.05).is_none());
+        assert!(ahead(&crate::scene::bundled("cube-in-box.toml"), 0, 20, 0.05).is_none());
     }
 
     #[test]
@@ -485,7 +495,7 @@ mod tests {
         // 2 cm a frame: a record born at 95 sees the turn; one under the panel departs
         // sooner than one across the room.
         let scene = crate::scene::bundled("moving-light.toml");
-        let h = Horizon::ahead(&scene, 95, 20, 0.02).expect("horizon");
+        let h = ahead(&scene, 95, 20, 0.02).expect("horizon");
         let near = h.end(Vec3::new(0.5, 3.0, -1.0)).expect("departs");
         let far = h.end(Vec3::new(-1.9, 0.0, 1.9)).expect("departs");
         assert!(near.broken && far.broken);
@@ -493,7 +503,7 @@ mod tests {
         assert!((100..=104).contains(&near), "{near}");
         assert!(far > near && far < 95 + 20, "{near} {far}");
         // Inside a leg the panel follows its straight path.
-        let h = Horizon::ahead(&scene, 20, 20, 0.02).expect("horizon");
+        let h = ahead(&scene, 20, 20, 0.02).expect("horizon");
         assert_eq!(h.end(Vec3::new(0.5, 3.0, -1.0)), None);
     }
 
@@ -548,7 +558,7 @@ mod tests {
     #[test]
     fn the_cube_that_starts_at_frame_12_ends_records_beside_it_there_without_a_break() {
         let scene = crate::scene::bundled("cube-starts.toml");
-        let h = Horizon::ahead(&scene, 5, 20, 0.05).expect("the cube is animated");
+        let h = ahead(&scene, 5, 20, 0.05).expect("the cube is animated");
         // On the floor beside the cube (its box spans x -1.7..-0.7 at the start).
         let end = h.end(Vec3::new(-0.5, 0.0, -1.2)).expect("the cube departs");
         assert_eq!(

@@ -520,7 +520,7 @@ struct FramePlan {
     /// Whether the records computed this frame are estimated at t+1 ([`estimate_rule`]).
     estimate: bool,
     /// How far the records' estimates can see the animation ahead (None: nothing
-    /// animated or no next frame).
+    /// animated or no next frame); `render_frame` sets it.
     horizon: Option<horizon::Horizon>,
 }
 
@@ -634,6 +634,8 @@ pub struct TemporalCache {
     /// The last frame of the range rendered, where records are closed
     /// ([`TemporalCache::close_range_at`]).
     range_end: Option<u32>,
+    /// The scene's animated objects, found at the first frame ([`horizon`]).
+    animated_objects: Option<horizon::AnimatedObjects>,
 }
 
 impl TemporalCache {
@@ -771,6 +773,7 @@ impl TemporalCache {
             second_records: RecordCache::with_kind(ctx, kind)?,
             last_frame_rendered: None,
             range_end: None,
+            animated_objects: None,
             refresh_totals: (0, 0, 0),
             blocks: VecDeque::new(),
             user_settings,
@@ -1025,6 +1028,20 @@ impl TemporalCache {
             estimate,
             &mut vis,
         )?;
+        // How far the estimates see the animation ahead, once for both caches (radiance
+        // records live by the same a_t and dt_max).
+        let objects = self
+            .animated_objects
+            .get_or_insert_with(|| horizon::AnimatedObjects::of(scenes.scene));
+        plan.horizon = scenes.next.and_then(|_| {
+            horizon::Horizon::ahead(
+                scenes.scene,
+                objects,
+                t,
+                self.settings.max_lifespan,
+                self.settings.accuracy,
+            )
+        });
         let mut radiance_plan = match self.radiance.as_deref_mut() {
             Some(r) => Some(r.records.begin_frame(
                 renderer,
@@ -1037,6 +1054,9 @@ impl TemporalCache {
             )?),
             None => None,
         };
+        if let Some(p) = radiance_plan.as_mut() {
+            p.horizon.clone_from(&plan.horizon);
+        }
         let mut lookahead = next_frame.as_ref().map(|next| {
             Lookahead::new(
                 next,
@@ -1318,14 +1338,8 @@ impl TemporalCache {
             retraced_lists,
             lights,
             estimate,
-            horizon: scenes.next.and_then(|_| {
-                horizon::Horizon::ahead(
-                    scenes.scene,
-                    t,
-                    self.settings.max_lifespan,
-                    self.settings.accuracy,
-                )
-            }),
+            // Set by `render_frame`, once for both caches.
+            horizon: None,
         })
     }
 
