@@ -290,6 +290,13 @@ fn lerp<const N: usize>(a: &mut [f32; N], b: [f32; N], f: f32) {
 }
 
 impl TemporalRecord {
+    /// Whether a range closed at frame `end` replaces this record there
+    /// ([`TemporalCache::close_range_at`]): it is two or more frames old (one frame old,
+    /// its estimate is of `end`).
+    fn closes_at(&self, end: u32) -> bool {
+        self.birth + 2 <= end
+    }
+
     /// The record at frame `t` with the extrapolated temporal gradient (seed 000 eqs.
     /// 14-17): every irradiance and gradient term moves by (next - record) per frame.
     /// Where it lies: its place at its first frame.
@@ -918,7 +925,7 @@ impl TemporalCache {
         let ready = match self.frames.iter().find(|f| f.frame == t) {
             Some(f) => f.ids.iter().all(|&id| {
                 let r = self.rec(id);
-                r.last_frame < rendered || (r.last_frame >= end && !(closes && r.birth + 2 <= end))
+                r.last_frame < rendered || (r.last_frame >= end && !(closes && r.closes_at(end)))
             }),
             None => false,
         };
@@ -1183,7 +1190,7 @@ impl TemporalCache {
             .enumerate()
             .partition::<Vec<_>, _>(|&(_, id)| {
                 let r = self.rec(id);
-                t <= r.last_frame && !(closing && r.birth + 2 <= t)
+                t <= r.last_frame && !(closing && r.closes_at(t))
             });
         // Closed at the range's end: used up to the frame before.
         for &(_, id) in &expired {
