@@ -296,8 +296,6 @@ impl Frame {
 /// cache's, `reference` never the splat's).
 pub struct Renderer {
     pub ctx: GpuContext,
-    visibility: OnFirstUse<VisibilityPass>,
-    direct: OnFirstUse<DirectLightPass>,
     splat: OnFirstUse<SplatPass>,
     placement: OnFirstUse<PlacementPass>,
     resolve: OnFirstUse<ResolvePass>,
@@ -432,8 +430,6 @@ impl Renderer {
     pub fn new(ctx: GpuContext) -> Result<Self> {
         Ok(Self {
             ctx,
-            visibility: OnFirstUse::new(),
-            direct: OnFirstUse::new(),
             splat: OnFirstUse::new(),
             placement: OnFirstUse::new(),
             resolve: OnFirstUse::new(),
@@ -446,12 +442,14 @@ impl Renderer {
         })
     }
 
-    fn visibility_pass(&self) -> Result<&VisibilityPass> {
-        self.visibility.get(|| VisibilityPass::new(&self.ctx))
+    /// The visibility pass for scenes of `features` (built on the device's first request).
+    fn visibility_pass(&self, features: SceneFeatures) -> Result<VisibilityPass> {
+        VisibilityPass::for_scene(&self.ctx, features)
     }
 
-    fn direct_pass(&self) -> Result<&DirectLightPass> {
-        self.direct.get(|| DirectLightPass::new(&self.ctx))
+    /// The direct-light pass for scenes of `features` (built on the device's first request).
+    fn direct_pass(&self, features: SceneFeatures) -> Result<DirectLightPass> {
+        DirectLightPass::for_scene(&self.ctx, features)
     }
 
     fn splat_pass(&self) -> Result<&SplatPass> {
@@ -713,10 +711,12 @@ impl Renderer {
         self.build_passes_for(cache, threads, &|| SceneFeatures::ALL)
     }
 
-    /// [`Self::build_passes_on`] with the record pass's plane pipelines compiled for the
-    /// scene features `features` returns ([`RecordPass::for_scene`]), which the thread
-    /// building the record pass asks for (once) when it starts: `radsplat render` hands over
-    /// the scene's features as soon as the scene has loaded, while the other passes build.
+    /// [`Self::build_passes_on`] with the record pass's plane pipelines, the visibility pass
+    /// and the direct-light pass compiled for the scene features `features` returns
+    /// ([`RecordPass::for_scene`], [`VisibilityPass::for_scene`]); the threads building
+    /// them ask for them when they start (`features` must give the same value each time):
+    /// `radsplat render` hands over the scene's features as soon as the scene has loaded,
+    /// while the other passes build.
     pub fn build_passes_for(
         &self,
         cache: Option<&CacheSettings>,
@@ -726,11 +726,15 @@ impl Renderer {
         let cores = threads.max(1);
         type Build<'a> = Box<dyn Fn() -> Result<()> + Sync + 'a>;
         let built_cache = std::sync::Mutex::new(None);
-        let mut builds: Vec<Build> = vec![
-            Box::new(|| self.visibility_pass().map(|_| ())),
-            Box::new(|| self.direct_pass().map(|_| ())),
-        ];
+        let mut builds: Vec<Build> = Vec::new();
         if let Some(settings) = cache {
+            let built = &built_cache;
+            // The record pass (several pipelines) first: it is the longest.
+            builds.push(Box::new(move || {
+                let cache = self.new_cache_for(settings, features())?;
+                *built.lock().unwrap_or_else(|p| p.into_inner()) = Some(cache);
+                Ok(())
+            }));
             builds.extend([
                 Box::new(|| self.splat_pass().map(|_| ())) as Build,
                 Box::new(|| self.placement_pass().map(|_| ())),
@@ -739,17 +743,12 @@ impl Renderer {
             ]);
             // (Tail fill's pass of coarser planes is built when the tail begins, from the
             // record pass's pipelines: `RecordPass::tail_pass`.)
-            let built = &built_cache;
-            // The record pass (several pipelines) first: it is the longest.
-            builds.insert(
-                0,
-                Box::new(move || {
-                    let cache = self.new_cache_for(settings, features())?;
-                    *built.lock().unwrap_or_else(|p| p.into_inner()) = Some(cache);
-                    Ok(())
-                }),
-            );
         }
+        // Last, the two passes that, like the record pass, wait for the scene's features.
+        builds.extend([
+            Box::new(|| self.visibility_pass(features()).map(|_| ())) as Build,
+            Box::new(|| self.direct_pass(features()).map(|_| ())),
+        ]);
         let next = std::sync::atomic::AtomicUsize::new(0);
         let worker = || -> Result<()> {
             loop {
@@ -1659,7 +1658,7 @@ impl Renderer {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         let vis = match traced {
             Some(vis) => vis,
-            None => self.visibility_pass()?.record(
+            None => self.visibility_pass(scene.gpu.features())?.record(
                 ctx,
                 &mut encoder,
                 &scene.gpu,
@@ -1668,7 +1667,7 @@ impl Renderer {
             )?,
         };
         let direct = if with_direct {
-            Some(self.direct_pass()?.record(
+            Some(self.direct_pass(scene.gpu.features())?.record(
                 ctx,
                 &mut encoder,
                 &scene.gpu,

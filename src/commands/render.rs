@@ -66,11 +66,11 @@ pub fn render(args: RenderArgs) -> Result<()> {
     // The device starts on its own thread while the scene loads and its BVH is built
     // (neither needs the device): on an H200 machine the start took 170 ms and loading
     // Sponza 230 ms, one after the other. A scene error is reported before a device one.
-    // The scene's features (kinds of light, instances, textures) go to the thread building
-    // the record pass as soon as the scene has loaded: its plane pipelines are compiled for
-    // those alone (the other passes build meanwhile). A scene that fails to load sends
-    // none; the pass is then built for every feature, and the scene's error is the one
-    // reported.
+    // The scene's features (kinds of light, instances, textures) go to the threads building
+    // the record, visibility and direct-light passes as soon as the scene has loaded: their
+    // pipelines are compiled for those alone (the other passes build meanwhile). A scene
+    // that fails to load sends none; they are then built for every feature, and the
+    // scene's error is the one reported.
     let (features_tx, features_rx) = std::sync::mpsc::channel::<SceneFeatures>();
     let features_rx = std::sync::Mutex::new(features_rx);
     let (loaded, started) = std::thread::scope(|s| {
@@ -78,12 +78,16 @@ pub fn render(args: RenderArgs) -> Result<()> {
         let starting = s.spawn(|| {
             let renderer = Renderer::new(GpuContext::new()?)?;
             let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+            // Asked for by several building threads: the first receives, the others wait.
+            let received = std::sync::OnceLock::new();
             let features = || {
-                features_rx
-                    .lock()
-                    .ok()
-                    .and_then(|rx| rx.recv().ok())
-                    .unwrap_or(SceneFeatures::ALL)
+                *received.get_or_init(|| {
+                    features_rx
+                        .lock()
+                        .ok()
+                        .and_then(|rx| rx.recv().ok())
+                        .unwrap_or(SceneFeatures::ALL)
+                })
             };
             let gi_cache = renderer.build_passes_for(cache.as_ref(), cores, &features)?;
             Ok::<_, Error>((renderer, gi_cache))

@@ -6,7 +6,7 @@ pub mod reference;
 
 use crate::Result;
 use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
-use crate::gpu::{GpuContext, GpuScene};
+use crate::gpu::{GpuContext, GpuScene, SceneFeatures};
 use crate::visibility::VisibilityBuffer;
 
 /// Per-pixel outputs of the direct pass, resident on the GPU (RGBA f32 each).
@@ -25,10 +25,17 @@ pub struct DirectLightPass {
 }
 
 impl DirectLightPass {
+    /// The pass for any scene.
     pub fn new(ctx: &GpuContext) -> Result<Self> {
+        Self::for_scene(ctx, SceneFeatures::ALL)
+    }
+
+    /// The pass compiled for scenes of `features` alone (their kinds of light, instances and
+    /// textures: `gpu::SceneFeatures`); built once per device and set of features.
+    pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            pass: ComputePass::new(
+            pass: ComputePass::with_constants(
                 ctx,
                 "direct_light.wgsl",
                 &[
@@ -38,6 +45,7 @@ impl DirectLightPass {
                     StorageReadWrite,
                     StorageReadWrite,
                 ],
+                &[features.without_bounce_cache().constant()],
             )?,
         })
     }

@@ -110,7 +110,7 @@ impl ComputePass {
         let device = &ctx.device;
         let t0 = std::time::Instant::now();
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = shader::module(device, name)?;
+        let module = shader::module(device, name, constants)?;
         let entries: Vec<_> = bindings
             .iter()
             .enumerate()
@@ -148,10 +148,8 @@ impl ComputePass {
             layout: Some(&layout),
             module: &module,
             entry_point: Some("main"),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants,
-                ..Default::default()
-            },
+            // The module is already specialised for the constants (shader::module).
+            compilation_options: wgpu::PipelineCompilationOptions::default(),
             cache: ctx.pipeline_cache.as_ref().map(|c| &c.cache),
         });
         if let Some(e) = pollster::block_on(scope.pop()) {

@@ -82,6 +82,13 @@ impl SceneFeatures {
         }
     }
 
+    /// These features without the bounce cache: for passes that shade no secondary hit's
+    /// indirect light (visibility, direct light), so that one and several bounces share
+    /// their pipelines.
+    pub fn without_bounce_cache(self) -> SceneFeatures {
+        SceneFeatures(self.0 & !Self::BOUNCE_CACHE_BIT)
+    }
+
     /// These features, with instances added when the uploaded BVH's traversal does not start
     /// in a BLAS (what the shaders will meet, whatever the scene description said).
     pub fn with_traversal(self, starts_in_blas: bool) -> SceneFeatures {

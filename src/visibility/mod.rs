@@ -2,7 +2,7 @@
 //! visibility buffer ([`VisSample`] per pixel) that every later pass reads.
 
 use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
-use crate::gpu::{GpuContext, GpuScene};
+use crate::gpu::{GpuContext, GpuScene, SceneFeatures};
 use crate::scene::Camera;
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
@@ -133,12 +133,21 @@ pub struct VisibilityPass {
 }
 
 impl VisibilityPass {
+    /// The pass for any scene.
     pub fn new(ctx: &GpuContext) -> Result<Self> {
+        Self::for_scene(ctx, SceneFeatures::ALL)
+    }
+
+    /// The pass compiled for scenes of `features` alone (the traversal without instances,
+    /// the albedo without textures: `gpu::SceneFeatures`); built once per device and set
+    /// of features.
+    pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
         Ok(Self {
-            pass: ComputePass::new(
+            pass: ComputePass::with_constants(
                 ctx,
                 "visibility.wgsl",
                 &[Binding::Uniform, Binding::StorageReadWrite],
+                &[features.without_bounce_cache().constant()],
             )?,
         })
     }

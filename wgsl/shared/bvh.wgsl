@@ -58,9 +58,7 @@ const EMPTY: u32 = 0xffffffffu;
 // (the nave's incoherent rays 8 % faster, its primary rays 12 %; the same hits).
 const FEATURE_INSTANCES: u32 = 32u;
 
-fn traverses_instances() -> bool {
-    return (SCENE_FEATURES & FEATURE_INSTANCES) != 0u;
-}
+override TRAVERSES_INSTANCES: bool = (SCENE_FEATURES & FEATURE_INSTANCES) != 0u;
 
 fn safe_inverse(d: vec3f) -> vec3f {
     let eps = 1.0e-20;
@@ -150,7 +148,7 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
     // A single instance placed as modelled is traversed from its BLAS root in world space
     // (bvh::SceneBvh::traversal_start): its identity transform would change at most the
     // sign of a zero coordinate, which no box or triangle test tells apart.
-    var in_blas = scene_info.root_in_blas != 0u || !traverses_instances();
+    var in_blas = scene_info.root_in_blas != 0u || !TRAVERSES_INSTANCES;
     var instance = 0u;
     var origin = ray.origin;
     var dir = ray.dir;
@@ -192,7 +190,7 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
                 continue;
             }
             // Pop; leaving the BLAS when its part of the stack is used up.
-            if traverses_instances() && in_blas && sp == tlas_sp {
+            if TRAVERSES_INSTANCES && in_blas && sp == tlas_sp {
                 in_blas = false;
                 origin = ray.origin;
                 dir = ray.dir;
@@ -222,7 +220,7 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
                     }
                 }
             }
-        } else if traverses_instances() {
+        } else if TRAVERSES_INSTANCES {
             // TLAS leaf: enter the instance's BLAS with the ray in object space. The
             // direction is not renormalised, so t keeps its meaning across instances.
             instance = (entry >> 4u) & 0x07ffffffu;
@@ -236,7 +234,7 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
             entry = inst.blas_root;
             continue;
         }
-        if traverses_instances() && in_blas && sp == tlas_sp {
+        if TRAVERSES_INSTANCES && in_blas && sp == tlas_sp {
             in_blas = false;
             origin = ray.origin;
             dir = ray.dir;

@@ -63,7 +63,7 @@ fn light_map_visibility(st: ShadowLoop, s: Surface) -> f32 {
         return -1.0;
     }
     var k = 0u;
-    if shades_kind(LIGHT_RECT) && st.kind == LIGHT_RECT {
+    if SHADES_RECT && st.kind == LIGHT_RECT {
         let n = light_map_first[2u + 2u * slot];
         let q = st.sample.target_point - st.light.a.xyz;
         let b = st.light.b.xyz;

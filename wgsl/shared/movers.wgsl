@@ -133,15 +133,16 @@ fn shadows_may_change(s: Surface, seed: u32, first: u32, count: u32) -> bool {
     for (var li = 0u; li < scene_info.light_count; li++) {
         let light = lights[li];
         let kind = bitcast<u32>(light.a.w);
-        if kind == LIGHT_POINT || kind == LIGHT_SPOT {
+        // (The kinds a pipeline does not shade are left out: shared/shading.wgsl.)
+        if (SHADES_POINT || SHADES_SPOT) && (kind == LIGHT_POINT || kind == LIGHT_SPOT) {
             if meets_a_mover(origin, light.a.xyz - origin, 1.0) {
                 return true;
             }
-        } else if kind == LIGHT_SUN {
+        } else if SHADES_SUN && kind == LIGHT_SUN {
             if meets_a_mover(origin, light.a.xyz, INF) {
                 return true;
             }
-        } else if kind == LIGHT_RECT {
+        } else if SHADES_RECT && kind == LIGHT_RECT {
             // Every shadow ray lies in the pyramid from the origin to the rectangle: only
             // the movers whose world box it meets can change one, and with many movers
             // (bouncing spheres) those are few.
@@ -177,10 +178,10 @@ fn shadows_may_change(s: Surface, seed: u32, first: u32, count: u32) -> bool {
         }
     }
     // A map's importance-sampled directions are not mirrored here: assume a change.
-    if has_environment_map() {
+    if SHADES_ENVIRONMENT && has_environment_map() {
         return true;
     }
-    if any(scene_info.environment != vec3f(0.0)) {
+    if SHADES_ENVIRONMENT && any(scene_info.environment != vec3f(0.0)) {
         let frame = orthonormal_basis(s.shading_normal);
         let env_seed = hash_combine(seed, ENVIRONMENT_SEED);
         for (var k = 0u; k < count; k++) {

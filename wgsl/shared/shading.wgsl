@@ -11,15 +11,14 @@
 // 23 % faster, the same bytes).
 const ENVIRONMENT_KIND_BIT: u32 = 16u;
 
-// Whether this pipeline shades lights of `kind` (a LIGHT_* kind).
-fn shades_kind(kind: u32) -> bool {
-    return (SCENE_FEATURES & (1u << kind)) != 0u;
-}
-
-// Whether this pipeline shades the environment.
-fn shades_environment() -> bool {
-    return (SCENE_FEATURES & ENVIRONMENT_KIND_BIT) != 0u;
-}
+// Whether this pipeline shades lights of each kind (LIGHT_*), and the environment. Overrides,
+// not functions, so that the module handed to the driver has the branches of the kinds left
+// out removed (`gpu::shader::specialise`).
+override SHADES_POINT: bool = (SCENE_FEATURES & (1u << LIGHT_POINT)) != 0u;
+override SHADES_SPOT: bool = (SCENE_FEATURES & (1u << LIGHT_SPOT)) != 0u;
+override SHADES_RECT: bool = (SCENE_FEATURES & (1u << LIGHT_RECT)) != 0u;
+override SHADES_SUN: bool = (SCENE_FEATURES & (1u << LIGHT_SUN)) != 0u;
+override SHADES_ENVIRONMENT: bool = (SCENE_FEATURES & ENVIRONMENT_KIND_BIT) != 0u;
 
 struct Surface {
     position: vec3f,
@@ -351,7 +350,7 @@ fn shadow_loop_start_at(s: Surface, seed: u32, first: u32, count: u32) -> Shadow
     var st: ShadowLoop;
     let env = scene_info.environment;
     st.slots = scene_info.light_count
-        + select(0u, 1u, shades_environment() && (any(env != vec3f(0.0)) || has_environment_map()));
+        + select(0u, 1u, SHADES_ENVIRONMENT && (any(env != vec3f(0.0)) || has_environment_map()));
     st.count = count;
     st.slot = 0u;
     st.k = 0u;
@@ -395,10 +394,10 @@ fn light_choice_weight_raw(s: Surface, light: Light) -> f32 {
     let kind = bitcast<u32>(light.a.w);
     let n = s.shading_normal;
     let power = light.d.x + light.d.y + light.d.z;
-    if shades_kind(LIGHT_SUN) && kind == LIGHT_SUN {
+    if SHADES_SUN && kind == LIGHT_SUN {
         return power * max(dot(n, light.a.xyz), 0.0);
     }
-    if shades_kind(LIGHT_RECT) && kind == LIGHT_RECT {
+    if SHADES_RECT && kind == LIGHT_RECT {
         let a = light.a.xyz - s.position;
         if dot(normalize_rect_normal(light), a) >= 0.0 {
             return 0.0;   // behind the light (or in its plane)
@@ -564,7 +563,7 @@ fn shadow_sample(st: ShadowLoop, s: Surface, light: Light, kind: u32) -> ShadowS
     let n = s.shading_normal;
     let ng = s.geometric_normal;
     var out = ShadowSample(vec3f(0.0), false, false, 0.0, 0.0, 1.0, vec3f(0.0));
-    if (shades_kind(LIGHT_POINT) || shades_kind(LIGHT_SPOT)) && (kind == LIGHT_POINT || kind == LIGHT_SPOT) {
+    if (SHADES_POINT || SHADES_SPOT) && (kind == LIGHT_POINT || kind == LIGHT_SPOT) {
         let to_light = light.a.xyz - s.position;
         out.d2 = dot(to_light, to_light);
         let l = to_light * inverseSqrt(out.d2);
@@ -575,13 +574,13 @@ fn shadow_sample(st: ShadowLoop, s: Surface, light: Light, kind: u32) -> ShadowS
         }
         out.target_point = light.a.xyz;
         out.lit = !(out.cos_s <= 0.0 || dot(ng, l) <= 0.0) && !all(out.intensity == vec3f(0.0));
-    } else if shades_kind(LIGHT_SUN) && kind == LIGHT_SUN {
+    } else if SHADES_SUN && kind == LIGHT_SUN {
         let l = light.a.xyz;
         out.cos_s = dot(n, l);
         out.target_point = l;
         out.to_infinity = true;
         out.lit = !(out.cos_s <= 0.0 || dot(ng, l) <= 0.0);
-    } else if shades_kind(LIGHT_RECT) && kind == LIGHT_RECT {
+    } else if SHADES_RECT && kind == LIGHT_RECT {
         let rs = rect_light_sample(light, s.position,
                                    sobol_2d(st.first + st.k, hash_combine(st.seed, st.slot)));
         let to_q = rs.point - s.position;
@@ -591,7 +590,7 @@ fn shadow_sample(st: ShadowLoop, s: Surface, light: Light, kind: u32) -> ShadowS
         out.rect_weight = rs.weight;
         out.target_point = rs.point;
         out.lit = !(out.cos_s <= 0.0 || rs.weight <= 0.0 || dot(ng, l) <= 0.0);
-    } else if shades_environment() && kind == LIGHT_ENVIRONMENT && has_environment_map() {
+    } else if SHADES_ENVIRONMENT && kind == LIGHT_ENVIRONMENT && has_environment_map() {
         // Drawn from the map by importance: `intensity` carries L cos / pdf.
         let es = environment_sample(sobol_2d(st.first + st.k, st.env_seed));
         out.target_point = es.dir;
@@ -601,7 +600,7 @@ fn shadow_sample(st: ShadowLoop, s: Surface, light: Light, kind: u32) -> ShadowS
         if out.lit {
             out.intensity = es.radiance * (out.cos_s / es.pdf);
         }
-    } else if shades_environment() && kind == LIGHT_ENVIRONMENT {
+    } else if SHADES_ENVIRONMENT && kind == LIGHT_ENVIRONMENT {
         let dir = st.env_frame * cosine_hemisphere(sobol_2d(st.first + st.k, st.env_seed));
         out.target_point = dir;
         out.to_infinity = true;
@@ -627,14 +626,14 @@ fn shadow_loop_next(st: ptr<function, ShadowLoop>, s: Surface) -> bool {
         let kind = (*st).kind;
         let samples = select(1u, (*st).count, kind == LIGHT_RECT || kind == LIGHT_ENVIRONMENT);
         if (*st).k >= samples {
-            if shades_kind(LIGHT_RECT) && kind == LIGHT_RECT {
+            if SHADES_RECT && kind == LIGHT_RECT {
                 (*st).e += light.d.xyz * ((*st).sum / f32((*st).count));
-            } else if shades_environment() && kind == LIGHT_ENVIRONMENT && has_environment_map() {
+            } else if SHADES_ENVIRONMENT && kind == LIGHT_ENVIRONMENT && has_environment_map() {
                 // Importance-sampled map: E = mean of V L cos / pdf.
                 let add = (*st).sum / f32((*st).count);
                 (*st).e += add;
                 (*st).e_env += add;
-            } else if shades_environment() && kind == LIGHT_ENVIRONMENT {
+            } else if SHADES_ENVIRONMENT && kind == LIGHT_ENVIRONMENT {
                 // Constant environment: E = L_env * integral of V cos = pi L_env * mean
                 // visibility over cosine-distributed directions.
                 let add = scene_info.environment
@@ -671,15 +670,15 @@ fn shadow_loop_add(st: ptr<function, ShadowLoop>) {
     let light = (*st).light;
     let kind = (*st).kind;
     let smp = (*st).sample;
-    if shades_kind(LIGHT_RECT) && kind == LIGHT_RECT {
+    if SHADES_RECT && kind == LIGHT_RECT {
         (*st).sum += vec3f(smp.cos_s * smp.rect_weight);
-    } else if shades_environment() && kind == LIGHT_ENVIRONMENT && has_environment_map() {
+    } else if SHADES_ENVIRONMENT && kind == LIGHT_ENVIRONMENT && has_environment_map() {
         (*st).sum += smp.intensity;
-    } else if shades_environment() && kind == LIGHT_ENVIRONMENT {
+    } else if SHADES_ENVIRONMENT && kind == LIGHT_ENVIRONMENT {
         (*st).unoccluded += 1u;
-    } else if shades_kind(LIGHT_SUN) && kind == LIGHT_SUN {
+    } else if SHADES_SUN && kind == LIGHT_SUN {
         (*st).e += light.d.xyz * smp.cos_s;
-    } else if shades_kind(LIGHT_POINT) || shades_kind(LIGHT_SPOT) {
+    } else if SHADES_POINT || SHADES_SPOT {
         (*st).e += smp.intensity * smp.cos_s / smp.d2;
     }
 }
@@ -690,11 +689,11 @@ fn shadow_loop_add_visible(st: ptr<function, ShadowLoop>, v: f32) {
     let light = (*st).light;
     let kind = (*st).kind;
     let smp = (*st).sample;
-    if shades_kind(LIGHT_RECT) && kind == LIGHT_RECT {
+    if SHADES_RECT && kind == LIGHT_RECT {
         (*st).sum += vec3f(v * smp.cos_s * smp.rect_weight);
-    } else if shades_kind(LIGHT_SUN) && kind == LIGHT_SUN {
+    } else if SHADES_SUN && kind == LIGHT_SUN {
         (*st).e += light.d.xyz * (v * smp.cos_s);
-    } else if (shades_kind(LIGHT_POINT) || shades_kind(LIGHT_SPOT)) && kind != LIGHT_ENVIRONMENT {
+    } else if (SHADES_POINT || SHADES_SPOT) && kind != LIGHT_ENVIRONMENT {
         (*st).e += smp.intensity * (v * smp.cos_s / smp.d2);
     }
 }
