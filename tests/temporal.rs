@@ -1254,12 +1254,13 @@ fn a_lamp_switched_on_shows_in_its_frame_under_temporal_caching() {
 /// so the floor around the cube changed for frames before the cube moved (48 x 48: the
 /// indirect error rose from 3.0 to 8.8 % by frame 12; here frame 12 differs from frame 0
 /// by 6.9 % RMS). The horizon ends the records beside the cube at frame 12, where it
-/// leaves its course, so they are replaced in frame 13. They are still interpolated
-/// towards those replacements (objects move continuously; as breaks, extrapolated, the
-/// bouncing balls of Spheres flickered more): the change of frame 13 shows in frames
-/// 9-12 as a part of one frame's change (3.6 % RMS at frame 12), not of several.
+/// leaves its course, so they are replaced in frame 13. The cube stood still when they
+/// were born, so its start is a break: they keep their own (extrapolated) gradient up to
+/// it instead of moving towards replacements that see the cube moved (interpolated, as
+/// for moving objects, part of frame 13's change showed in frames 9-12: 3.6 % RMS at
+/// frame 12; now 0.28 %, the estimates' own noise).
 #[test]
-fn a_cube_that_starts_to_move_shows_at_most_one_frames_change_before_it_does() {
+fn a_cube_that_starts_to_move_shows_nothing_of_its_motion_before_it_does() {
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let scene = common::load("cube-starts.toml", Some((24, 24)));
     let (temporal, stats) = animate(
@@ -1295,7 +1296,7 @@ fn a_cube_that_starts_to_move_shows_at_most_one_frames_change_before_it_does() {
     assert!(temporal[1..=8].iter().all(|image| image == &temporal[0]));
     let early = change(&temporal[12]);
     assert!(
-        early < 0.045,
+        early < 0.01,
         "frame 12: {:.2} % RMS changed before the cube moved",
         100.0 * early
     );

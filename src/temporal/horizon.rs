@@ -31,12 +31,15 @@
 //! An object on its course may still change a record's light otherwise than in a straight
 //! line: coming nearer, it takes a growing share of the hemisphere. That drift, the share
 //! at f against the straight line through the shares at t and t+1, ends the records too
-//! when it passes a_t. An object's change is continuous (its keys are interpolated, it
-//! does not jump), so a record an object ends is still interpolated towards its
+//! when it passes a_t. A moving object's change is continuous (its keys are interpolated,
+//! it does not jump), so a record such an object ends is still interpolated towards its
 //! successor; one a light ends is not (a lamp switches on between two frames): it keeps
-//! its own extrapolated gradient ([`HorizonEnd::broken`]). Measured: with objects' ends
-//! as breaks too, glossy and diffuse Spheres (balls bouncing every few frames) flickered
-//! 4 % more and erred more than with stop 59; as drift, less (docs/results.md).
+//! its own extrapolated gradient ([`HorizonEnd::broken`]). Measured: with every object's
+//! end a break, glossy and diffuse Spheres (balls bouncing every few frames) flickered 4 %
+//! more and erred more than with stop 59; as drift, less (docs/results.md). An object that
+//! stood still from t to t+1 and then starts is a break too: the record saw nothing move,
+//! so its extrapolated gradient is the true one up to the start, while interpolating
+//! towards a successor born after the start showed part of the motion before it (stop 61).
 //!
 //! Lights and objects follow straight courses between keyframes (positions, intensities
 //! and scales are interpolated linearly; rotations are slerped, which the extrapolation
@@ -69,14 +72,17 @@ enum Departure {
         /// record's hemisphere the estimate saw it take, continued in a straight line.
         seen_from: [Vec3; 2],
         steps: f32,
+        /// It stood still from t to t+1: any departure is a start, a break.
+        still: bool,
     },
 }
 
 impl Departure {
     /// The relative change at a record at `position`: (a break, a drift). A break is a
-    /// light leaving its course (switched on, turned); a drift is an object's change to
-    /// the record's hemisphere, off its course or along it (it comes nearer): objects move
-    /// continuously, so a record's successor still continues the change.
+    /// light leaving its course (switched on, turned) or a still object starting; a drift
+    /// is a moving object's change to the record's hemisphere, off its course or along it
+    /// (it comes nearer): it moves continuously, so a record's successor still continues
+    /// the change.
     fn at(&self, position: Vec3) -> (f32, f32) {
         match *self {
             Departure::Light { everywhere, moved } => {
@@ -102,6 +108,7 @@ impl Departure {
                 radius,
                 seen_from,
                 steps,
+                still,
             } => {
                 let share = |c: Vec3| {
                     let d = position.distance(c);
@@ -124,8 +131,10 @@ impl Departure {
                 let (a, b) = (share(seen_from[0]), share(seen_from[1]));
                 let course = (seen - (a + (b - a) * steps)).abs();
                 // Objects move continuously (their keys are interpolated): whether it
-                // left its course or drifted along it, the change is continuous.
-                (0.0, (seen * moved).max(course))
+                // left its course or drifted along it, the change is continuous, but for
+                // the start of a still object, before which the record's view is exact.
+                let change = (seen * moved).max(course);
+                if still { (change, 0.0) } else { (0.0, change) }
             }
         }
     }
@@ -158,9 +167,9 @@ impl AnimatedObjects {
 pub struct HorizonEnd {
     /// The last frame at which the record's estimate still holds.
     pub last_frame: u32,
-    /// A light left its course there (a break: the record's successor, born after it, must
-    /// not be interpolated towards); false when an object changed what the record sees (a
-    /// continuous change).
+    /// A light left its course there, or an object that stood still started (a break: the
+    /// record's successor, born after it, must not be interpolated towards); false when a
+    /// moving object changed what the record sees (a continuous change).
     pub broken: bool,
 }
 
@@ -291,6 +300,7 @@ fn object_departure(track: &Track<TransformKey>, corners: &[Vec3; 8], t: f32, f:
         radius,
         seen_from: [centre_of(a.matrix()), centre_of(b.matrix())],
         steps,
+        still: a.matrix() == b.matrix(),
     }
 }
 
@@ -544,11 +554,26 @@ mod tests {
         let d = object_departure(&track, &unit_box(), 10.0, 22.0);
         // 10 cm off its course: all of it (10 % of its size) seen from on it, a
         // hundredth of that from 10 box radii away.
+        // Still from frame 10 to 11: a start, so a break.
         let radius = 0.75f32.sqrt();
-        assert!((d.at(Vec3::ZERO).1 - 0.1 / radius).abs() < 1e-4, "{d:?}");
+        assert!((d.at(Vec3::ZERO).0 - 0.1 / radius).abs() < 1e-4, "{d:?}");
+        assert_eq!(d.at(Vec3::ZERO).1, 0.0);
         // (The box's centre is at x = 0.1 at frame 22.)
-        let far = d.at(Vec3::new(10.0 * radius + 0.1, 0.0, 0.0)).1;
+        let far = d.at(Vec3::new(10.0 * radius + 0.1, 0.0, 0.0)).0;
         assert!((far - 0.001 / radius).abs() < 1e-5, "{far}");
+        // Already moving at frame 21 (5 cm a frame), it is on its course at 23: no
+        // departure; one that slows down departs as a drift, not a break.
+        let moving = object_departure(&track, &unit_box(), 21.0, 23.0).at(Vec3::ZERO);
+        assert!(moving.0 == 0.0 && moving.1 < 1e-4, "{moving:?}");
+        let slowing = Track {
+            keys: vec![
+                (0.0, key(0.0, 0.0)),
+                (20.0, key(1.0, 0.0)),
+                (40.0, key(1.2, 0.0)),
+            ],
+        };
+        let slows = object_departure(&slowing, &unit_box(), 18.0, 22.0).at(Vec3::ZERO);
+        assert!(slows.0 == 0.0 && slows.1 > 0.05, "{slows:?}");
         assert_eq!(
             object_departure(&track, &unit_box(), 10.0, 20.0).at(Vec3::ZERO),
             (0.0, 0.0)
@@ -556,7 +581,7 @@ mod tests {
     }
 
     #[test]
-    fn the_cube_that_starts_at_frame_12_ends_records_beside_it_there_without_a_break() {
+    fn the_cube_that_starts_at_frame_12_ends_records_beside_it_there_with_a_break() {
         let scene = crate::scene::bundled("cube-starts.toml");
         let h = ahead(&scene, 5, 20, 0.05).expect("the cube is animated");
         // On the floor beside the cube (its box spans x -1.7..-0.7 at the start).
@@ -565,7 +590,7 @@ mod tests {
             end,
             HorizonEnd {
                 last_frame: 12,
-                broken: false
+                broken: true
             }
         );
         // Across the room the cube's share stays small for longer.
