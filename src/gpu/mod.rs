@@ -9,6 +9,7 @@ pub mod scene_buffers;
 pub mod scene_features;
 pub mod shader;
 pub mod timer;
+mod wgsl_compose;
 
 pub use context::{GpuContext, OPTIONAL_FEATURES, required_limits};
 pub use pipeline::ComputePass;
