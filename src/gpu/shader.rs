@@ -762,6 +762,46 @@ mod tests {
         }
     }
 
+    /// Every pass specialised for its defaults, for each of its boolean overrides flipped,
+    /// and for scene features of one kind of light each, of instances, textures and the
+    /// bounce cache, and of none, validates (the pruning keeps naga's rules: splicing a
+    /// branch into its block, dropping code after a return, compacting).
+    #[test]
+    fn every_pass_validates_specialised_for_each_override() {
+        let masks = [0u32, 1, 2, 4, 8, 16, 32, 64, 128, 0x0f, 0x3f, u32::MAX];
+        for (name, _) in SOURCES.iter().filter(|(n, _)| !n.starts_with("shared/")) {
+            let (module, info) = parsed_module(name).expect("parsed");
+            let mut sets: Vec<Vec<(String, f64)>> = vec![Vec::new()];
+            for (_, o) in module.overrides.iter() {
+                let Some(oname) = o.name.clone() else {
+                    continue;
+                };
+                let is_bool = matches!(
+                    module.types[o.ty].inner,
+                    naga::TypeInner::Scalar(naga::Scalar::BOOL)
+                );
+                // Overrides with an initialiser derived from others follow them.
+                if oname == "SCENE_FEATURES" {
+                    sets.extend(masks.iter().map(|&m| vec![(oname.clone(), f64::from(m))]));
+                } else if is_bool && !oname.starts_with("SHADES_") && oname != "TRAVERSES_INSTANCES"
+                {
+                    sets.push(vec![(oname.clone(), 0.0)]);
+                    sets.push(vec![(oname.clone(), 1.0)]);
+                }
+            }
+            for set in sets {
+                let constants: Vec<(&str, f64)> =
+                    set.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+                let specialised = specialise(&module, &info, &constants)
+                    .unwrap_or_else(|e| panic!("{name} {constants:?}: {e}"));
+                validator()
+                    .validate(&specialised)
+                    .unwrap_or_else(|e| panic!("{name} {constants:?}: {e:?}"));
+                assert_eq!(specialised.entry_points.len(), 1, "{name}");
+            }
+        }
+    }
+
     /// The names of the functions left in `module`.
     fn functions(module: &naga::Module) -> Vec<String> {
         module
