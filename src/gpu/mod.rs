@@ -8,6 +8,7 @@ pub mod prefix_sum;
 pub mod scene_buffers;
 pub mod scene_features;
 pub mod shader;
+pub mod specialise;
 pub mod timer;
 mod wgsl_compose;
 
