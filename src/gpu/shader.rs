@@ -334,18 +334,16 @@ pub fn compose(name: &str) -> Result<String> {
 ///
 /// The module handed to the device has its overrides replaced by their values, every branch
 /// those values decide removed, and the functions only such branches called dropped
-/// ([`super::specialise::specialise`]). A driver converts and optimises the whole module it is given before it
-/// folds a constant: lavapipe spent as long creating a plane pipeline built for one sun as
-/// one built for every kind of light. The pipeline is then created with no constants.
+/// ([`super::specialise::specialise`]): a driver converts and optimises the whole module
+/// it is given before it folds a constant. The pipeline is then created with no constants.
 pub fn module(
     device: &wgpu::Device,
     name: &str,
     constants: &[(&str, f64)],
 ) -> Result<wgpu::ShaderModule> {
     let specialised = specialised_module(name, constants)?;
-    // The parsed module itself, not its text: wgpu would parse the text again (the WGSL
-    // front end is most of naga's share of a run's start; wgpu still validates it against
-    // the device's own capabilities).
+    // The module itself, not WGSL text, which wgpu would parse again (wgpu still validates
+    // it against the device's own capabilities).
     Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(name),
         source: wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(specialised)),
