@@ -1650,6 +1650,12 @@ impl RecordPass {
     /// Refuses a scene with a feature this pass's plane pipelines were not compiled for
     /// ([`Self::for_scene`]): its hits would be shaded without that light, or its rays
     /// would not enter its instances.
+    /// The scene features its plane pipelines were compiled for (the bounce cache its
+    /// settings make included).
+    pub fn features(&self) -> SceneFeatures {
+        self.features
+    }
+
     pub fn check_features(&self, scene: &GpuScene) -> Result<()> {
         if self.features.contains(scene.features()) {
             Ok(())

@@ -731,38 +731,41 @@ impl TemporalCache {
         let user_settings = cache.clone();
         // Every pass (records, reprojection, plane store) with the same record settings.
         let cache = &Self::record_settings(cache);
+        // With `refine_planes`, irradiance records' planes are refined as the user's
+        // settings say (the estimate at t+1 moves the traced plane and tau compares it
+        // with that plane, `Lookahead::reduced`). Radiance records' never are: on
+        // glossy Spheres refining them too lowered the error 1.11 -> 1.07 % at the time
+        // per-frame recomputation takes for 0.87 % (docs/results.md, stop 43).
+        let pass = RecordPass::for_scene(
+            ctx,
+            &CacheSettings {
+                plane_refine: match kind {
+                    RecordKind::Irradiance if settings.refine_planes => user_settings.plane_refine,
+                    _ => 0.0,
+                },
+                // Dark irradiance planes are refined as the user's settings say (by
+                // default: CacheSettings::dark_plane_refine); radiance records' planes
+                // stay as traced.
+                dark_plane_refine: kind == RecordKind::Irradiance
+                    && user_settings.dark_plane_refine,
+                ..cache.clone()
+            },
+            kind,
+            features,
+        )?;
+        // The temporal stages trace and shade like the record pass: compiled for the same
+        // features (its bounce cache included).
+        let features = pass.features();
         Ok(Self {
             settings: settings.clone(),
-            // With `refine_planes`, irradiance records' planes are refined as the user's
-            // settings say (the estimate at t+1 moves the traced plane and tau compares it
-            // with that plane, `Lookahead::reduced`). Radiance records' never are: on
-            // glossy Spheres refining them too lowered the error 1.11 -> 1.07 % at the time
-            // per-frame recomputation takes for 0.87 % (docs/results.md, stop 43).
-            pass: RecordPass::for_scene(
-                ctx,
-                &CacheSettings {
-                    plane_refine: match kind {
-                        RecordKind::Irradiance if settings.refine_planes => {
-                            user_settings.plane_refine
-                        }
-                        _ => 0.0,
-                    },
-                    // Dark irradiance planes are refined as the user's settings say (by
-                    // default: CacheSettings::dark_plane_refine); radiance records' planes
-                    // stay as traced.
-                    dark_plane_refine: kind == RecordKind::Irradiance
-                        && user_settings.dark_plane_refine,
-                    ..cache.clone()
-                },
-                kind,
-                features,
-            )?,
-            reprojection: ReprojectionPass::new(
+            pass,
+            reprojection: ReprojectionPass::for_scene(
                 ctx,
                 cache,
                 settings.estimate_stride_for(cache.plane_resolution),
+                features,
             )?,
-            refresh: plane_refresh::RefreshPass::new(ctx)?,
+            refresh: plane_refresh::RefreshPass::for_scene(ctx, features)?,
             planes: plane_refresh::PlaneStore::new(
                 settings.plane_budget_bytes,
                 cache.plane_resolution,

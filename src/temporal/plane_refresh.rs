@@ -11,10 +11,10 @@
 
 use super::motion::MovingBounds;
 use crate::Result;
-use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
+use crate::gpu::{GpuContext, SceneFeatures};
 use crate::records::{CacheSettings, PlaneParams, RecordSite};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
@@ -122,10 +122,17 @@ pub struct RefreshPass {
 }
 
 impl RefreshPass {
+    /// The passes for any scene.
     pub fn new(ctx: &GpuContext) -> Result<Self> {
+        Self::for_scene(ctx, SceneFeatures::ALL)
+    }
+
+    /// The selection and re-trace compiled for the scene features `features` alone
+    /// (`RecordPass::features` of the cache's record pass).
+    pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            select: ComputePass::new(
+            select: ComputePass::with_constants(
                 ctx,
                 "plane_refresh.wgsl",
                 &[
@@ -138,8 +145,9 @@ impl RefreshPass {
                     StorageReadWrite,
                     StorageReadWrite,
                 ],
+                &[features.constant()],
             )?,
-            retrace: ComputePass::new(
+            retrace: ComputePass::with_constants(
                 ctx,
                 "plane_retrace.wgsl",
                 &[
@@ -154,6 +162,7 @@ impl RefreshPass {
                     StorageRead,
                     StorageRead,
                 ],
+                &[features.constant()],
             )?,
             no_light_maps: crate::light_maps::LightMaps::none(ctx)?,
         })

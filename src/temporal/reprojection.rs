@@ -18,10 +18,10 @@
 use super::motion::{instance_motions, lights_unchanged};
 use super::plane_refresh::SpanMotion;
 use crate::Result;
-use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
+use crate::gpu::{GpuContext, SceneFeatures};
 use crate::records::{CacheSettings, PlaneMode, PlaneTable};
 use crate::scene::Scene;
 use bytemuck::{Pod, Zeroable};
@@ -155,12 +155,24 @@ impl ReprojectionPass {
     /// way: with interpolated gradients the estimate only gives tau, the ratio of E(t+1)
     /// to E(t) over the same samples, so a subset costs a stride^2-th as much.
     pub fn new(ctx: &GpuContext, settings: &CacheSettings, stride: u32) -> Result<Self> {
+        Self::for_scene(ctx, settings, stride, SceneFeatures::ALL)
+    }
+
+    /// [`Self::new`] with the reprojection and re-shading compiled for the scene features
+    /// `features` alone (`RecordPass::features` of the cache's record pass: its kinds of
+    /// light, instances, textures, bounce cache).
+    pub fn for_scene(
+        ctx: &GpuContext,
+        settings: &CacheSettings,
+        stride: u32,
+        features: SceneFeatures,
+    ) -> Result<Self> {
         use Binding::*;
         validate_estimate_stride(stride, settings.plane_resolution)?;
         Ok(Self {
             stride,
             table: PlaneTable::new(ctx, settings.plane_resolution / stride, settings)?,
-            reproject: ComputePass::new(
+            reproject: ComputePass::with_constants(
                 ctx,
                 "plane_reproject.wgsl",
                 &[
@@ -175,8 +187,9 @@ impl ReprojectionPass {
                     StorageReadWrite,
                     StorageReadWrite,
                 ],
+                &[features.constant()],
             )?,
-            reshade: ComputePass::new(
+            reshade: ComputePass::with_constants(
                 ctx,
                 "plane_reshade.wgsl",
                 &[
@@ -188,6 +201,7 @@ impl ReprojectionPass {
                     StorageRead,
                     StorageRead,
                 ],
+                &[features.constant()],
             )?,
             fill: ComputePass::new(
                 ctx,
