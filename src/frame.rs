@@ -304,7 +304,6 @@ pub struct Renderer {
     vpl: OnFirstUse<crate::vpl::VplPass>,
     photon: OnFirstUse<crate::photons::PhotonPass>,
     photon_reduce: OnFirstUse<crate::records::photon_records::PhotonReducePass>,
-    glossy: OnFirstUse<GlossyIndirectPass>,
 }
 
 /// A pass built when it is first asked for.
@@ -438,7 +437,6 @@ impl Renderer {
             vpl: OnFirstUse::new(),
             photon: OnFirstUse::new(),
             photon_reduce: OnFirstUse::new(),
-            glossy: OnFirstUse::new(),
         })
     }
 
@@ -460,8 +458,10 @@ impl Renderer {
         self.placement.get(|| PlacementPass::new(&self.ctx))
     }
 
-    fn glossy_pass(&self) -> Result<&GlossyIndirectPass> {
-        self.glossy.get(|| GlossyIndirectPass::new(&self.ctx))
+    /// The glossy indirect pass for scenes of `features` (built on the device's first
+    /// request).
+    fn glossy_pass(&self, features: SceneFeatures) -> Result<GlossyIndirectPass> {
+        GlossyIndirectPass::for_scene(&self.ctx, features)
     }
 
     fn light_map_pass(&self) -> Result<&LightMapPass> {
@@ -1385,7 +1385,7 @@ impl Renderer {
         // their mean itself (the glossy pass would only copy it).
         let radiance_only = radiance_covers_all && radiance_sums.is_some();
         let glossy = if scene.gpu.has_glossy && !radiance_only {
-            Some(self.glossy_pass()?.record(
+            Some(self.glossy_pass(scene.gpu.features())?.record(
                 ctx,
                 &mut encoder,
                 &scene.gpu,

@@ -162,6 +162,59 @@ fn reference_is_deterministic_and_independent_of_chunking() {
     );
 }
 
+/// A reference pass compiled for the scene's features alone (what `radsplat reference`
+/// builds: less code to build and, on lavapipe, to run per path) renders the bytes of the
+/// pass compiled for every feature, and refuses a scene with a feature it left out.
+#[test]
+fn a_reference_pass_for_the_scenes_features_gives_the_same_bytes_and_refuses_other_scenes() {
+    let scene = cornell(24, 4);
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let options = ReferenceOptions::new(8);
+    let every = ReferencePass::new(&renderer.ctx)
+        .expect("reference pass")
+        .render(
+            &renderer,
+            &prepared,
+            &scene.camera,
+            &options,
+            &mut |_, _| {},
+        )
+        .expect("reference frame");
+    let own = ReferencePass::for_scene(&renderer.ctx, prepared.gpu.features())
+        .expect("reference pass for the scene");
+    let frame = own
+        .render(
+            &renderer,
+            &prepared,
+            &scene.camera,
+            &options,
+            &mut |_, _| {},
+        )
+        .expect("reference frame");
+    assert_eq!(
+        frame.encode_exr().expect("exr"),
+        every.encode_exr().expect("exr"),
+        "the pass compiled for the Cornell box's features changed its pixels"
+    );
+    // The environment sphere has an environment and no rect light.
+    let other = common::load("env-sphere.toml", Some((16, 16)));
+    let other_prepared = renderer.prepare(&other).expect("prepare");
+    let refused = own.render(
+        &renderer,
+        &other_prepared,
+        &other.camera,
+        &options,
+        &mut |_, _| {},
+    );
+    let message = refused.err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("compiled for the scene features"),
+        "a scene with other features was not refused: {message:?}"
+    );
+    renderer.ctx.check().expect("no wgpu errors");
+}
+
 /// `--seed`: seed 0 is the default sequence, another seed gives different pixels (an
 /// independent scramble) whose image mean agrees within the noise, and the GPU still
 /// matches its CPU mirror under that seed.

@@ -44,8 +44,8 @@ pub fn reference(
     let t0 = std::time::Instant::now();
     let renderer = Renderer::new(GpuContext::new()?)?;
     crate::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
-    let pass = ReferencePass::new(&renderer.ctx)?;
     let prepared = renderer.prepare(&scene)?;
+    let pass = ReferencePass::for_scene(&renderer.ctx, prepared.gpu.features())?;
     let bar = progress(quiet, 1);
     bar.set_message(format!("reference, {spp} spp"));
     let result = pass.render(

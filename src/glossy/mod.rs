@@ -11,7 +11,7 @@ use crate::Result;
 use crate::gpu::context::max_samples_per_dispatch;
 use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
 use crate::gpu::timer::spanning;
-use crate::gpu::{GpuContext, GpuScene};
+use crate::gpu::{GpuContext, GpuScene, SceneFeatures};
 use crate::visibility::VisibilityBuffer;
 use bytemuck::{Pod, Zeroable};
 
@@ -32,10 +32,18 @@ pub struct GlossyIndirectPass {
 }
 
 impl GlossyIndirectPass {
+    /// The pass for any scene.
     pub fn new(ctx: &GpuContext) -> Result<Self> {
+        Self::for_scene(ctx, SceneFeatures::ALL)
+    }
+
+    /// The pass compiled for scenes of `features` alone (their kinds of light, instances,
+    /// textures, bounce cache: `gpu::SceneFeatures`); built once per device and set of
+    /// features.
+    pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            pass: ComputePass::new(
+            pass: ComputePass::with_constants(
                 ctx,
                 "glossy_indirect.wgsl",
                 &[
@@ -46,6 +54,7 @@ impl GlossyIndirectPass {
                     StorageRead,
                     StorageRead,
                 ],
+                &[features.constant()],
             )?,
         })
     }

@@ -38,8 +38,8 @@
 pub mod cpu;
 
 use crate::frame::{Frame, PreparedScene, Renderer};
-use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
+use crate::gpu::{GpuContext, SceneFeatures};
 use crate::output::exr_out::{Channels, encode_exr_owned, frame_channels};
 use crate::output::write_atomically;
 use crate::scene::Camera;
@@ -219,14 +219,24 @@ impl ReferenceFrame {
 /// The compiled reference pass (`wgsl/reference_indirect.wgsl`).
 pub struct ReferencePass {
     pass: std::sync::Arc<ComputePass>,
+    /// The scene features it was compiled for (`gpu::SceneFeatures`).
+    features: SceneFeatures,
 }
 
 impl ReferencePass {
-    /// Compiles the pass on `ctx`.
+    /// Compiles the pass on `ctx`, for any scene.
     pub fn new(ctx: &GpuContext) -> Result<Self> {
+        Self::for_scene(ctx, SceneFeatures::ALL)
+    }
+
+    /// Compiles the pass for scenes of `features` alone (their kinds of light, instances,
+    /// textures): less code for the driver to build and, on lavapipe, to run per path.
+    /// [`Self::render`] refuses a scene with another feature.
+    pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
         use Binding::*;
+        let features = features.without_bounce_cache();
         Ok(Self {
-            pass: ComputePass::new(
+            pass: ComputePass::with_constants(
                 ctx,
                 "reference_indirect.wgsl",
                 &[
@@ -236,7 +246,9 @@ impl ReferencePass {
                     StorageReadWrite,
                     StorageReadWrite,
                 ],
+                &[features.constant()],
             )?,
+            features,
         })
     }
 
@@ -251,6 +263,15 @@ impl ReferencePass {
         options: &ReferenceOptions,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<ReferenceFrame> {
+        let scene_features = prepared.gpu.features().without_bounce_cache();
+        if !self.features.contains(scene_features) {
+            return Err(Error::Usage(format!(
+                "this reference pass was compiled for the scene features {:#x} and the scene \
+                 has {:#x}: build it with ReferencePass::for_scene",
+                self.features.bits(),
+                scene_features.bits()
+            )));
+        }
         if !(1..=MAX_SPP).contains(&options.spp) {
             return Err(Error::Usage(format!(
                 "spp {} must be between 1 and {MAX_SPP}",
@@ -386,7 +407,7 @@ pub fn render_reference(
     camera: &Camera,
     spp: u32,
 ) -> Result<ReferenceFrame> {
-    ReferencePass::new(&renderer.ctx)?.render(
+    ReferencePass::for_scene(&renderer.ctx, prepared.gpu.features())?.render(
         renderer,
         prepared,
         camera,
