@@ -300,7 +300,6 @@ pub struct Renderer {
     placement: OnFirstUse<PlacementPass>,
     resolve: OnFirstUse<ResolvePass>,
     light_maps: OnFirstUse<LightMapPass>,
-    bounce: OnFirstUse<crate::bounce::BouncePass>,
     vpl: OnFirstUse<crate::vpl::VplPass>,
     photon: OnFirstUse<crate::photons::PhotonPass>,
     photon_reduce: OnFirstUse<crate::records::photon_records::PhotonReducePass>,
@@ -433,7 +432,6 @@ impl Renderer {
             placement: OnFirstUse::new(),
             resolve: OnFirstUse::new(),
             light_maps: OnFirstUse::new(),
-            bounce: OnFirstUse::new(),
             vpl: OnFirstUse::new(),
             photon: OnFirstUse::new(),
             photon_reduce: OnFirstUse::new(),
@@ -544,7 +542,9 @@ impl Renderer {
         } else {
             std::sync::Arc::new(LightMaps::none(&self.ctx)?)
         };
-        let cache = self.bounce_pass()?.build(
+        // Its levels after the first reflect the level before: the cache's lookup is in.
+        let features = scene.gpu.features().with_bounce_cache(true);
+        let cache = self.bounce_pass(features)?.build(
             &self.ctx,
             &scene.gpu,
             &layout,
@@ -681,9 +681,10 @@ impl Renderer {
         })
     }
 
-    fn bounce_pass(&self) -> Result<&crate::bounce::BouncePass> {
-        self.bounce
-            .get(|| crate::bounce::BouncePass::new(&self.ctx))
+    /// The bounce cache's gather for scenes of `features` (built on the device's first
+    /// request).
+    fn bounce_pass(&self, features: SceneFeatures) -> Result<crate::bounce::BouncePass> {
+        crate::bounce::BouncePass::for_scene(&self.ctx, features)
     }
 
     fn resolve_pass(&self) -> Result<&ResolvePass> {

@@ -29,10 +29,10 @@
 pub mod layout;
 pub mod reference;
 
-use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::{PassTimer, spanning};
+use crate::gpu::{GpuContext, SceneFeatures};
 use crate::light_maps::LightMaps;
 use crate::{Error, Result};
 pub use layout::{BounceCell, BounceGeometry, BounceLayout};
@@ -165,10 +165,17 @@ pub struct BouncePass {
 }
 
 impl BouncePass {
+    /// The pass for any scene.
     pub fn new(ctx: &GpuContext) -> Result<Self> {
+        Self::for_scene(ctx, SceneFeatures::ALL)
+    }
+
+    /// The pass compiled for scenes of `features` alone (`gpu::SceneFeatures`; the bounce
+    /// cache's bit included, as levels after the first read the level before).
+    pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            gather: ComputePass::new(
+            gather: ComputePass::with_constants(
                 ctx,
                 "bounce_gather.wgsl",
                 &[
@@ -180,6 +187,7 @@ impl BouncePass {
                     StorageRead,
                     StorageRead,
                 ],
+                &[features.constant()],
             )?,
         })
     }
