@@ -5,7 +5,8 @@
 mod common;
 
 use glam::Vec3;
-use radsplat::Renderer;
+use radsplat::{PreparedScene, Renderer};
+
 use radsplat::compare::luminance;
 use radsplat::reference::cpu::{IndirectPixel, IndirectReference};
 use radsplat::reference::{
@@ -18,11 +19,20 @@ fn render(scene: &Scene, options: &ReferenceOptions) -> ReferenceFrame {
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let prepared = renderer.prepare(scene).expect("prepare");
     let pass = ReferencePass::new(&renderer.ctx).expect("reference pass");
-    let frame = pass
-        .render(&renderer, &prepared, &scene.camera, options, &mut |_, _| {})
-        .expect("reference frame");
+    let frame = render_with(&pass, &renderer, &prepared, scene, options).expect("reference frame");
     renderer.ctx.check().expect("no wgpu errors");
     frame
+}
+
+/// `pass`'s reference of `scene`, prepared on `renderer` as `prepared`, without progress.
+fn render_with(
+    pass: &ReferencePass,
+    renderer: &Renderer,
+    prepared: &PreparedScene,
+    scene: &Scene,
+    options: &ReferenceOptions,
+) -> radsplat::Result<ReferenceFrame> {
+    pass.render(renderer, prepared, &scene.camera, options, &mut |_, _| {})
 }
 
 fn cornell(size: u32, light_samples: u32) -> Scene {
@@ -171,27 +181,11 @@ fn a_reference_pass_for_the_scenes_features_gives_the_same_bytes_and_refuses_oth
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let prepared = renderer.prepare(&scene).expect("prepare");
     let options = ReferenceOptions::new(8);
-    let every = ReferencePass::new(&renderer.ctx)
-        .expect("reference pass")
-        .render(
-            &renderer,
-            &prepared,
-            &scene.camera,
-            &options,
-            &mut |_, _| {},
-        )
-        .expect("reference frame");
+    let every = ReferencePass::new(&renderer.ctx).expect("reference pass");
+    let every = render_with(&every, &renderer, &prepared, &scene, &options).expect("reference");
     let own = ReferencePass::for_scene(&renderer.ctx, prepared.gpu.features())
         .expect("reference pass for the scene");
-    let frame = own
-        .render(
-            &renderer,
-            &prepared,
-            &scene.camera,
-            &options,
-            &mut |_, _| {},
-        )
-        .expect("reference frame");
+    let frame = render_with(&own, &renderer, &prepared, &scene, &options).expect("reference");
     assert_eq!(
         frame.encode_exr().expect("exr"),
         every.encode_exr().expect("exr"),
@@ -200,13 +194,7 @@ fn a_reference_pass_for_the_scenes_features_gives_the_same_bytes_and_refuses_oth
     // The environment sphere has an environment and no rect light.
     let other = common::load("env-sphere.toml", Some((16, 16)));
     let other_prepared = renderer.prepare(&other).expect("prepare");
-    let refused = own.render(
-        &renderer,
-        &other_prepared,
-        &other.camera,
-        &options,
-        &mut |_, _| {},
-    );
+    let refused = render_with(&own, &renderer, &other_prepared, &other, &options);
     let message = refused.err().map(|e| e.to_string()).unwrap_or_default();
     assert!(
         message.contains("compiled for the scene features"),

@@ -1647,15 +1647,15 @@ impl RecordPass {
         self.check_features(scene)
     }
 
-    /// Refuses a scene with a feature this pass's plane pipelines were not compiled for
-    /// ([`Self::for_scene`]): its hits would be shaded without that light, or its rays
-    /// would not enter its instances.
     /// The scene features its plane pipelines were compiled for (the bounce cache its
     /// settings make included).
     pub fn features(&self) -> SceneFeatures {
         self.features
     }
 
+    /// Refuses a scene with a feature this pass's plane pipelines were not compiled for
+    /// ([`Self::for_scene`]): its hits would be shaded without that light, or its rays
+    /// would not enter its instances.
     pub fn check_features(&self, scene: &GpuScene) -> Result<()> {
         if self.features.contains(scene.features()) {
             Ok(())

@@ -271,10 +271,11 @@ pub struct TemporalRecord {
     pub tau: f32,
     /// The record that replaced this one at the same place, once it expired.
     pub successor: Option<u32>,
-    /// Its life ends where a light leaves the course its estimate saw ([`horizon`]): its
-    /// successor, born after that break, is not interpolated towards (a light switched
-    /// on at the break would fade in over the record's whole life, before it is on); it
-    /// keeps its own extrapolated gradient instead. (Ends by objects are not breaks.)
+    /// Its life ends where a light leaves the course its estimate saw, or an object that
+    /// stood still starts ([`horizon`]): its successor, born after that break, is not
+    /// interpolated towards (a light switched on at the break would fade in over the
+    /// record's whole life, before it is on); it keeps its own extrapolated gradient
+    /// instead. (Ends by moving objects are not breaks.)
     pub before_break: bool,
     /// The instance it moves with; None: it keeps its world position.
     pub anchor: Option<Anchor>,
