@@ -344,11 +344,43 @@ pub fn module(
     let specialised = specialised_module(name, constants)?;
     // The module itself, not WGSL text, which wgpu would parse again (wgpu still validates
     // it against the device's own capabilities).
-    Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
+    let descriptor = wgpu::ShaderModuleDescriptor {
         label: Some(name),
         source: wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(specialised)),
-    }))
+    };
+    // SAFETY: the checks kept are wgpu's defaults; the one dropped, `force_loop_bounding`,
+    // requires that no loop runs forever, and none of ours does (`RUNTIME_CHECKS`).
+    Ok(unsafe { device.create_shader_module_trusted(descriptor, RUNTIME_CHECKS) })
 }
+
+/// The runtime checks wgpu compiles into radsplat's shaders: all of its defaults (bounds,
+/// integer division) but the counter it otherwise adds to every loop
+/// (`force_loop_bounding`), which guards against a driver that assumes loops end meeting a
+/// shader whose loop does not.
+///
+/// The counter is code in every loop, the traversal's included: without it lavapipe built
+/// the nave's pipelines in 0.81x the time and traced its planes in 0.95x, 0.94x the whole
+/// run (8 alternating pairs, the same bytes; docs/results.md, "Loops without wgpu's
+/// counters"). Leaving out the integer division guards as well gained nothing more, so they
+/// stay.
+///
+/// Every loop in `wgsl/` ends, whatever the data. Each is one of:
+/// - a count up to a bound fixed before it starts (`for` over pixels, lights, slots, rings,
+///   histogram bins, the halvings of a reduction, the bits of an index);
+/// - a bisection whose interval shrinks each time round (`env_invert`);
+/// - a walk that moves on by at least one entry each time round and stops at the list's
+///   end (`shadow_loop_next` over samples and lights, the refinement selection's bin walks);
+/// - the BVH traversal, which pops an entry or descends into a child each time round, over
+///   a tree of finite depth whose stack is clamped to its size (a ray with NaNs misses every
+///   box, pushes nothing and ends when its stack is empty);
+/// - the neighbour-grid search, whose ring grows each time round up to the grid's extent.
+///
+/// A new loop must be one of these, or count its iterations itself. (lavapipe, besides,
+/// ends any loop after 65,535 iterations.)
+pub(crate) const RUNTIME_CHECKS: wgpu::ShaderRuntimeChecks = wgpu::ShaderRuntimeChecks {
+    force_loop_bounding: false,
+    ..wgpu::ShaderRuntimeChecks::checked()
+};
 
 /// The naga module of pass `name` specialised for `constants` ([`module`]). It starts from
 /// the module `build.rs` parsed and validated (embedded, [`parsed_module`]); wgpu validates
