@@ -33,9 +33,10 @@ pub const MAX_SLACK: u32 = 8;
 /// SAH bins per axis.
 const BINS: usize = 16;
 
-/// SAH cost of traversing a node, relative to intersecting one primitive (obvhs's
-/// `collapse_traversal_cost` in its medium preset, so that our leaves are sized like its).
-const TRAVERSAL_COST: f32 = 3.0;
+/// SAH cost of traversing a node, relative to intersecting one primitive: the one obvhs's
+/// leaf collapse is given ([`super::COLLAPSE_TRAVERSAL_COST`]), so that our leaves are
+/// sized like its.
+const TRAVERSAL_COST: f32 = super::COLLAPSE_TRAVERSAL_COST;
 
 /// `ceil(log2(x))` for `x >= 1`.
 pub fn ceil_log2(x: usize) -> u32 {

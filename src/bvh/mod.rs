@@ -139,18 +139,36 @@ pub enum BvhPreset {
     Fast,
     /// The default: PLOC (medium search distance) + reinsertion, leaves of up to 8
     /// triangles; obvhs's "embree-like build time, faster traversal" setting. See
-    /// `docs/architecture.md` for the measurements behind the choice.
+    /// `docs/architecture.md` for the measurements behind the choice. Every preset's leaf
+    /// collapse weighs nodes against triangles by [`COLLAPSE_TRAVERSAL_COST`].
     #[default]
     Medium,
 }
 
+/// What visiting a BVH node costs against testing a triangle, in the SAH that obvhs's leaf
+/// collapse weighs (`collapse_traversal_cost`; its presets say 3.0). A triangle test here
+/// reads three storage vectors, each a loop over the SIMD lanes on lavapipe, while a node's
+/// four boxes are texel gathers (`docs/bvh-performance.md`): so the triangles cost more
+/// than the presets assume, and smaller leaves pay. Measured on lavapipe against 3.0
+/// (docs/results.md, "Leaves sized for our traversal"): incoherent rays 0.94x on
+/// nave-west, 0.85x on the Cornell box, 0.97x on Sponza 256x256 (1.0 made Sponza's
+/// slower again); nave-west 0.966x the instructions of a whole render, the Cornell box
+/// 0.93x the process wall time; the same bytes.
+pub const COLLAPSE_TRAVERSAL_COST: f32 = 1.5;
+
 impl BvhPreset {
+    /// obvhs's preset, with the leaf collapse weighed for radsplat's traversal
+    /// ([`COLLAPSE_TRAVERSAL_COST`]).
     pub fn params(self) -> BvhBuildParams {
-        match self {
+        let preset = match self {
             BvhPreset::Fastest => BvhBuildParams::fastest_build(),
             BvhPreset::VeryFast => BvhBuildParams::very_fast_build(),
             BvhPreset::Fast => BvhBuildParams::fast_build(),
             BvhPreset::Medium => BvhBuildParams::medium_build(),
+        };
+        BvhBuildParams {
+            collapse_traversal_cost: COLLAPSE_TRAVERSAL_COST,
+            ..preset
         }
     }
 }
