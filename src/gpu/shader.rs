@@ -358,11 +358,12 @@ pub fn module(
 /// (`force_loop_bounding`), which guards against a driver that assumes loops end meeting a
 /// shader whose loop does not.
 ///
-/// The counter is code in every loop, the traversal's included: without it lavapipe built
-/// the nave's pipelines in 0.81x the time and traced its planes in 0.95x, 0.94x the whole
-/// run (8 alternating pairs, the same bytes; docs/results.md, "Loops without wgpu's
-/// counters"). Leaving out the integer division guards as well gained nothing more, so they
-/// stay.
+/// The counter is code in every loop, the traversal's included: without it lavapipe
+/// started nave-west in 0.83x the time, traced its incoherent rays in 0.93x and ran the
+/// whole render in 0.96x (8 alternating pairs, the same bytes; docs/results.md, "Loops
+/// without wgpu's counters"). Leaving out the integer division guards as well gained
+/// nothing more, so they stay. A test keeps the list of loops below in step with
+/// `wgsl/`.
 ///
 /// Every loop in `wgsl/` ends, whatever the data. Each is one of:
 /// - a count up to a bound fixed before it starts (`for` over pixels, lights, slots, rings,
@@ -425,6 +426,43 @@ pub(crate) fn validator() -> naga::valid::Validator {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shaders are compiled without wgpu's loop counters ([`RUNTIME_CHECKS`]), whose doc
+    /// argues why each `loop` and `while` in `wgsl/` ends whatever the data. A loop added,
+    /// or one removed, fails here until it is checked against that argument and this list.
+    #[test]
+    fn every_loop_without_a_fixed_count_is_one_runtime_checks_argues_ends() {
+        let expected: &[(&str, usize)] = &[
+            ("bounce_gather.wgsl", 1),          // a row walk up to n
+            ("direct_light.wgsl", 1),           // shadow_loop_next
+            ("plane_refine_select.wgsl", 2),    // bin walks, each bounded by its last bin
+            ("record_reduce.wgsl", 1),          // the neighbour grid's rings
+            ("shared/bvh.wgsl", 2),             // the traversal and its inner-node loop
+            ("shared/environment.wgsl", 1),     // bisection of the CDF
+            ("shared/lit_grid_query.wgsl", 1),  // levels up to the pyramid's top
+            ("shared/sampling.wgsl", 1),        // the bits of an index
+            ("shared/shading.wgsl", 3),         // light choice and shadow-sample walks
+            ("shared/trace_and_shade.wgsl", 2), // ray then shadow rays; shadow_loop_next
+        ];
+        let mut found: Vec<(&str, usize)> = SOURCES
+            .iter()
+            .map(|(name, text)| {
+                let loops = text
+                    .lines()
+                    .map(|l| l.split("//").next().unwrap_or(""))
+                    .filter(|code| code.contains("loop {") || code.contains("while "))
+                    .count();
+                (*name, loops)
+            })
+            .filter(|(_, n)| *n > 0)
+            .collect();
+        found.sort();
+        assert_eq!(
+            found, expected,
+            "a `loop` or `while` was added to or removed from wgsl/: check that it ends \
+             whatever the data (gpu::shader::RUNTIME_CHECKS) and update this list"
+        );
+    }
 
     /// Every pass that can trace rays gives each invocation its own slice of the workgroup's
     /// traversal stacks before tracing (else invocations would share slice 0 and corrupt
