@@ -123,6 +123,8 @@ pub struct RefreshPass {
 
 impl RefreshPass {
     /// The passes for any scene.
+    /// [`Self::for_scene`] compiles them for one scene's features alone (`SceneFeatures::of`),
+    /// which lavapipe builds and runs faster: an engine that knows its scene should use that.
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         Self::for_scene(ctx, SceneFeatures::ALL)
     }

@@ -134,6 +134,8 @@ pub struct VisibilityPass {
 
 impl VisibilityPass {
     /// The pass for any scene.
+    /// [`Self::for_scene`] compiles it for one scene's features alone (`SceneFeatures::of`),
+    /// which lavapipe builds and runs faster: an engine that knows its scene should use that.
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         Self::for_scene(ctx, SceneFeatures::ALL)
     }
