@@ -123,6 +123,21 @@ impl SceneFeatures {
     pub fn constant(self) -> (&'static str, f64) {
         ("SCENE_FEATURES", f64::from(self.0))
     }
+
+    /// Refuses a scene of features `scene` that a pass compiled for these lacks (its hits
+    /// would be shaded without that light, or its rays would not enter its instances):
+    /// `pass` names the pass, `build` the constructor that builds it for the scene.
+    pub fn require(self, scene: SceneFeatures, pass: &str, build: &str) -> crate::Result<()> {
+        if self.contains(scene) {
+            return Ok(());
+        }
+        Err(crate::Error::Usage(format!(
+            "this {pass} was compiled for the scene features (light kinds, instances, \
+             textures, bounce cache) {:#x} and the scene has {:#x}: build it for the \
+             scene's (`{build}`, `SceneFeatures::of`)",
+            self.0, scene.0
+        )))
+    }
 }
 
 #[cfg(test)]

@@ -1657,17 +1657,8 @@ impl RecordPass {
     /// ([`Self::for_scene`]): its hits would be shaded without that light, or its rays
     /// would not enter its instances.
     pub fn check_features(&self, scene: &GpuScene) -> Result<()> {
-        if self.features.contains(scene.features()) {
-            Ok(())
-        } else {
-            Err(Error::Usage(format!(
-                "this record pass was compiled for the scene features (light kinds, \
-                 instances, textures, bounce cache) {:#x} and the scene has {:#x}: build it for the scene's \
-                 (`RecordPass::for_scene`, `SceneFeatures::of`)",
-                self.features.bits(),
-                scene.features().bits()
-            )))
-        }
+        self.features
+            .require(scene.features(), "record pass", "RecordPass::for_scene")
     }
 
     /// Sites for the visibility-buffer `pixels` (one per new record, in order), computed on

@@ -265,15 +265,11 @@ impl ReferencePass {
         options: &ReferenceOptions,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<ReferenceFrame> {
-        let scene_features = prepared.gpu.features().without_bounce_cache();
-        if !self.features.contains(scene_features) {
-            return Err(Error::Usage(format!(
-                "this reference pass was compiled for the scene features {:#x} and the scene \
-                 has {:#x}: build it with ReferencePass::for_scene",
-                self.features.bits(),
-                scene_features.bits()
-            )));
-        }
+        self.features.require(
+            prepared.gpu.features().without_bounce_cache(),
+            "reference pass",
+            "ReferencePass::for_scene",
+        )?;
         if !(1..=MAX_SPP).contains(&options.spp) {
             return Err(Error::Usage(format!(
                 "spp {} must be between 1 and {MAX_SPP}",
