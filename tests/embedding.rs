@@ -73,3 +73,64 @@ fn a_scene_built_in_code_with_a_bad_light_or_material_is_refused() {
     scene.materials[0].albedo = kept;
     renderer.prepare(&scene).expect("the scene as loaded");
 }
+
+/// An engine that builds the visibility, direct-light and glossy passes for one scene's
+/// features (`for_scene`, which lavapipe builds and runs faster) and then hands them another
+/// scene gets an error naming the pass, not an image without that scene's environment,
+/// instances or textures.
+#[test]
+fn passes_compiled_for_one_scene_refuse_a_scene_with_other_features() {
+    use radsplat::direct::DirectLightPass;
+    use radsplat::glossy::GlossyIndirectPass;
+    use radsplat::visibility::VisibilityPass;
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let ctx = &renderer.ctx;
+    let cornell = common::load("cornell-box.toml", Some((16, 16)));
+    let own = renderer.prepare(&cornell).expect("prepare");
+    let features = own.gpu.features();
+    let visibility = VisibilityPass::for_scene(ctx, features).expect("visibility pass");
+    let direct = DirectLightPass::for_scene(ctx, features).expect("direct pass");
+    let glossy = GlossyIndirectPass::for_scene(ctx, features).expect("glossy pass");
+    // The environment sphere has an environment (and no rect light).
+    let other_scene = common::load("env-sphere.toml", Some((16, 16)));
+    let other = renderer.prepare(&other_scene).expect("prepare");
+    let refused = |r: radsplat::Result<()>, pass: &str| {
+        let message = r.err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(
+            message.contains(&format!("this {pass} was compiled for the scene features")),
+            "the {pass} took a scene with other features: {message:?}"
+        );
+    };
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    // Their own scene records.
+    let vis = visibility
+        .record(ctx, &mut enc, &own.gpu, &cornell.camera, None)
+        .expect("visibility of its own scene");
+    direct
+        .record(ctx, &mut enc, &own.gpu, &vis, None)
+        .expect("direct light of its own scene");
+    glossy
+        .record(ctx, &mut enc, &own.gpu, &vis, 1, None, false, None)
+        .expect("glossy of its own scene");
+    // The other scene is refused by each.
+    refused(
+        visibility
+            .record(ctx, &mut enc, &other.gpu, &other_scene.camera, None)
+            .map(|_| ()),
+        "visibility pass",
+    );
+    refused(
+        direct
+            .record(ctx, &mut enc, &other.gpu, &vis, None)
+            .map(|_| ()),
+        "direct-light pass",
+    );
+    refused(
+        glossy
+            .record(ctx, &mut enc, &other.gpu, &vis, 1, None, false, None)
+            .map(|_| ()),
+        "glossy indirect pass",
+    );
+    ctx.queue.submit([enc.finish()]);
+    ctx.check().expect("no wgpu errors");
+}

@@ -22,6 +22,8 @@ pub struct DirectOutput {
 /// The direct-light pass (`wgsl/direct_light.wgsl`).
 pub struct DirectLightPass {
     pass: std::sync::Arc<ComputePass>,
+    /// What the pipeline was compiled for (the bounce cache plays no part in it).
+    features: SceneFeatures,
 }
 
 impl DirectLightPass {
@@ -36,6 +38,7 @@ impl DirectLightPass {
     /// textures: `gpu::SceneFeatures`); built once per device and set of features.
     pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
         use Binding::*;
+        let features = features.without_bounce_cache();
         Ok(Self {
             pass: ComputePass::with_constants(
                 ctx,
@@ -47,8 +50,9 @@ impl DirectLightPass {
                     StorageReadWrite,
                     StorageReadWrite,
                 ],
-                &[features.without_bounce_cache().constant()],
+                &[features.constant()],
             )?,
+            features,
         })
     }
 
@@ -61,6 +65,13 @@ impl DirectLightPass {
         vis: &VisibilityBuffer,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<DirectOutput> {
+        // A pipeline compiled without one of the scene's kinds of light would leave that
+        // light out of every pixel, silently.
+        self.features.require(
+            scene.features().without_bounce_cache(),
+            "direct-light pass",
+            "DirectLightPass::for_scene",
+        )?;
         let bytes = u64::from(vis.width) * u64::from(vis.height) * 16;
         let out = DirectOutput {
             beauty: ctx.storage_buffer_sized("beauty", bytes)?,

@@ -29,6 +29,8 @@ struct GlossyParams {
 /// The glossy indirect pass.
 pub struct GlossyIndirectPass {
     pass: std::sync::Arc<ComputePass>,
+    /// What the pipeline was compiled for.
+    features: SceneFeatures,
 }
 
 impl GlossyIndirectPass {
@@ -58,6 +60,7 @@ impl GlossyIndirectPass {
                 ],
                 &[features.constant()],
             )?,
+            features,
         })
     }
 
@@ -78,6 +81,13 @@ impl GlossyIndirectPass {
         radiance_covers_all: bool,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<wgpu::Buffer> {
+        // A pipeline compiled without one of the scene's features would shade its lobe
+        // rays' hits without that light, bounce cache or texture, silently.
+        self.features.require(
+            scene.features(),
+            "glossy indirect pass",
+            "GlossyIndirectPass::for_scene",
+        )?;
         let placeholder;
         let radiance_buf = match radiance {
             Some(b) => b,

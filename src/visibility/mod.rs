@@ -130,6 +130,8 @@ pub fn check_resolution(ctx: &GpuContext, width: u32, height: u32) -> Result<()>
 /// The visibility pass (`wgsl/visibility.wgsl`).
 pub struct VisibilityPass {
     pass: std::sync::Arc<ComputePass>,
+    /// What the pipeline was compiled for (the bounce cache plays no part in it).
+    features: SceneFeatures,
 }
 
 impl VisibilityPass {
@@ -144,13 +146,15 @@ impl VisibilityPass {
     /// the albedo without textures: `gpu::SceneFeatures`); built once per device and set
     /// of features.
     pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
+        let features = features.without_bounce_cache();
         Ok(Self {
             pass: ComputePass::with_constants(
                 ctx,
                 "visibility.wgsl",
                 &[Binding::Uniform, Binding::StorageReadWrite],
-                &[features.without_bounce_cache().constant()],
+                &[features.constant()],
             )?,
+            features,
         })
     }
 
@@ -163,6 +167,13 @@ impl VisibilityPass {
         camera: &Camera,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<VisibilityBuffer> {
+        // A pipeline compiled without a scene's instances or textures would miss its
+        // instanced geometry or shade it untextured, silently.
+        self.features.require(
+            scene.features().without_bounce_cache(),
+            "visibility pass",
+            "VisibilityPass::for_scene",
+        )?;
         check_resolution(ctx, camera.width, camera.height)?;
         let gpu_camera = GpuCamera::new(camera);
         let camera_buffer = ctx.uniform_buffer("camera", &gpu_camera);
