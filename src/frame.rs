@@ -1036,6 +1036,58 @@ impl Renderer {
         Ok((visibility, sums, covered))
     }
 
+    /// The coverage mask of `cache`'s records covered in rounds (records `..splits[0]`,
+    /// then up to each later split, then the rest) as placement covers them: each round's
+    /// cover submitted without a wait and with room for `room` list entries
+    /// ([`SplatPass::cover_in_flight`]), and covered again, waiting, where its lists did
+    /// not fit. Returns the mask, how many rounds were covered again, and how many pixels
+    /// a cover whose lists did not fit marked (none, if it marks nothing as it should):
+    /// for tests.
+    pub fn cover_in_rounds(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        cache: &IrradianceCache,
+        splits: &[u32],
+        room: u32,
+    ) -> Result<(Vec<u32>, u32, usize)> {
+        let ctx = &self.ctx;
+        let mut times = Vec::new();
+        let (vis, bounds) = self.visible_tiles(scene, camera, &mut times)?;
+        let mask = CoverageMask::new(ctx, camera.width, camera.height)?;
+        let splat_pass = self.splat_pass()?;
+        let mut first = 0;
+        let (mut repeats, mut stray) = (0, 0);
+        for &end in splits.iter().chain([&cache.records.count]) {
+            let partial = cache.records.prefix(end);
+            let src = SplatSource {
+                scene: &scene.gpu,
+                vis: &vis,
+                bounds: &bounds,
+                records: &partial,
+                first,
+                accuracy: cache.settings().accuracy,
+                plateau: 0.0,
+                dark_only_empty: false,
+                corral: cache.settings().corral.in_cover(),
+            };
+            let before = mask.read(ctx)?;
+            if let Some(cover) = splat_pass.cover_in_flight(ctx, src, &mask, room, &mut times)? {
+                let total: Vec<u32> = ctx.read_buffer(&cover.total)?;
+                if !cover.fitted(total.first().copied().unwrap_or(0)) {
+                    let after = mask.read(ctx)?;
+                    stray += before.iter().zip(&after).filter(|(b, a)| b != a).count();
+                    splat_pass.cover(ctx, src, &mask, &mut times)?;
+                    repeats += 1;
+                }
+            }
+            first = partial.count;
+        }
+        let covered = mask.read(ctx)?;
+        ctx.check()?;
+        Ok((covered, repeats, stray))
+    }
+
     /// The light maps of `scene` with `settings` ([`crate::light_maps`]): their layout
     /// and depths read back, for tests and tools.
     pub fn light_maps(

@@ -639,6 +639,51 @@ fn rounds_of_splats_and_covers_match_one_full_splat() {
     }
 }
 
+/// Placement's covers go without a wait: a round's bins get room for their lists before
+/// the lists' total is known (`SplatPass::cover_in_flight`). Where the lists do not fit,
+/// that cover must mark nothing and the cover made again must give the mask one waiting
+/// cover a round gives; where they fit, the same mask with no cover made again.
+#[test]
+fn covers_without_a_wait_mark_what_waiting_covers_mark_whatever_their_room() {
+    let (renderer, scene, cache, _, _) = cornell_cache(&CacheSettings {
+        tail_share: 0.0,
+        ..settings()
+    });
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let n = cache.records.count;
+    let splits = [n / 5, n / 2, 3 * n / 4];
+    let (_, _, waiting) = renderer
+        .splat_cache_in_rounds(&prepared, &scene.camera, &cache, &splits)
+        .expect("waiting covers");
+    let covered = waiting.iter().filter(|&&c| c != 0).count();
+    assert!(covered > 0, "nothing covered");
+    // Room for 1 entry: every round's lists overflow; for 2^20, none; between, the first
+    // rounds' (their records are the largest) and not the last ones'.
+    let mut again_by_room = Vec::new();
+    for room in [1, 64, 96, 128, 160, 192, 224, 256, 1 << 20] {
+        let (mask, again, stray) = renderer
+            .cover_in_rounds(&prepared, &scene.camera, &cache, &splits, room)
+            .expect("covers in flight");
+        assert_eq!(
+            mask, waiting,
+            "room {room}: the mask differs from waiting covers'"
+        );
+        assert_eq!(
+            stray, 0,
+            "room {room}: a cover whose lists overflowed marked pixels"
+        );
+        again_by_room.push(again);
+    }
+    eprintln!("rounds covered again by room: {again_by_room:?}");
+    assert_eq!(again_by_room.first(), Some(&4));
+    assert_eq!(again_by_room.last(), Some(&0));
+    assert!(again_by_room.windows(2).all(|w| w[0] >= w[1]));
+    assert!(
+        again_by_room.iter().any(|&a| (1..4).contains(&a)),
+        "no room between overflowing every round and none"
+    );
+}
+
 /// Neighbour clamping on insertion: records placed in later rounds obey R_i <= R_j + |p_i -
 /// p_j| against the records before them (only records of the same round may break it),
 /// every visible pixel stays covered, and without it the inequality is broken far more.

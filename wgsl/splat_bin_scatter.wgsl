@@ -1,5 +1,8 @@
 // Splat binning, step 3: each record writes (record, tile) into its tiles' lists. The slot
-// order inside a list depends on thread timing; step 4 makes it deterministic.
+// order inside a list depends on thread timing; step 4 makes it deterministic. `entries`
+// may be shorter than the lists (placement's cover sizes it before the total is known,
+// SplatPass::cover_in_flight): entries past its end are not written, and the cover of such
+// bins marks nothing.
 //!include shared/records.wgsl
 //!include shared/splat.wgsl
 
@@ -43,7 +46,10 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
                         continue;
                     }
                     let slot = atomicAdd(&tile_cursors[tile], 1u);
-                    entries[tile_offsets[tile] + slot] = vec2u(params.first_record + i, tile);
+                    let at = tile_offsets[tile] + slot;
+                    if at < arrayLength(&entries) {
+                        entries[at] = vec2u(params.first_record + i, tile);
+                    }
                 }
             }
         }

@@ -31,6 +31,12 @@ fn main(
     if slot >= busy_count[0] {
         return;
     }
+    // Lists cut short by a too small `entries` (splat_bin_scatter.wgsl): mark nothing, so
+    // that the cover placement repeats with room marks exactly what one cover would
+    // (SplatPass::cover_in_flight).
+    if tile_offsets[params.tiles_x * params.tiles_y] > arrayLength(&entries) {
+        return;
+    }
     let tile = busy_tiles[slot];
     let x = (tile % params.tiles_x) * TILE_SIZE + local.x;
     let y = (tile / params.tiles_x) * TILE_SIZE + local.y;

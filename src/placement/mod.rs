@@ -29,7 +29,7 @@ use crate::gpu::pipeline::{Binding, ComputePass};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::light_maps::LightMaps;
 use crate::records::{RecordCache, RecordPass, RecordSource, RecordStage};
-use crate::splat::{CoverageMask, SplatPass, SplatSource, TileBounds};
+use crate::splat::{CoverInFlight, CoverageMask, SplatPass, SplatSource, TileBounds};
 use crate::visibility::VisibilityBuffer;
 use bytemuck::{Pod, Zeroable};
 
@@ -38,6 +38,10 @@ const NO_CANDIDATE: u32 = u32::MAX;
 /// Coarsest and finest cell edge in pixels.
 const FIRST_CELL: u32 = 64;
 const LAST_CELL: u32 = 4;
+/// The least room a round's cover bins get for their lists (entries of 8 bytes): a round
+/// whose lists need more covers again, once, with room for them
+/// ([`SplatPass::cover_in_flight`]); after that the room stays.
+const MIN_COVER_ENTRIES: u32 = 4096;
 /// Full parity cycles at the finest cell size before placement gives up (each cycle covers
 /// every candidate pixel it picks, so this only stops pathological cases).
 const MAX_FINE_CYCLES: u32 = 256;
@@ -143,6 +147,9 @@ impl PlacementPass {
     /// fill): one submission and one wait. Placement uses the first class with
     /// candidates; its records change the coverage, so the later classes are selected
     /// again after them (a class without candidates has none after more coverage either).
+    /// `in_flight`: the last round's cover, whose lists' total is read in the same wait
+    /// (returned last, 0 without one).
+    #[allow(clippy::too_many_arguments)]
     fn candidates(
         &self,
         ctx: &GpuContext,
@@ -151,7 +158,8 @@ impl PlacementPass {
         mask: &CoverageMask,
         cell_size: u32,
         from: u32,
-    ) -> Result<(Vec<Vec<u32>>, u32)> {
+        in_flight: Option<&CoverInFlight>,
+    ) -> Result<(Vec<Vec<u32>>, u32, u32)> {
         let cells_x = vis.width.div_ceil(cell_size);
         let cells_y = vis.height.div_ceil(cell_size);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -191,7 +199,14 @@ impl PlacementPass {
         ctx.queue.submit([enc.finish()]);
         let mut reads: Vec<&wgpu::Buffer> = outs.iter().map(|(b, _)| b).collect();
         reads.push(&mask.marked);
+        if let Some(cover) = in_flight {
+            reads.push(&cover.total);
+        }
         let mut all: Vec<Vec<u32>> = ctx.read_buffers(&reads)?;
+        let total = match in_flight {
+            Some(_) => all.pop().and_then(|t| t.first().copied()).unwrap_or(0),
+            None => 0,
+        };
         let marked = all.pop().and_then(|m| m.first().copied()).unwrap_or(0);
         let lists = all
             .into_iter()
@@ -202,7 +217,7 @@ impl PlacementPass {
                 slots
             })
             .collect();
-        Ok((lists, marked))
+        Ok((lists, marked, total))
     }
 
     /// Adds records until every visible pixel is covered, `limit` records were added, or
@@ -210,7 +225,8 @@ impl PlacementPass {
     /// cache cover; it is kept up to date (the weighted splat is the caller's, once
     /// placement is done). `progress` gets the records added. The rounds' pass timers
     /// are read once, at the end ([`GpuContext::deferring_pass_times`]): a round then
-    /// waits for the GPU twice (its candidates; the splat bins' sizes), not seven times.
+    /// waits for the GPU once (its candidates, with the last round's cover lists' total:
+    /// [`SplatPass::cover_in_flight`]), not seven times.
     #[allow(clippy::too_many_arguments)]
     pub fn place(
         &self,
@@ -249,11 +265,54 @@ impl PlacementPass {
                 None
             };
             let mut cover_accuracy = settings.accuracy;
-            loop {
+            // The last round's cover, submitted without a wait (`SplatPass::cover_in_flight`),
+            // with the first record and the accuracy it covered: its lists' total comes back
+            // with the next candidates, and where they overflowed their room the cover is
+            // made again, waiting, before anything reads the mask.
+            let mut in_flight: Option<(CoverInFlight, u32, f32)> = None;
+            let tiles = vis.width.div_ceil(crate::splat::TILE_SIZE)
+                * vis.height.div_ceil(crate::splat::TILE_SIZE);
+            let mut cover_room = (tiles * 4).max(MIN_COVER_ENTRIES);
+            let cover_again = |first: u32,
+                               accuracy: f32,
+                               cache: &RecordCache,
+                               times: &mut Vec<(&'static str, f64)>|
+             -> Result<()> {
+                let records = SplatSource {
+                    scene,
+                    vis,
+                    bounds,
+                    records: cache,
+                    first,
+                    accuracy,
+                    plateau: 0.0,
+                    dark_only_empty: false,
+                    corral: settings.corral.in_cover(),
+                };
+                splat_pass.cover(ctx, records, mask, times)
+            };
+            'rounds: loop {
                 let mut placed = 0;
                 let mut parity = 0;
                 while parity < 4 {
-                    let (lists, marked) = self.candidates(ctx, scene, vis, mask, cell, parity)?;
+                    let (lists, marked, total) = self.candidates(
+                        ctx,
+                        scene,
+                        vis,
+                        mask,
+                        cell,
+                        parity,
+                        in_flight.as_ref().map(|(cover, _, _)| cover),
+                    )?;
+                    if let Some((cover, first, accuracy)) = in_flight.take()
+                        && !cover.fitted(total)
+                    {
+                        // Its lists overflowed, so it marked nothing: cover again with
+                        // room, then select again against the complete mask.
+                        cover_room = total.checked_next_power_of_two().unwrap_or(total);
+                        cover_again(first, accuracy, cache, times)?;
+                        continue;
+                    }
                     // Tail fill begins once the records so far cover enough (the marks are
                     // those after the last round).
                     if let Some(tail) = &tail
@@ -319,18 +378,20 @@ impl PlacementPass {
                             dark_only_empty: false,
                             corral: settings.corral.in_cover(),
                         };
-                        splat_pass.cover(ctx, new_records, mask, times)?;
+                        in_flight = splat_pass
+                            .cover_in_flight(ctx, new_records, mask, cover_room, times)?
+                            .map(|cover| (cover, first, cover_accuracy));
                         stats.new_records += n;
                         stats.rounds += 1;
                         placed += n;
                         progress(stats.new_records);
                     }
                     if stats.limit_reached {
-                        return Ok(stats);
+                        break 'rounds;
                     }
                 }
                 if placed == 0 {
-                    return Ok(stats);
+                    break 'rounds;
                 }
                 if cell > LAST_CELL {
                     cell /= 2;
@@ -338,10 +399,18 @@ impl PlacementPass {
                     fine_cycles += 1;
                     if fine_cycles >= MAX_FINE_CYCLES {
                         stats.limit_reached = true;
-                        return Ok(stats);
+                        break 'rounds;
                     }
                 }
             }
+            // The last round's cover, if no candidates were read after it.
+            if let Some((cover, first, accuracy)) = in_flight {
+                let total: Vec<u32> = ctx.read_buffer(&cover.total)?;
+                if !cover.fitted(total.first().copied().unwrap_or(0)) {
+                    cover_again(first, accuracy, cache, times)?;
+                }
+            }
+            Ok(stats)
         })?;
         times.extend(deferred);
         Ok(stats)

@@ -47,6 +47,21 @@ impl CoverageMask {
     }
 }
 
+/// A cover submitted without a wait ([`SplatPass::cover_in_flight`]).
+pub struct CoverInFlight {
+    /// The bins' lists' total entries (one u32), read back with the next wait.
+    pub total: wgpu::Buffer,
+    /// The entries the lists had room for.
+    pub capacity: u32,
+}
+
+impl CoverInFlight {
+    /// Whether lists of `total` entries fitted (the cover then marked its pixels).
+    pub fn fitted(&self, total: u32) -> bool {
+        total <= self.capacity
+    }
+}
+
 impl SplatPass {
     /// Marks in `mask` the visible pixels of `vis` that records `first..cache.count`
     /// contribute to (pixels already marked stay marked). Appends per-pass GPU times.
@@ -74,18 +89,7 @@ impl SplatPass {
         if bins.total == 0 {
             return Ok(());
         }
-        // The records' corrals only in the pipeline built with them (`CORRAL`; built when
-        // first asked for, then kept by the device).
-        let cover = if src.corral {
-            crate::gpu::pipeline::ComputePass::with_constants(
-                ctx,
-                "splat_cover.wgsl",
-                super::COVER_BINDINGS,
-                &[("CORRAL", 1.0)],
-            )?
-        } else {
-            std::sync::Arc::clone(&self.cover)
-        };
+        let cover = self.cover_pipeline(ctx, src.corral)?;
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         let bind = cover.bind(
@@ -102,18 +106,102 @@ impl SplatPass {
                 &bins.busy_count,
             ],
         );
-        cover.record(
+        // One workgroup per busy tile (`splat_bin_tiles.wgsl` sized the dispatch).
+        cover.record_indirect(
             &mut enc,
             &scene.bind_group,
             &bind,
-            // One workgroup per busy tile (`splat_cover.wgsl` numbers them as split_groups does).
-            crate::gpu::pipeline::split_groups(ctx, bins.busy),
+            &bins.cover_groups,
             timer.next("placement: cover"),
         );
         timer.resolve(&mut enc);
         ctx.queue.submit([enc.finish()]);
         times.extend(timer.read(ctx)?);
         Ok(())
+    }
+
+    /// [`Self::cover`] without waiting for the GPU: the bins' lists get room for
+    /// `capacity` entries, sized before their total is known, and everything is one
+    /// submission. Whether the lists fitted is known once [`CoverInFlight::total`] is read
+    /// back (placement reads it with its next candidates, a wait it makes anyway): where
+    /// they did not, this cover marked nothing (`splat_cover.wgsl`), and [`Self::cover`]
+    /// of the same records marks exactly what it would have. So a placement round waits
+    /// for the GPU once, not twice. None when there are no records to cover.
+    pub fn cover_in_flight(
+        &self,
+        ctx: &GpuContext,
+        src: SplatSource,
+        mask: &CoverageMask,
+        capacity: u32,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<Option<CoverInFlight>> {
+        const _: () = assert!(TILE_SIZE * TILE_SIZE <= 256);
+        if src.records.count <= src.first {
+            return Ok(None);
+        }
+        let cover = self.cover_pipeline(ctx, src.corral)?;
+        let mut timer = PassTimer::new(ctx, 5);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let counts = self.record_bin_counts(
+            ctx,
+            src,
+            (super::SplatInto::Fresh, 0),
+            false,
+            &mut enc,
+            &mut timer,
+        )?;
+        let entries = ctx.storage_buffer_sized("tile entries", u64::from(capacity.max(1)) * 8)?;
+        self.record_bin_scatter(ctx, src, &counts, &entries, &mut enc, &mut timer)?;
+        let bind = cover.bind(
+            ctx,
+            &[
+                &counts.params,
+                &src.vis.samples,
+                &src.records.buffer,
+                &counts.tile_offsets,
+                &entries,
+                &mask.covered,
+                &mask.marked,
+                &counts.busy_tiles,
+                &counts.busy_count,
+            ],
+        );
+        cover.record_indirect(
+            &mut enc,
+            &src.scene.bind_group,
+            &bind,
+            &counts.cover_groups,
+            timer.next("placement: cover"),
+        );
+        timer.resolve(&mut enc);
+        let total = ctx.storage_buffer_sized("tile entries total", 4)?;
+        let tiles = counts.tiles[0] * counts.tiles[1];
+        enc.copy_buffer_to_buffer(&counts.tile_offsets, u64::from(tiles) * 4, &total, 0, 4);
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        Ok(Some(CoverInFlight {
+            total,
+            capacity: capacity.max(1),
+        }))
+    }
+
+    /// The cover's pipeline, with the records' corrals or without (`CORRAL`; the one with
+    /// them built when first asked for, then kept by the device).
+    fn cover_pipeline(
+        &self,
+        ctx: &GpuContext,
+        corral: bool,
+    ) -> Result<std::sync::Arc<crate::gpu::pipeline::ComputePass>> {
+        Ok(if corral {
+            crate::gpu::pipeline::ComputePass::with_constants(
+                ctx,
+                "splat_cover.wgsl",
+                super::COVER_BINDINGS,
+                &[("CORRAL", 1.0)],
+            )?
+        } else {
+            std::sync::Arc::clone(&self.cover)
+        })
     }
 
     /// The visible pixels of `vis` and how many of them `mask` marks

@@ -13,7 +13,7 @@ pub mod radiance;
 pub mod reference;
 pub mod tile_bounds;
 
-pub use cover::CoverageMask;
+pub use cover::{CoverInFlight, CoverageMask};
 pub use tile_bounds::TileBounds;
 
 use crate::gpu::GpuContext;
@@ -279,11 +279,40 @@ pub(crate) struct TileBins {
     /// (record, tile) pairs.
     pub total: u32,
     /// Unsorted bins (the cover's): the tiles that binned any record, in an order that
-    /// depends on thread timing (`splat_bin_tiles.wgsl`), and how many (`busy_count[0]`,
-    /// also in `busy`). Sorted bins leave them empty (0).
+    /// depends on thread timing (`splat_bin_tiles.wgsl`), and how many (`busy_count[0]`).
+    /// Sorted bins leave them empty (0).
     pub busy_tiles: wgpu::Buffer,
     pub busy_count: wgpu::Buffer,
-    pub busy: u32,
+    /// The cover's indirect dispatch: one workgroup per busy tile (x up to the
+    /// per-dimension limit, then rows), raised from 0 1 1 by `splat_bin_tiles.wgsl`.
+    pub cover_groups: wgpu::Buffer,
+}
+
+/// Binning's first half ([`SplatPass::record_bin_counts`]): what the scatter and a cover
+/// read, before the lists' total is known.
+pub(crate) struct BinCounts {
+    pub params: wgpu::Buffer,
+    /// Per new record, the tile range its footprint bounds.
+    record_tiles: wgpu::Buffer,
+    /// Per tile, the first entry of its list (tiles + 1 entries; the last is the total).
+    pub tile_offsets: wgpu::Buffer,
+    pub busy_tiles: wgpu::Buffer,
+    pub busy_count: wgpu::Buffer,
+    /// The cover's indirect dispatch, one workgroup per busy tile.
+    pub cover_groups: wgpu::Buffer,
+    pub tiles: [u32; 2],
+    pub records: u32,
+    sorted: bool,
+}
+
+impl BinCounts {
+    fn scatter_label(&self) -> &'static str {
+        if self.sorted {
+            "splat: bin scatter"
+        } else {
+            "placement: cover bin scatter"
+        }
+    }
 }
 
 impl TileBins {
@@ -382,7 +411,13 @@ impl SplatPass {
             busy_tiles: ComputePass::new(
                 ctx,
                 "splat_bin_tiles.wgsl",
-                &[Uniform, StorageRead, StorageReadWrite, StorageReadWrite],
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
             )?,
             scatter: ComputePass::new(
                 ctx,
@@ -588,7 +623,8 @@ impl SplatPass {
     /// a gather's sums deterministic. Unsorted bins serve placement's cover (an "or" needs
     /// no order) and are timed under its name ("placement: cover bin ..."), sorted ones
     /// under the splat's ("splat: bin ..."). `(into, count_coverage)` go into the bins' parameters
-    /// for the gather.
+    /// for the gather. Waits for the GPU once, for the lists' total size
+    /// ([`Self::cover_in_flight`] sizes them ahead instead).
     pub(crate) fn bin(
         &self,
         ctx: &GpuContext,
@@ -597,6 +633,93 @@ impl SplatPass {
         sorted: bool,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<TileBins> {
+        // Count, scan and list the busy tiles, then read the totals to size the lists.
+        let mut timer = PassTimer::new(ctx, 3);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let counts = self.record_bin_counts(
+            ctx,
+            src,
+            (into, count_coverage),
+            sorted,
+            &mut enc,
+            &mut timer,
+        )?;
+        timer.resolve(&mut enc);
+        let totals_buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("splat totals"),
+            size: 4,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let tiles = counts.tiles[0] * counts.tiles[1];
+        enc.copy_buffer_to_buffer(
+            &counts.tile_offsets,
+            u64::from(tiles) * 4,
+            &totals_buf,
+            0,
+            4,
+        );
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        let total = ctx
+            .read_buffer::<u32>(&totals_buf)?
+            .first()
+            .copied()
+            .unwrap_or(0);
+
+        // Scatter, then (for a gather) sort.
+        let entries = ctx.storage_buffer_sized("tile entries", u64::from(total) * 8)?;
+        let sorted_buf = ctx.storage_buffer_sized(
+            "sorted tile entries",
+            if sorted { u64::from(total) * 4 } else { 4 },
+        )?;
+        if total > 0 {
+            let mut timer = PassTimer::new(ctx, 2);
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            self.record_bin_scatter(ctx, src, &counts, &entries, &mut enc, &mut timer)?;
+            if sorted {
+                let bind = self.sort.bind(
+                    ctx,
+                    &[&counts.params, &counts.tile_offsets, &entries, &sorted_buf],
+                );
+                self.sort.record(
+                    &mut enc,
+                    &src.scene.bind_group,
+                    &bind,
+                    crate::gpu::pipeline::linear_groups(ctx, total),
+                    timer.next("splat: bin sort"),
+                );
+            }
+            timer.resolve(&mut enc);
+            ctx.queue.submit([enc.finish()]);
+            times.extend(timer.read(ctx)?);
+        }
+        Ok(TileBins {
+            params: counts.params,
+            tile_offsets: counts.tile_offsets,
+            entries,
+            sorted: sorted_buf,
+            tiles: counts.tiles,
+            records: counts.records,
+            total,
+            busy_tiles: counts.busy_tiles,
+            busy_count: counts.busy_count,
+            cover_groups: counts.cover_groups,
+        })
+    }
+
+    /// Binning's first half, recorded into `enc`: each record's tile range and the count
+    /// per tile, their prefix sum (`tile_offsets`, whose last entry is the lists' total) and,
+    /// for unsorted bins, the list of busy tiles with the cover's indirect dispatch.
+    fn record_bin_counts(
+        &self,
+        ctx: &GpuContext,
+        src: SplatSource,
+        (into, count_coverage): (SplatInto, u32),
+        sorted: bool,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+    ) -> Result<BinCounts> {
         let SplatSource {
             scene,
             vis,
@@ -643,19 +766,21 @@ impl SplatPass {
         let busy_tiles =
             ctx.storage_buffer_sized("busy tiles", if sorted { 4 } else { u64::from(tiles) * 4 })?;
         let busy_count = ctx.storage_buffer_sized("busy tile count", 4)?;
-
-        let [count_label, scan_label, scatter_label] = if sorted {
-            ["splat: bin count", "splat: bin scan", "splat: bin scatter"]
+        // The cover's workgroups, one per busy tile (x y z, raised from 0 1 1 by
+        // `splat_bin_tiles.wgsl`).
+        let cover_groups = wgpu::util::DeviceExt::create_buffer_init(
+            &ctx.device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("cover groups"),
+                contents: bytemuck::cast_slice(&[0u32, 1, 1]),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+            },
+        );
+        let [count_label, scan_label] = if sorted {
+            ["splat: bin count", "splat: bin scan"]
         } else {
-            [
-                "placement: cover bin count",
-                "placement: cover bin scan",
-                "placement: cover bin scatter",
-            ]
+            ["placement: cover bin count", "placement: cover bin scan"]
         };
-        // Count, scan and list the busy tiles, then read the totals to size the lists.
-        let mut timer = PassTimer::new(ctx, 3);
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
         if records > 0 {
             let bind = self.count.bind(
                 ctx,
@@ -669,7 +794,7 @@ impl SplatPass {
                 ],
             );
             self.count.record(
-                &mut enc,
+                enc,
                 &scene.bind_group,
                 &bind,
                 crate::gpu::pipeline::linear_groups(ctx, records),
@@ -678,7 +803,7 @@ impl SplatPass {
         }
         self.scan.record(
             ctx,
-            &mut enc,
+            enc,
             &scene.bind_group,
             &tile_counts,
             &tile_offsets,
@@ -687,88 +812,74 @@ impl SplatPass {
         );
         if !sorted {
             // Only the cover dispatches over the busy tiles; a gather runs every tile.
-            let bind = self
-                .busy_tiles
-                .bind(ctx, &[&params, &tile_offsets, &busy_tiles, &busy_count]);
+            let bind = self.busy_tiles.bind(
+                ctx,
+                &[
+                    &params,
+                    &tile_offsets,
+                    &busy_tiles,
+                    &busy_count,
+                    &cover_groups,
+                ],
+            );
             self.busy_tiles.record(
-                &mut enc,
+                enc,
                 &scene.bind_group,
                 &bind,
                 crate::gpu::pipeline::linear_groups(ctx, tiles),
                 timer.next(scan_label),
             );
         }
-        timer.resolve(&mut enc);
-        let totals_buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("splat totals"),
-            size: 8,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        enc.copy_buffer_to_buffer(&tile_offsets, u64::from(tiles) * 4, &totals_buf, 0, 4);
-        enc.copy_buffer_to_buffer(&busy_count, 0, &totals_buf, 4, 4);
-        ctx.queue.submit([enc.finish()]);
-        times.extend(timer.read(ctx)?);
-        let totals = ctx.read_buffer::<u32>(&totals_buf)?;
-        let total = totals.first().copied().unwrap_or(0);
-        let busy = totals.get(1).copied().unwrap_or(0);
-
-        // Scatter, then (for a gather) sort.
-        let entries = ctx.storage_buffer_sized("tile entries", u64::from(total) * 8)?;
-        let sorted_buf = ctx.storage_buffer_sized(
-            "sorted tile entries",
-            if sorted { u64::from(total) * 4 } else { 4 },
-        )?;
-        let cursors = ctx.storage_buffer_sized("tile cursors", u64::from(tiles) * 4)?;
-        if total > 0 {
-            let mut timer = PassTimer::new(ctx, 2);
-            let mut enc = ctx.device.create_command_encoder(&Default::default());
-            let bind = self.scatter.bind(
-                ctx,
-                &[
-                    &params,
-                    &record_tiles,
-                    &tile_offsets,
-                    &cursors,
-                    &entries,
-                    &cache.buffer,
-                    &bounds.buffer,
-                ],
-            );
-            self.scatter.record(
-                &mut enc,
-                &scene.bind_group,
-                &bind,
-                crate::gpu::pipeline::linear_groups(ctx, records),
-                timer.next(scatter_label),
-            );
-            if sorted {
-                let bind = self
-                    .sort
-                    .bind(ctx, &[&params, &tile_offsets, &entries, &sorted_buf]);
-                self.sort.record(
-                    &mut enc,
-                    &scene.bind_group,
-                    &bind,
-                    crate::gpu::pipeline::linear_groups(ctx, total),
-                    timer.next("splat: bin sort"),
-                );
-            }
-            timer.resolve(&mut enc);
-            ctx.queue.submit([enc.finish()]);
-            times.extend(timer.read(ctx)?);
-        }
-        Ok(TileBins {
+        Ok(BinCounts {
             params,
+            record_tiles,
             tile_offsets,
-            entries,
-            sorted: sorted_buf,
-            tiles: [tiles_x, tiles_y],
-            records,
-            total,
             busy_tiles,
             busy_count,
-            busy,
+            cover_groups,
+            tiles: [tiles_x, tiles_y],
+            records,
+            sorted,
         })
+    }
+
+    /// Binning's second half, recorded into `enc`: each record writes `(record, tile)`
+    /// into its tiles' lists in `entries`. A list that would run past `entries` is cut
+    /// there (`splat_bin_scatter.wgsl`); a cover of such bins marks nothing
+    /// (`splat_cover.wgsl`).
+    fn record_bin_scatter(
+        &self,
+        ctx: &GpuContext,
+        src: SplatSource,
+        counts: &BinCounts,
+        entries: &wgpu::Buffer,
+        enc: &mut wgpu::CommandEncoder,
+        timer: &mut PassTimer,
+    ) -> Result<()> {
+        if counts.records == 0 {
+            return Ok(());
+        }
+        let tiles = counts.tiles[0] * counts.tiles[1];
+        let cursors = ctx.storage_buffer_sized("tile cursors", u64::from(tiles) * 4)?;
+        let bind = self.scatter.bind(
+            ctx,
+            &[
+                &counts.params,
+                &counts.record_tiles,
+                &counts.tile_offsets,
+                &cursors,
+                entries,
+                &src.records.buffer,
+                &src.bounds.buffer,
+            ],
+        );
+        self.scatter.record(
+            enc,
+            &src.scene.bind_group,
+            &bind,
+            crate::gpu::pipeline::linear_groups(ctx, counts.records),
+            timer.next(counts.scatter_label()),
+        );
+        Ok(())
     }
 }
