@@ -822,6 +822,8 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
 fn main() -> ExitCode {
     // SAFETY: first thing in main, before any thread is started.
     unsafe { radsplat::gpu::context::quiet_device_select_layer() };
+    // SAFETY: as above, before any thread is started.
+    unsafe { radsplat::gpu::context::two_lavapipe_threads_per_core() };
     // A closed pipe on stdout (`radsplat compare A B | head`) ends the process quietly, as
     // for any Unix tool, instead of panicking in `println!` (Rust ignores SIGPIPE).
     // SAFETY: restores the default disposition before any thread is started.

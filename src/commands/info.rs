@@ -12,6 +12,14 @@ pub fn info() -> Result<()> {
         println!("backend:      {:?}", a.backend);
         println!("device type:  {:?}", a.device_type);
         println!("driver:       {} ({})", a.driver, a.driver_info);
+        if a.device_type == wgpu::DeviceType::Cpu {
+            // `radsplat` sets it (two per core) unless the user did:
+            // gpu::context::two_lavapipe_threads_per_core.
+            println!(
+                "CPU threads:  LP_NUM_THREADS={}",
+                std::env::var("LP_NUM_THREADS").unwrap_or_else(|_| "unset".to_string())
+            );
+        }
     }
     let l = ctx.device.limits();
     println!("limits:");

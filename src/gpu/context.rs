@@ -61,6 +61,36 @@ pub unsafe fn quiet_device_select_layer() {
     }
 }
 
+/// Gives lavapipe (Mesa's Vulkan on the CPU) two compute threads per core instead of
+/// one. llvmpipe splits each dispatch statically: every thread takes one contiguous share
+/// of the workgroups (`lp_cs_tpool`, Mesa 22.3), so a share that costs more (the
+/// workgroups of records that see the open hall), or a core that runs slower for a while,
+/// leaves the other threads idle until it ends. With twice the threads the shares are half
+/// as large and the kernel runs whichever is left on whichever core is free. Measured on
+/// this project's two-core machine (`benches/paired/paired.py`, process wall, against the
+/// default of one per core; docs/results.md, "Two lavapipe threads a core"): nave-west
+/// 0.86x (20 pairs), nave-sun-17 0.91x, the nave 0.96x, nave-sun-34 0.97x, the Cornell box
+/// and the conference room 1.00x, Sponza's west sun at 400x400 1.01x; four per core were
+/// slower than two. The same bytes: a workgroup's result does not depend on its thread.
+/// Other drivers ignore the variable. Left alone when the user set `LP_NUM_THREADS`; at
+/// most llvmpipe's 32.
+///
+/// # Safety
+/// Sets a process environment variable: call it before any other thread exists (first
+/// thing in `main`), as [`std::env::set_var`] requires.
+pub unsafe fn two_lavapipe_threads_per_core() {
+    if std::env::var_os("LP_NUM_THREADS").is_some() {
+        return;
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = (2 * cores).min(LAVAPIPE_MAX_THREADS);
+    // SAFETY: the caller guarantees no other thread runs yet.
+    unsafe { std::env::set_var("LP_NUM_THREADS", threads.to_string()) };
+}
+
+/// llvmpipe's most compute threads (`LP_MAX_THREADS`, Mesa 22.3).
+const LAVAPIPE_MAX_THREADS: usize = 32;
+
 /// A device and queue radsplat runs on.
 pub struct GpuContext {
     pub device: wgpu::Device,
