@@ -309,7 +309,14 @@ impl PlacementPass {
                     {
                         // Its lists overflowed, so it marked nothing: cover again with
                         // room, then select again against the complete mask.
-                        cover_room = total.checked_next_power_of_two().unwrap_or(total);
+                        // Room to spare from then on, within what one binding holds (the
+                        // cover made again needs `total` itself, and refuses more).
+                        let most = u32::try_from(ctx.max_binding_size() / 8).unwrap_or(u32::MAX);
+                        cover_room = total
+                            .checked_next_power_of_two()
+                            .unwrap_or(total)
+                            .min(most)
+                            .max(total.min(most));
                         cover_again(first, accuracy, cache, times)?;
                         continue;
                     }

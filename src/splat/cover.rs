@@ -181,7 +181,8 @@ impl SplatPass {
         times.extend(timer.read(ctx)?);
         Ok(Some(CoverInFlight {
             total,
-            capacity: capacity.max(1),
+            // What the buffer holds (it is at least 16 bytes): the shaders test against it.
+            capacity: u32::try_from(entries.size() / 8).unwrap_or(u32::MAX),
         }))
     }
 
