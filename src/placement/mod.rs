@@ -38,10 +38,6 @@ const NO_CANDIDATE: u32 = u32::MAX;
 /// Coarsest and finest cell edge in pixels.
 const FIRST_CELL: u32 = 64;
 const LAST_CELL: u32 = 4;
-/// The least room a round's cover bins get for their lists (entries of 8 bytes): a round
-/// whose lists need more covers again, once, with room for them
-/// ([`SplatPass::cover_in_flight`]); after that the room stays.
-const MIN_COVER_ENTRIES: u32 = 4096;
 /// Full parity cycles at the finest cell size before placement gives up (each cycle covers
 /// every candidate pixel it picks, so this only stops pathological cases).
 const MAX_FINE_CYCLES: u32 = 256;
@@ -267,30 +263,32 @@ impl PlacementPass {
             let mut cover_accuracy = settings.accuracy;
             // The last round's cover, submitted without a wait (`SplatPass::cover_in_flight`),
             // with the first record and the accuracy it covered: its lists' total comes back
-            // with the next candidates, and where they overflowed their room the cover is
-            // made again, waiting, before anything reads the mask.
+            // with the next candidates, and where they overflowed their room (it then marked
+            // nothing) the cover is made again with room for them, before anything reads
+            // the mask. A round's room grows after an overflow and stays.
             let mut in_flight: Option<(CoverInFlight, u32, f32)> = None;
-            let tiles = vis.width.div_ceil(crate::splat::TILE_SIZE)
-                * vis.height.div_ceil(crate::splat::TILE_SIZE);
-            let mut cover_room = (tiles * 4).max(MIN_COVER_ENTRIES);
-            let cover_again = |first: u32,
-                               accuracy: f32,
-                               cache: &RecordCache,
-                               times: &mut Vec<(&'static str, f64)>|
-             -> Result<()> {
-                let records = SplatSource {
-                    scene,
-                    vis,
-                    bounds,
-                    records: cache,
-                    first,
-                    accuracy,
-                    plateau: 0.0,
-                    dark_only_empty: false,
-                    corral: settings.corral.in_cover(),
+            let mut cover_room = crate::splat::cover::cover_room(vis.width, vis.height);
+            // Covers records `first..` of the cache at `accuracy` with room for `room` list
+            // entries, without a wait.
+            let cover_records =
+                |cache: &RecordCache,
+                 first: u32,
+                 accuracy: f32,
+                 room: u32,
+                 times: &mut Vec<(&'static str, f64)>| {
+                    let records = SplatSource {
+                        scene,
+                        vis,
+                        bounds,
+                        records: cache,
+                        first,
+                        accuracy,
+                        plateau: 0.0,
+                        dark_only_empty: false,
+                        corral: settings.corral.in_cover(),
+                    };
+                    splat_pass.cover_in_flight(ctx, records, mask, room, times)
                 };
-                splat_pass.cover(ctx, records, mask, times)
-            };
             'rounds: loop {
                 let mut placed = 0;
                 let mut parity = 0;
@@ -308,16 +306,16 @@ impl PlacementPass {
                         && !cover.fitted(total)
                     {
                         // Its lists overflowed, so it marked nothing: cover again with
-                        // room, then select again against the complete mask.
-                        // Room to spare from then on, within what one binding holds (the
-                        // cover made again needs `total` itself, and refuses more).
+                        // room for them (no wait: it fits), then select again against the
+                        // complete mask. Room to spare from then on, within what one binding
+                        // holds (the cover made again needs `total` itself, and refuses more).
                         let most = u32::try_from(ctx.max_binding_size() / 8).unwrap_or(u32::MAX);
                         cover_room = total
                             .checked_next_power_of_two()
                             .unwrap_or(total)
                             .min(most)
                             .max(total.min(most));
-                        cover_again(first, accuracy, cache, times)?;
+                        cover_records(cache, first, accuracy, total, times)?;
                         continue;
                     }
                     // Tail fill begins once the records so far cover enough (the marks are
@@ -374,20 +372,8 @@ impl PlacementPass {
                             stage.as_deref_mut(),
                             |_| {},
                         )?);
-                        let new_records = SplatSource {
-                            scene,
-                            vis,
-                            bounds,
-                            records: cache,
-                            first,
-                            accuracy: cover_accuracy,
-                            plateau: 0.0,
-                            dark_only_empty: false,
-                            corral: settings.corral.in_cover(),
-                        };
-                        in_flight = splat_pass
-                            .cover_in_flight(ctx, new_records, mask, cover_room, times)?
-                            .map(|cover| (cover, first, cover_accuracy));
+                        in_flight = cover_records(cache, first, cover_accuracy, cover_room, times)?
+                            .map(|c| (c, first, cover_accuracy));
                         stats.new_records += n;
                         stats.rounds += 1;
                         placed += n;
@@ -413,8 +399,9 @@ impl PlacementPass {
             // The last round's cover, if no candidates were read after it.
             if let Some((cover, first, accuracy)) = in_flight {
                 let total: Vec<u32> = ctx.read_buffer(&cover.total)?;
-                if !cover.fitted(total.first().copied().unwrap_or(0)) {
-                    cover_again(first, accuracy, cache, times)?;
+                let total = total.first().copied().unwrap_or(0);
+                if !cover.fitted(total) {
+                    cover_records(cache, first, accuracy, total, times)?;
                 }
             }
             Ok(stats)

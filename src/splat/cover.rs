@@ -47,6 +47,13 @@ impl CoverageMask {
     }
 }
 
+/// The room a cover's bins get for their lists before their total is known
+/// ([`SplatPass::cover_in_flight`]): 4 entries a tile of a `width x height` image, at
+/// least 4,096 (8 bytes each).
+pub fn cover_room(width: u32, height: u32) -> u32 {
+    (width.div_ceil(TILE_SIZE) * height.div_ceil(TILE_SIZE) * 4).max(4096)
+}
+
 /// A cover submitted without a wait ([`SplatPass::cover_in_flight`]).
 pub struct CoverInFlight {
     /// The bins' lists' total entries (one u32), read back with the next wait.
@@ -65,6 +72,8 @@ impl CoverInFlight {
 impl SplatPass {
     /// Marks in `mask` the visible pixels of `vis` that records `first..cache.count`
     /// contribute to (pixels already marked stay marked). Appends per-pass GPU times.
+    /// [`Self::cover_in_flight`] with [`cover_room`]'s room, then one wait for its lists'
+    /// total; where they did not fit, once more with room for them (it marked nothing).
     pub fn cover(
         &self,
         ctx: &GpuContext,
@@ -72,51 +81,18 @@ impl SplatPass {
         mask: &CoverageMask,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<()> {
-        let SplatSource {
-            scene,
-            vis,
-            records: cache,
-            first,
-            ..
-        } = src;
-        // The cover's workgroups are the splat's tiles (`@workgroup_size(TILE_SIZE,
-        // TILE_SIZE)`), within the device's 256 invocations.
-        const _: () = assert!(TILE_SIZE * TILE_SIZE <= 256);
-        if cache.count <= first {
+        let room = cover_room(src.vis.width, src.vis.height);
+        let Some(cover) = self.cover_in_flight(ctx, src, mask, room, times)? else {
             return Ok(());
+        };
+        let total = ctx
+            .read_buffer::<u32>(&cover.total)?
+            .first()
+            .copied()
+            .unwrap_or(0);
+        if !cover.fitted(total) {
+            self.cover_in_flight(ctx, src, mask, total, times)?;
         }
-        let bins = self.bin(ctx, src, (super::SplatInto::Fresh, 0), false, times)?;
-        if bins.total == 0 {
-            return Ok(());
-        }
-        let cover = self.cover_pipeline(ctx, src.corral)?;
-        let mut timer = PassTimer::new(ctx, 1);
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let bind = cover.bind(
-            ctx,
-            &[
-                &bins.params,
-                &vis.samples,
-                &cache.buffer,
-                &bins.tile_offsets,
-                &bins.entries,
-                &mask.covered,
-                &mask.marked,
-                &bins.busy_tiles,
-                &bins.busy_count,
-            ],
-        );
-        // One workgroup per busy tile (`splat_bin_tiles.wgsl` sized the dispatch).
-        cover.record_indirect(
-            &mut enc,
-            &scene.bind_group,
-            &bind,
-            &bins.cover_groups,
-            timer.next("placement: cover"),
-        );
-        timer.resolve(&mut enc);
-        ctx.queue.submit([enc.finish()]);
-        times.extend(timer.read(ctx)?);
         Ok(())
     }
 
@@ -135,6 +111,8 @@ impl SplatPass {
         capacity: u32,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<Option<CoverInFlight>> {
+        // The cover's workgroups are the splat's tiles (`@workgroup_size(TILE_SIZE,
+        // TILE_SIZE)`), within the device's 256 invocations.
         const _: () = assert!(TILE_SIZE * TILE_SIZE <= 256);
         if src.records.count <= src.first {
             return Ok(None);

@@ -263,29 +263,19 @@ impl SplatBuffer {
     }
 }
 
-/// Records binned into tiles ([`SplatPass::bin`]): what a gather or a cover reads.
+/// Records binned into tiles ([`SplatPass::bin`]): what a gather reads.
 pub(crate) struct TileBins {
     /// The `SplatParams` uniform of the splat.
     pub params: wgpu::Buffer,
     /// Per tile, the first entry of its list (tiles + 1 entries).
     pub tile_offsets: wgpu::Buffer,
-    /// `(record, tile)` pairs, grouped by tile in an order that depends on thread timing.
-    pub entries: wgpu::Buffer,
-    /// Per tile, its records in id order (when binned `sorted`).
+    /// Per tile, its records in id order (the scatter's `(record, tile)` pairs sorted).
     pub sorted: wgpu::Buffer,
     /// Tiles across and down.
     pub tiles: [u32; 2],
     pub records: u32,
     /// (record, tile) pairs.
     pub total: u32,
-    /// Unsorted bins (the cover's): the tiles that binned any record, in an order that
-    /// depends on thread timing (`splat_bin_tiles.wgsl`), and how many (`busy_count[0]`).
-    /// Sorted bins leave them empty (0).
-    pub busy_tiles: wgpu::Buffer,
-    pub busy_count: wgpu::Buffer,
-    /// The cover's indirect dispatch: one workgroup per busy tile (x up to the
-    /// per-dimension limit, then rows), raised from 0 1 1 by `splat_bin_tiles.wgsl`.
-    pub cover_groups: wgpu::Buffer,
 }
 
 /// Binning's first half ([`SplatPass::record_bin_counts`]): what the scatter and a cover
@@ -528,13 +518,7 @@ impl SplatPass {
             ..src
         };
         out.check_room(src.records)?;
-        let bins = self.bin(
-            ctx,
-            src,
-            (SplatInto::FillEmpty, out.coverage_mode),
-            true,
-            times,
-        )?;
+        let bins = self.bin(ctx, src, (SplatInto::FillEmpty, out.coverage_mode), times)?;
         if bins.total == 0 {
             return Ok(bins.stats());
         }
@@ -586,7 +570,7 @@ impl SplatPass {
             ..
         } = src;
         out.check_room(cache)?;
-        let bins = self.bin(ctx, src, (into, out.coverage_mode), true, times)?;
+        let bins = self.bin(ctx, src, (into, out.coverage_mode), times)?;
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         if bins.total > 0 || !accumulate {
@@ -618,32 +602,23 @@ impl SplatPass {
         Ok(bins.stats())
     }
 
-    /// Bins `src`'s records into the `TILE_SIZE`-pixel tiles their footprints bound:
-    /// counts, prefix sum, scatter and, when `sorted`, the rank sort by record id that makes
-    /// a gather's sums deterministic. Unsorted bins serve placement's cover (an "or" needs
-    /// no order) and are timed under its name ("placement: cover bin ..."), sorted ones
-    /// under the splat's ("splat: bin ..."). `(into, count_coverage)` go into the bins' parameters
-    /// for the gather. Waits for the GPU once, for the lists' total size
-    /// ([`Self::cover_in_flight`] sizes them ahead instead).
+    /// Bins `src`'s records into the `TILE_SIZE`-pixel tiles their footprints bound, for a
+    /// gather: counts, prefix sum, scatter and the rank sort by record id that makes its
+    /// sums deterministic, timed as "splat: bin ...". `(into, count_coverage)` go into the
+    /// bins' parameters. Waits for the GPU once, for the lists' total size (placement's
+    /// cover, which needs no order, sizes them ahead instead: [`Self::cover_in_flight`]).
     pub(crate) fn bin(
         &self,
         ctx: &GpuContext,
         src: SplatSource,
         (into, count_coverage): (SplatInto, u32),
-        sorted: bool,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<TileBins> {
-        // Count, scan and list the busy tiles, then read the totals to size the lists.
-        let mut timer = PassTimer::new(ctx, 3);
+        // Count and scan, then read the total to size the lists.
+        let mut timer = PassTimer::new(ctx, 2);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let counts = self.record_bin_counts(
-            ctx,
-            src,
-            (into, count_coverage),
-            sorted,
-            &mut enc,
-            &mut timer,
-        )?;
+        let counts =
+            self.record_bin_counts(ctx, src, (into, count_coverage), true, &mut enc, &mut timer)?;
         timer.resolve(&mut enc);
         let totals_buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("splat totals"),
@@ -667,29 +642,24 @@ impl SplatPass {
             .copied()
             .unwrap_or(0);
 
-        // Scatter, then (for a gather) sort.
+        // Scatter, then sort.
         let entries = ctx.storage_buffer_sized("tile entries", u64::from(total) * 8)?;
-        let sorted_buf = ctx.storage_buffer_sized(
-            "sorted tile entries",
-            if sorted { u64::from(total) * 4 } else { 4 },
-        )?;
+        let sorted = ctx.storage_buffer_sized("sorted tile entries", u64::from(total) * 4)?;
         if total > 0 {
             let mut timer = PassTimer::new(ctx, 2);
             let mut enc = ctx.device.create_command_encoder(&Default::default());
             self.record_bin_scatter(ctx, src, &counts, &entries, &mut enc, &mut timer)?;
-            if sorted {
-                let bind = self.sort.bind(
-                    ctx,
-                    &[&counts.params, &counts.tile_offsets, &entries, &sorted_buf],
-                );
-                self.sort.record(
-                    &mut enc,
-                    &src.scene.bind_group,
-                    &bind,
-                    crate::gpu::pipeline::linear_groups(ctx, total),
-                    timer.next("splat: bin sort"),
-                );
-            }
+            let bind = self.sort.bind(
+                ctx,
+                &[&counts.params, &counts.tile_offsets, &entries, &sorted],
+            );
+            self.sort.record(
+                &mut enc,
+                &src.scene.bind_group,
+                &bind,
+                crate::gpu::pipeline::linear_groups(ctx, total),
+                timer.next("splat: bin sort"),
+            );
             timer.resolve(&mut enc);
             ctx.queue.submit([enc.finish()]);
             times.extend(timer.read(ctx)?);
@@ -697,14 +667,10 @@ impl SplatPass {
         Ok(TileBins {
             params: counts.params,
             tile_offsets: counts.tile_offsets,
-            entries,
-            sorted: sorted_buf,
+            sorted,
             tiles: counts.tiles,
             records: counts.records,
             total,
-            busy_tiles: counts.busy_tiles,
-            busy_count: counts.busy_count,
-            cover_groups: counts.cover_groups,
         })
     }
 

@@ -316,7 +316,7 @@ impl RadianceSplatPass {
             "radiance splat",
             u64::from(vis.width) * u64::from(vis.height) * 16,
         )?;
-        let bins = splat.bin(ctx, src, (super::SplatInto::Fresh, 0), true, times)?;
+        let bins = splat.bin(ctx, src, (super::SplatInto::Fresh, 0), times)?;
         // Entries per dispatch: as many records as fit the iteration budget when every
         // one of them is tilted, over the longest tile list.
         let offsets: Vec<u32> = ctx.read_buffer(&bins.tile_offsets)?;
