@@ -737,7 +737,10 @@ impl Renderer {
                 Ok(())
             }));
             builds.extend([
-                Box::new(|| self.splat_pass().map(|_| ())) as Build,
+                Box::new(move || {
+                    self.splat_pass()?
+                        .build_for_corral(&self.ctx, settings.corral)
+                }) as Build,
                 Box::new(|| self.placement_pass().map(|_| ())),
                 Box::new(|| self.light_map_pass().map(|_| ())),
                 Box::new(|| self.resolve_pass().map(|_| ())),
@@ -1021,7 +1024,7 @@ impl Renderer {
                 corral: cache.settings().corral.in_gathers(),
             };
             splat_pass.splat(ctx, src, &splat, true, &mut times)?;
-            // Placement's cover: the corrals only with `Corral::Placement`.
+            // Placement's cover: the corrals with `Corral::Cover` and `Corral::Placement`.
             let cover = SplatSource {
                 corral: cache.settings().corral.in_cover(),
                 ..src

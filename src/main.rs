@@ -553,11 +553,12 @@ struct CacheArgs {
     #[arg(long)]
     no_neighbour_clamp: bool,
     /// The corral (after Radiance's ambcorral): a record does not reach pixels beyond a
-    /// surface that its plane's horizon rays hit near it. `off` (the default); `gather`:
-    /// the gathers weigh no record beyond its corral, placement is unchanged (the same
-    /// records); `placement`: placement's cover too, so such pixels get records of their
-    /// own (more records, more time). Animations keep no corral.
-    #[arg(long, value_enum, default_value = "off")]
+    /// surface that its plane's horizon rays hit near it. `cover` (the default):
+    /// placement's cover weighs it, so such pixels get records of their own, and the
+    /// gathers weigh every record; `gather`: the gathers alone weigh it (the same records
+    /// as `off`); `placement`: both (more accurate beside a lit wall's end, 1.1-1.2x the
+    /// time on lavapipe); `off`. Animations keep no corral.
+    #[arg(long, value_enum, default_value = "cover")]
     corral: radsplat::records::Corral,
     /// How hemisphere-plane hits are shadowed: `maps` traces light-space visibility maps
     /// once per scene (an orthographic map for a sun, octahedral maps for point and spot

@@ -956,6 +956,7 @@ fn noisy_records_widen_the_gather_and_quiet_ones_do_not() {
         &vis,
         settings.accuracy * factor,
         plateau,
+        settings.corral.in_gathers(),
         &mut cpu,
     );
     // A still frame leaves the pixels only the hall's dark records reach empty.
@@ -963,6 +964,7 @@ fn noisy_records_widen_the_gather_and_quiet_ones_do_not() {
         &records,
         &vis,
         settings.accuracy * factor,
+        settings.corral.in_gathers(),
         &mut cpu,
     );
     let covered = common::assert_splat_sums_match(&gpu, &cpu);

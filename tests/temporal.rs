@@ -275,6 +275,7 @@ fn expired_records_are_replaced_exactly_when_they_cover_the_new_frame() {
                 needed_rule.then_some(flags.as_slice()),
                 &frame.visibility,
                 accuracy,
+                false,
             );
             let mut buried_here = 0;
             for (k, &id) in expired.iter().enumerate() {

@@ -34,6 +34,8 @@ pub fn sequential_placement(
             records.len() - 1,
             vis,
             settings.accuracy,
+            // Covered as placement's cover covers: with the corrals where it weighs them.
+            settings.corral.in_cover(),
             &mut sums,
         );
     }

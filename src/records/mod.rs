@@ -99,8 +99,8 @@ impl Record {
         self.reaches_corralled(p, n, accuracy, true)
     }
 
-    /// [`Record::reaches`] with the corral weighed or not (tail fill's gather, and
-    /// placement's cover but with [`Corral::Placement`], weigh none).
+    /// [`Record::reaches`] with the corral weighed or not (tail fill's gather weighs
+    /// none; placement's cover and the other gathers as [`Corral`] says).
     pub fn reaches_corralled(&self, p: Vec3, n: Vec3, accuracy: f32, corral: bool) -> bool {
         self.error_at(p, n) <= accuracy
             && self.in_front_of(p, n, accuracy)
@@ -176,34 +176,45 @@ impl Record {
 /// records light the dark one) apply.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, clap::ValueEnum)]
 pub enum Corral {
-    /// No corral: records are computed without one. The default: on lavapipe the corral's
-    /// larger pipelines and tests cost the small scenes 3-9 % of their process time, which
-    /// its gains pay for only where a record stands beside a lit surface's end
-    /// (docs/results.md, "The corral").
-    #[default]
+    /// No corral: records are computed without one (animations: a record outlives the
+    /// geometry its corral saw).
     Off,
+    /// Placement's cover weighs the corrals, the gathers do not (the default): a pixel
+    /// beyond the corral of every record that reaches it gets a record of its own, and the
+    /// gathers then weigh that record beside the others. Where a lit surface's end stands
+    /// beside the floor (the nave with the sun 34 degrees up) 16.6 -> 9.0 %, the nave
+    /// 13.2 -> 11.2 %; Sponza's views 3-6 % worse (relative), the rest within 2 %; about
+    /// 1.04x the process time on lavapipe (docs/results.md, "The corral in placement's
+    /// cover alone").
+    #[default]
+    Cover,
     /// The gathers weigh no record beyond its corral; placement covers as without (the
     /// same records), so a pixel that only corralled records reach takes them in tail
     /// fill's gather rather than reading black. The nave 13.07 -> 12.58 %, the conference
     /// room 2.55 -> 2.47 %, the nave with the sun 34 degrees up 16.56 -> 13.56 %, Sponza's
     /// west sun 10.70 -> 10.83 %, for 1.03-1.09x the process time.
     Gather,
-    /// Placement's cover too: pixels beyond a record's corral get records of their own.
-    /// Where a lit surface's end stands beside the floor (the nave with the sun 34 degrees
-    /// up) 16.6 -> 6.7 % where the gathers alone give 13.6 %, for 1.1-1.2x the time (2-11 %
-    /// more records).
+    /// Placement's cover and the gathers: pixels beyond a record's corral get records of
+    /// their own and do not take it. Where a lit surface's end stands beside the floor
+    /// (the nave with the sun 34 degrees up) 16.6 -> 6.8 %, for 1.1-1.2x the time on
+    /// lavapipe (the gathers' corral test).
     Placement,
 }
 
 impl Corral {
-    /// Whether records get corrals and the gathers weigh them.
-    pub fn in_gathers(self) -> bool {
+    /// Whether records get corrals.
+    pub fn in_records(self) -> bool {
         self != Corral::Off
+    }
+
+    /// Whether the gathers weigh them.
+    pub fn in_gathers(self) -> bool {
+        matches!(self, Corral::Gather | Corral::Placement)
     }
 
     /// Whether placement's cover weighs them too.
     pub fn in_cover(self) -> bool {
-        self == Corral::Placement
+        matches!(self, Corral::Placement | Corral::Cover)
     }
 }
 
@@ -437,7 +448,7 @@ pub struct CacheSettings {
     /// every earlier record, whose cost grew with the square of the record count.
     pub neighbour_clamp: bool,
     /// The corral (after Radiance's ambcorral, [`Corral`]): where a record's
-    /// [`Record::corral_allows`] applies. Default [`Corral::Off`].
+    /// [`Record::corral_allows`] applies. Default [`Corral::Cover`].
     pub corral: Corral,
     /// Most records the cache may hold.
     pub record_budget: u32,
@@ -584,7 +595,7 @@ impl Default for CacheSettings {
                 scale: Self::HESSIAN_SCALE,
             },
             neighbour_clamp: true,
-            corral: Corral::Off,
+            corral: Corral::Cover,
             record_budget: 200_000,
             tail_share: Self::TAIL_SHARE,
             tail_factor: Self::TAIL_FACTOR,
@@ -1538,7 +1549,7 @@ impl RecordPass {
                     ),
                     // The corral's code only where records get one (lavapipe's start-up
                     // built the larger pipeline 1.2x as slowly).
-                    ("CORRAL", f64::from(u8::from(settings.corral.in_gathers()))),
+                    ("CORRAL", f64::from(u8::from(settings.corral.in_records()))),
                 ],
             )?,
             neighbour_grid: neighbour_grid::NeighbourGridPass::new(ctx)?,

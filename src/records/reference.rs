@@ -200,7 +200,7 @@ pub fn reduce_plane(
     let (turn_c, turn_s) = crate::sampling::record_frame_turn(site.seed);
     for (k, (s, px)) in samples.iter().zip(&plane.pixels).enumerate() {
         let (i, j) = (k % res, k / res);
-        if settings.corral.in_gathers()
+        if settings.corral.in_records()
             && s.depth > 0.0
             && (i == 0 || j == 0 || i + 1 == res || j + 1 == res)
         {

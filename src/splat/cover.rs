@@ -166,7 +166,7 @@ impl SplatPass {
 
     /// The cover's pipeline, with the records' corrals or without (`CORRAL`; the one with
     /// them built when first asked for, then kept by the device).
-    fn cover_pipeline(
+    pub(super) fn cover_pipeline(
         &self,
         ctx: &GpuContext,
         corral: bool,

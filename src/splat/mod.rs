@@ -350,10 +350,10 @@ pub struct SplatSource<'a> {
     /// indirect light where the reference has some (docs/results.md, "Pixels only dark
     /// records reach"). Where a lit record reaches too, dark records count as before.
     pub dark_only_empty: bool,
-    /// Whether the records' corrals apply ([`crate::records::Record::corral_allows`]):
-    /// in every gather; in placement's cover with [`crate::records::Corral::Placement`]
-    /// alone; never in tail fill's gather, so that a pixel they keep from every lit record
-    /// is not left black.
+    /// Whether the records' corrals apply ([`crate::records::Record::corral_allows`]), as
+    /// [`crate::records::Corral`] says for placement's cover and the gathers; never in
+    /// tail fill's gather, so that a pixel they keep from every lit record is not left
+    /// black.
     pub corral: bool,
 }
 
@@ -382,6 +382,19 @@ pub struct SplatPass {
 }
 
 impl SplatPass {
+    /// Builds now the pipelines a frame with `corral` will ask for (the cover's and the
+    /// gather's with the records' corrals), so that they build beside the other passes
+    /// rather than at their first splat. The device keeps them.
+    pub fn build_for_corral(&self, ctx: &GpuContext, corral: crate::records::Corral) -> Result<()> {
+        if corral.in_cover() {
+            self.cover_pipeline(ctx, true)?;
+        }
+        if corral.in_gathers() {
+            self.gather.for_mode(ctx, COUNT_NONE, true)?;
+        }
+        Ok(())
+    }
+
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         use Binding::*;
         Ok(Self {

@@ -6,31 +6,24 @@ use crate::visibility::VisSample;
 use glam::Vec3;
 
 /// Adds records `records[first..]` to per-pixel sums `(sum w E', sum w)` (`sums` holds the
-/// previous sums, or zeros).
+/// previous sums, or zeros), weighing the records' corrals or not (a gather built with
+/// `CORRAL` or without: `SplatSource::corral`).
 pub fn splat_records(
     records: &[Record],
     first: usize,
     vis: &[VisSample],
     accuracy: f32,
+    corral: bool,
     sums: &mut [[f32; 4]],
 ) {
-    splat_records_widened(records, first, vis, accuracy, 0.0, sums);
+    splat_records_widened(records, first, vis, accuracy, 0.0, corral, sums);
 }
 
 /// `SplatSource::dark_only_empty` (a still frame's plane records) on the `sums` a splat of
 /// `records` at `accuracy` gave: a pixel that no lit record reaches, only dark ones
-/// ([`Record::is_dark`]), gets empty sums, as `pixel_sums` in `shared/splat_pixel.wgsl`.
+/// ([`Record::is_dark`]), gets empty sums, as `pixel_sums` in `shared/splat_pixel.wgsl`;
+/// the records' corrals weighed or not, as in that splat (tail fill's tier weighs none).
 pub fn empty_where_only_dark(
-    records: &[Record],
-    vis: &[VisSample],
-    accuracy: f32,
-    sums: &mut [[f32; 4]],
-) {
-    empty_where_only_dark_corralled(records, vis, accuracy, true, sums);
-}
-
-/// [`empty_where_only_dark`], with the records' corrals or without (tail fill's tier).
-fn empty_where_only_dark_corralled(
     records: &[Record],
     vis: &[VisSample],
     accuracy: f32,
@@ -54,19 +47,6 @@ fn empty_where_only_dark_corralled(
 
 /// [`splat_records`] with the weight's plateau of a widened gather ([`splat_weight`]).
 pub fn splat_records_widened(
-    records: &[Record],
-    first: usize,
-    vis: &[VisSample],
-    accuracy: f32,
-    plateau: f32,
-    sums: &mut [[f32; 4]],
-) {
-    splat_records_corralled(records, first, vis, accuracy, plateau, true, sums);
-}
-
-/// [`splat_records_widened`], with the records' corrals or without (tail fill's tier:
-/// its pipeline built without `CORRAL`, `splat_fill.wgsl`).
-fn splat_records_corralled(
     records: &[Record],
     first: usize,
     vis: &[VisSample],
@@ -118,25 +98,27 @@ pub fn keep_consistent(wide: &mut [[f32; 4]], narrow: &[[f32; 4]], tolerance: f3
 
 /// Per-pixel sums with tail fill (`splat_gather.wgsl` with `accumulate` 2): every record
 /// at `accuracy`, as [`splat_records`]; then, where no record reaches the pixel, the records
-/// that reach it at `tail_accuracy`, weighted at that accuracy, their corrals ignored. With `dark_only_empty`
-/// (a still frame's plane records), both tiers leave the pixels only dark records reach
-/// empty ([`empty_where_only_dark`]).
+/// that reach it at `tail_accuracy`, weighted at that accuracy, their corrals ignored (the
+/// first tier weighs them with `corral`). With `dark_only_empty` (a still frame's plane
+/// records), both tiers leave the pixels only dark records reach empty
+/// ([`empty_where_only_dark`]).
 pub fn splat_records_with_tail(
     records: &[Record],
     vis: &[VisSample],
     accuracy: f32,
     tail_accuracy: f32,
     dark_only_empty: bool,
+    corral: bool,
 ) -> Vec<[f32; 4]> {
     let mut sums = vec![[0.0f32; 4]; vis.len()];
-    splat_records(records, 0, vis, accuracy, &mut sums);
+    splat_records(records, 0, vis, accuracy, corral, &mut sums);
     // The tail's tier ignores the corrals: a pixel that the corrals keep from every lit
     // record at the accuracy takes them at the tail's rather than reading black.
     let mut tail = vec![[0.0f32; 4]; vis.len()];
-    splat_records_corralled(records, 0, vis, tail_accuracy, 0.0, false, &mut tail);
+    splat_records_widened(records, 0, vis, tail_accuracy, 0.0, false, &mut tail);
     if dark_only_empty {
-        empty_where_only_dark(records, vis, accuracy, &mut sums);
-        empty_where_only_dark_corralled(records, vis, tail_accuracy, false, &mut tail);
+        empty_where_only_dark(records, vis, accuracy, corral, &mut sums);
+        empty_where_only_dark(records, vis, tail_accuracy, false, &mut tail);
     }
     for (sum, t) in sums.iter_mut().zip(tail) {
         if sum[3] == 0.0 {
@@ -148,12 +130,13 @@ pub fn splat_records_with_tail(
 
 /// Per record, the pixels it contributes to (`count_coverage` 1 in `splat_gather.wgsl`);
 /// with `expiring`, only those where no record it leaves unmarked does, and 0 for unmarked
-/// records (`count_coverage` 2).
+/// records (`count_coverage` 2). The records' corrals weighed or not, as by that gather.
 pub fn record_coverage(
     records: &[Record],
     expiring: Option<&[bool]>,
     vis: &[VisSample],
     accuracy: f32,
+    corral: bool,
 ) -> Vec<u32> {
     let mut counts = vec![0u32; records.len()];
     let mut contributors = Vec::new();
@@ -165,7 +148,7 @@ pub fn record_coverage(
             records
                 .iter()
                 .enumerate()
-                .filter_map(|(k, r)| r.reaches(p, n, accuracy).then_some(k)),
+                .filter_map(|(k, r)| r.reaches_corralled(p, n, accuracy, corral).then_some(k)),
         );
         let counted = match expiring {
             Some(flags) => contributors
