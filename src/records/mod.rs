@@ -184,7 +184,7 @@ pub enum Corral {
     /// gathers then weigh that record beside the others. Where a lit surface's end stands
     /// beside the floor (the nave with the sun 34 degrees up) 16.6 -> 9.0 %, the nave
     /// 13.2 -> 11.2 %; Sponza's views 2-8 % worse (relative), the rest within 2 %; about
-    /// 1.02x the process time on lavapipe (docs/results.md, "The corral in placement's
+    /// 1.00-1.05x the process time on lavapipe (docs/results.md, "The corral in placement's
     /// cover alone").
     #[default]
     Cover,
