@@ -972,17 +972,15 @@ impl Renderer {
         let mut times = Vec::new();
         let (vis, bounds) = self.visible_tiles(scene, camera, &mut times)?;
         let splat_pass = self.splat_pass()?;
-        let src = SplatSource {
-            scene: &scene.gpu,
-            vis: &vis,
-            bounds: &bounds,
-            records: &cache.records,
-            first: 0,
-            accuracy: cache.pass.settings.accuracy,
-            plateau: 0.0,
-            dark_only_empty: false,
-            corral: cache.pass.settings.corral.in_gathers(),
-        };
+        let src = SplatSource::new(
+            &scene.gpu,
+            &vis,
+            &bounds,
+            &cache.records,
+            0,
+            cache.pass.settings.accuracy,
+            cache.pass.settings.corral.in_gathers(),
+        );
         let sums = cache.splat.gather(ctx, splat_pass, src, &mut times)?;
         let sums = ctx.read_buffer(&sums)?;
         let visibility = vis.read(ctx)?;
@@ -1012,17 +1010,15 @@ impl Renderer {
         let mut first = 0;
         for &end in splits.iter().chain([&cache.records.count]) {
             let partial = cache.records.prefix(end);
-            let src = SplatSource {
-                scene: &scene.gpu,
-                vis: &vis,
-                bounds: &bounds,
-                records: &partial,
+            let src = SplatSource::new(
+                &scene.gpu,
+                &vis,
+                &bounds,
+                &partial,
                 first,
                 accuracy,
-                plateau: 0.0,
-                dark_only_empty: false,
-                corral: cache.settings().corral.in_gathers(),
-            };
+                cache.settings().corral.in_gathers(),
+            );
             splat_pass.splat(ctx, src, &splat, true, &mut times)?;
             // Placement's cover: the corrals with `Corral::Cover` and `Corral::Placement`.
             let cover = SplatSource {
@@ -1063,17 +1059,15 @@ impl Renderer {
         let (mut repeats, mut stray) = (0, 0);
         for &end in splits.iter().chain([&cache.records.count]) {
             let partial = cache.records.prefix(end);
-            let src = SplatSource {
-                scene: &scene.gpu,
-                vis: &vis,
-                bounds: &bounds,
-                records: &partial,
+            let src = SplatSource::new(
+                &scene.gpu,
+                &vis,
+                &bounds,
+                &partial,
                 first,
-                accuracy: cache.settings().accuracy,
-                plateau: 0.0,
-                dark_only_empty: false,
-                corral: cache.settings().corral.in_cover(),
-            };
+                cache.settings().accuracy,
+                cache.settings().corral.in_cover(),
+            );
             let before = mask.read(ctx)?;
             if let Some(cover) = splat_pass.cover_in_flight(ctx, src, &mask, room, &mut times)? {
                 let total: Vec<u32> = ctx.read_buffer(&cover.total)?;
@@ -1238,17 +1232,15 @@ impl Renderer {
         let splat_pass = self.splat_pass()?;
         let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
         let mask = CoverageMask::new(ctx, camera.width, camera.height)?;
-        let held = SplatSource {
-            scene: &scene.gpu,
-            vis: &vis,
-            bounds: &bounds,
+        let held = SplatSource::new(
+            &scene.gpu,
+            &vis,
+            &bounds,
             records,
-            first: 0,
+            0,
             accuracy,
-            plateau: 0.0,
-            dark_only_empty: false,
-            corral: pass.settings.corral.in_cover(),
-        };
+            pass.settings.corral.in_cover(),
+        );
         splat_pass.cover(ctx, held, &mask, &mut times)?;
         // Light-space visibility for the plane hits of new records, traced once per scene.
         let mapped = match pass.settings.plane_shadows {
@@ -1330,17 +1322,15 @@ impl Renderer {
                 let need = CoverageMask::new(ctx, camera.width, camera.height)?;
                 rf.splat.need_mask(ctx, &scene.gpu, &vis, &need);
                 let accuracy = rf.pass.settings.accuracy;
-                let held = SplatSource {
-                    scene: &scene.gpu,
-                    vis: &vis,
-                    bounds: &bounds,
-                    records: rf.records,
-                    first: 0,
+                let held = SplatSource::new(
+                    &scene.gpu,
+                    &vis,
+                    &bounds,
+                    rf.records,
+                    0,
                     accuracy,
-                    plateau: 0.0,
-                    dark_only_empty: false,
-                    corral: rf.pass.settings.corral.in_cover(),
-                };
+                    rf.pass.settings.corral.in_cover(),
+                );
                 splat_pass.cover(ctx, held, &need, &mut times)?;
                 // Placed in the placement-only pass too (the first pass of interpolated
                 // temporal gradients computes every frame's records).
@@ -1372,17 +1362,15 @@ impl Renderer {
                 let sums = if placement_only {
                     None
                 } else {
-                    let all = SplatSource {
-                        scene: &scene.gpu,
-                        vis: &vis,
-                        bounds: &bounds,
-                        records: rf.records,
-                        first: 0,
+                    let all = SplatSource::new(
+                        &scene.gpu,
+                        &vis,
+                        &bounds,
+                        rf.records,
+                        0,
                         accuracy,
-                        plateau: 0.0,
-                        dark_only_empty: false,
-                        corral: rf.pass.settings.corral.in_gathers(),
-                    };
+                        rf.pass.settings.corral.in_gathers(),
+                    );
                     Some(rf.splat.gather(ctx, splat_pass, all, &mut times)?)
                 };
                 // The radiance cache's passes under their own names.
@@ -1575,18 +1563,8 @@ impl Renderer {
         };
         let splat_pass = self.splat_pass()?;
         let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, vis, times)?;
-        let src = SplatSource {
-            scene: &scene.gpu,
-            vis,
-            bounds: &bounds,
-            records,
-            first: 0,
-            accuracy,
-            plateau: 0.0,
-            dark_only_empty: false,
-            // Temporal records, the ones counted, carry no corral.
-            corral: false,
-        };
+        // Temporal records, the ones counted, carry no corral.
+        let src = SplatSource::new(&scene.gpu, vis, &bounds, records, 0, accuracy, false);
         splat_pass.splat(ctx, src, &out, false, times)?;
         out.read_coverage(ctx)
     }

@@ -276,22 +276,20 @@ impl PlacementPass {
                  accuracy: f32,
                  room: u32,
                  times: &mut Vec<(&'static str, f64)>| {
-                    let records = SplatSource {
+                    let records = SplatSource::new(
                         scene,
                         vis,
                         bounds,
-                        records: cache,
+                        cache,
                         first,
                         accuracy,
-                        plateau: 0.0,
-                        dark_only_empty: false,
                         // Tail fill's records cover at the tail's accuracy, where its
                         // gather serves the pixels they reach, and that gather weighs no
                         // corral: neither does their cover (with it, the Cornell box
                         // 256x256 took 2,214 records in 37 rounds, 706 of them in the
                         // tail; without, 2,059 in 31, 551 in the tail).
-                        corral: settings.corral.in_cover() && accuracy <= settings.accuracy,
-                    };
+                        settings.corral.in_cover() && accuracy <= settings.accuracy,
+                    );
                     splat_pass.cover_in_flight(ctx, records, mask, room, times)
                 };
             'rounds: loop {

@@ -357,6 +357,33 @@ pub struct SplatSource<'a> {
     pub corral: bool,
 }
 
+impl<'a> SplatSource<'a> {
+    /// Records `first..records.count` splatted at `accuracy` as every splat but a still
+    /// frame's final gather splats them: no weight plateau, dark records counted like any
+    /// other; the corrals weighed or not (`corral`).
+    pub fn new(
+        scene: &'a GpuScene,
+        vis: &'a VisibilityBuffer,
+        bounds: &'a TileBounds,
+        records: &'a RecordCache,
+        first: u32,
+        accuracy: f32,
+        corral: bool,
+    ) -> Self {
+        Self {
+            scene,
+            vis,
+            bounds,
+            records,
+            first,
+            accuracy,
+            plateau: 0.0,
+            dark_only_empty: false,
+            corral,
+        }
+    }
+}
+
 pub struct SplatPass {
     count: std::sync::Arc<ComputePass>,
     scan: crate::gpu::prefix_sum::PrefixSumPass,
