@@ -835,7 +835,10 @@ impl Renderer {
     /// then take every record that reaches them at the tail's accuracy (placement made one
     /// reach each of them). Only the tail's records are sure to, but the others make a
     /// smoother mean (Cornell box 128x128: 1.46 % indirect error with the tail's alone,
-    /// 1.41 % with all, for 0.5 s more binning on Sponza 1000x1000).
+    /// 1.41 % with all, for 0.5 s more binning on Sponza 1000x1000). Where the gather
+    /// leaves the pixels only dark records reach empty (`SplatSource::dark_only_empty`), a
+    /// last tier then gives those the tail left empty every record that reaches them at
+    /// Ward's widest accuracy (`CacheSettings::last_tier_accuracy`).
     fn gather_with_tail(
         &self,
         settings: &CacheSettings,
@@ -851,7 +854,16 @@ impl Renderer {
                 accuracy: settings.tail_accuracy(),
                 ..src
             };
-            splat_pass.fill_empty(&self.ctx, tail, out, times)?;
+            let empty = splat_pass.fill_empty(&self.ctx, tail, out, times)?;
+            // The pixels that only dark records reach at the tail's accuracy take every
+            // record that reaches them at Ward's widest (`CacheSettings::last_tier_accuracy`).
+            if let Some(accuracy) = settings.last_tier_accuracy()
+                && src.dark_only_empty
+                && empty > 0
+            {
+                let last = SplatSource { accuracy, ..tail };
+                splat_pass.fill_empty(&self.ctx, last, out, times)?;
+            }
         }
         Ok(())
     }

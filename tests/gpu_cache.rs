@@ -110,6 +110,7 @@ fn check_splat_against_cpu(size: (u32, u32), interpolation_factor: f32) {
         &vis,
         interpolation,
         settings.tail_accuracy(),
+        settings.last_tier_accuracy(),
         true,
         corral,
     );
@@ -134,6 +135,18 @@ fn check_splat_against_cpu(size: (u32, u32), interpolation_factor: f32) {
     }
 }
 
+/// Makes `r` dark, as the reduction leaves a record whose plane saw no light: zero
+/// irradiance and gradients (its plane noise, the rotational gradient's w, kept).
+fn darken(r: &mut Record) {
+    r.irradiance = [0.0; 3];
+    for c in 0..3 {
+        r.translation_gradient[c] = [0.0; 4];
+        for k in 0..3 {
+            r.rotation_gradient[c][k] = 0.0;
+        }
+    }
+}
+
 /// A pixel that only dark records reach (E = 0 in every channel: planes whose rays all
 /// missed the light) keeps empty sums after a still frame's gather, and tail fill gives it
 /// the lit records that reach it at the tail's accuracy; where a lit record reaches too,
@@ -150,17 +163,8 @@ fn pixels_only_dark_records_reach_take_lit_records_at_the_tail_accuracy() {
         },
         (48, 40),
     );
-    // Every third record dark, as the reduction leaves a plane that saw no light: zero
-    // irradiance and gradients (its plane noise, the rotational gradient's w, kept).
-    for r in records.iter_mut().step_by(3) {
-        r.irradiance = [0.0; 3];
-        for c in 0..3 {
-            r.translation_gradient[c] = [0.0; 4];
-            for k in 0..3 {
-                r.rotation_gradient[c][k] = 0.0;
-            }
-        }
-    }
+    // Every third record dark.
+    records.iter_mut().step_by(3).for_each(darken);
     let dark = records.iter().filter(|r| r.is_dark()).count();
     assert!(dark > 0 && dark < records.len());
     cache
@@ -179,6 +183,7 @@ fn pixels_only_dark_records_reach_take_lit_records_at_the_tail_accuracy() {
         &vis,
         interpolation,
         settings.tail_accuracy(),
+        settings.last_tier_accuracy(),
         true,
         corral,
     );
@@ -221,6 +226,84 @@ fn pixels_only_dark_records_reach_take_lit_records_at_the_tail_accuracy() {
     assert_eq!(
         changed, 0,
         "pixels a lit record reaches changed from the plain splat"
+    );
+}
+
+/// The last tier of a still frame's gather: a pixel that only dark records reach at the
+/// tail's accuracy takes every record that reaches it at Ward's widest,
+/// `CacheSettings::LAST_TIER_ACCURACY` (dark ones included), so a lit record beyond the
+/// tail's reach gives it some light rather than none. Sponza lit by the sun from the west
+/// had 15 such 4x4 blocks of exactly zero on a wall the reference lights at 1-3 % of the
+/// image's mean (docs/results.md, "The last tier"). The GPU gather matches the CPU mirror;
+/// the pixels the last tier fills read black with two tiers and now have light, and no
+/// other pixel changes.
+#[test]
+fn pixels_only_dark_records_reach_at_the_tail_accuracy_take_records_at_the_last_tier() {
+    let (renderer, scene, mut cache, mut records, _) = cornell_cache_at(
+        &CacheSettings {
+            r_min_pixels: 8.0,
+            ..settings()
+        },
+        (48, 40),
+    );
+    // The records of one half of the box dark (x below the records' median): the pixels
+    // in it far from the other half see no lit record even at the tail's accuracy.
+    let mut xs: Vec<f32> = records.iter().map(|r| r.position[0]).collect();
+    xs.sort_by(f32::total_cmp);
+    let median = xs[xs.len() / 2];
+    records
+        .iter_mut()
+        .filter(|r| r.position[0] < median)
+        .for_each(darken);
+    cache
+        .records
+        .upload(&renderer.ctx, &records)
+        .expect("upload");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let (vis, gpu) = renderer
+        .splat_cache(&prepared, &scene.camera, &cache, true)
+        .expect("splat");
+    let settings = cache.settings();
+    let interpolation = settings.interpolation_accuracy();
+    let corral = settings.corral.in_gathers();
+    let last = settings.last_tier_accuracy();
+    assert_eq!(last, Some(CacheSettings::LAST_TIER_ACCURACY));
+    let tiers = |last| {
+        splat_records_with_tail(
+            &records,
+            &vis,
+            interpolation,
+            settings.tail_accuracy(),
+            last,
+            true,
+            corral,
+        )
+    };
+    let (three, two) = (tiers(last), tiers(None));
+    common::assert_splat_sums_match(&gpu, &three);
+    let filled: Vec<usize> = (0..vis.len())
+        .filter(|&i| two[i][3] == 0.0 && three[i][3] > 0.0)
+        .collect();
+    let still_empty = (0..vis.len())
+        .filter(|&i| vis[i].is_hit() && three[i][3] == 0.0)
+        .count();
+    eprintln!(
+        "{} pixels filled by the last tier, {still_empty} visible pixels still empty",
+        filled.len()
+    );
+    assert!(!filled.is_empty(), "no pixel left to the last tier");
+    assert!(
+        filled
+            .iter()
+            .all(|&i| gpu[i][0] + gpu[i][1] + gpu[i][2] > 0.0),
+        "a pixel the last tier filled has no light"
+    );
+    let changed = (0..vis.len())
+        .filter(|&i| two[i][3] > 0.0 && three[i] != two[i])
+        .count();
+    assert_eq!(
+        changed, 0,
+        "the last tier changed a pixel the others filled"
     );
 }
 

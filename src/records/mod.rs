@@ -651,6 +651,25 @@ impl CacheSettings {
     /// from 18.7 to 20.2 % and saved no time (docs/results.md, "Tail fill").
     pub const TAIL_MAX_ACCURACY: f32 = 0.5;
 
+    /// The accuracy of a still frame's last gather tier: Ward's widest, where a record
+    /// reaches as far as its radius R on its own plane (error `d / R + sqrt(1 - n.n_i)`
+    /// below 1).
+    pub const LAST_TIER_ACCURACY: f32 = 1.0;
+
+    /// The accuracy at which the pixels that only dark records reach at the tail's
+    /// accuracy take every record that reaches them, dark ones included
+    /// ([`Self::LAST_TIER_ACCURACY`]); `None` where the tail's accuracy is already that wide.
+    /// Dark records (planes that saw no light, refined or not) are no evidence of darkness
+    /// (`SplatSource::dark_only_empty`), and a pixel they alone reach at the tail's accuracy
+    /// read exactly zero; weighed against them, a lit record further off gives it a little
+    /// light. Sponza lit from the west (400x400) had 15 such 4x4 blocks on a wall the
+    /// reference lights at 1-3 % of the image's mean; with the last tier none, and the
+    /// indirect error 11.49 -> 11.48 % (the other variants and harness scenes within 0.001
+    /// point; docs/results.md, "The last tier").
+    pub fn last_tier_accuracy(&self) -> Option<f32> {
+        (self.tail_accuracy() < Self::LAST_TIER_ACCURACY).then_some(Self::LAST_TIER_ACCURACY)
+    }
+
     /// The accuracy tail fill covers and interpolates at: `tail_factor a`, at most
     /// [`Self::TAIL_MAX_ACCURACY`], when tail fill is on and that is above `a`, else `a`
     /// (no tail fill).

@@ -533,14 +533,16 @@ impl SplatPass {
     /// (no record reached them at the first gather's accuracy); the others keep theirs.
     /// It bins against tile bounds of those pixels alone (`fill_tile_bounds`), not
     /// `src.bounds`: tiles without any bin nothing; and gathers over the list of those
-    /// pixels (`splat_fill.wgsl`), not over the busy tiles' every pixel.
+    /// pixels (`splat_fill.wgsl`), not over the busy tiles' every pixel. Returns how many
+    /// pixels were empty before it (0: it changed nothing, and a wider fill after it
+    /// would find none).
     pub fn fill_empty(
         &self,
         ctx: &GpuContext,
         src: SplatSource,
         out: &SplatBuffer,
         times: &mut Vec<(&'static str, f64)>,
-    ) -> Result<SplatStats> {
+    ) -> Result<u32> {
         let (bounds, empty) = self.fill_tile_bounds(ctx, src.scene, src.vis, out, times)?;
         // Every still frame runs the fill (pixels only dark records reach are left to it,
         // `SplatSource::dark_only_empty`); most have no empty pixel, and then nothing is
@@ -551,7 +553,7 @@ impl SplatPass {
             .copied()
             .unwrap_or(0);
         if pixels == 0 {
-            return Ok(SplatStats::default());
+            return Ok(0);
         }
         let src = SplatSource {
             bounds: &bounds,
@@ -560,7 +562,7 @@ impl SplatPass {
         out.check_room(src.records)?;
         let bins = self.bin(ctx, src, (SplatInto::FillEmpty, out.coverage_mode), times)?;
         if bins.total == 0 {
-            return Ok(bins.stats());
+            return Ok(pixels);
         }
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -591,7 +593,7 @@ impl SplatPass {
         timer.resolve(&mut enc);
         ctx.queue.submit([enc.finish()]);
         times.extend(timer.read(ctx)?);
-        Ok(bins.stats())
+        Ok(pixels)
     }
 
     fn gather_into(

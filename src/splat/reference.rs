@@ -101,12 +101,15 @@ pub fn keep_consistent(wide: &mut [[f32; 4]], narrow: &[[f32; 4]], tolerance: f3
 /// that reach it at `tail_accuracy`, weighted at that accuracy, their corrals ignored (the
 /// first tier weighs them with `corral`). With `dark_only_empty` (a still frame's plane
 /// records), both tiers leave the pixels only dark records reach empty
-/// ([`empty_where_only_dark`]).
+/// ([`empty_where_only_dark`]), and a last tier at `last_accuracy`
+/// (`CacheSettings::last_tier_accuracy`), when there is one, gives the pixels still empty
+/// every record that reaches them there, as the tail's tier does at its accuracy.
 pub fn splat_records_with_tail(
     records: &[Record],
     vis: &[VisSample],
     accuracy: f32,
     tail_accuracy: f32,
+    last_accuracy: Option<f32>,
     dark_only_empty: bool,
     corral: bool,
 ) -> Vec<[f32; 4]> {
@@ -123,6 +126,16 @@ pub fn splat_records_with_tail(
     for (sum, t) in sums.iter_mut().zip(tail) {
         if sum[3] == 0.0 {
             *sum = t;
+        }
+    }
+    if let Some(last_accuracy) = last_accuracy.filter(|_| dark_only_empty) {
+        let mut last = vec![[0.0f32; 4]; vis.len()];
+        splat_records_widened(records, 0, vis, last_accuracy, 0.0, false, &mut last);
+        empty_where_only_dark(records, vis, last_accuracy, false, &mut last);
+        for (sum, l) in sums.iter_mut().zip(last) {
+            if sum[3] == 0.0 {
+                *sum = l;
+            }
         }
     }
     sums
