@@ -11,7 +11,7 @@ use radsplat::scene::Scene;
 use radsplat::splat::reference::{
     empty_where_only_dark, record_coverage, splat_records, splat_records_with_tail,
 };
-use radsplat::visibility::GpuCamera;
+use radsplat::visibility::{GpuCamera, VisSample};
 use radsplat::{Frame, IrradianceCache, Renderer};
 
 /// Test settings: the defaults with a 32 x 32 plane (4x fewer rays than the default 64 x 64)
@@ -135,16 +135,42 @@ fn check_splat_against_cpu(size: (u32, u32), interpolation_factor: f32) {
     }
 }
 
-/// Makes `r` dark, as the reduction leaves a record whose plane saw no light: zero
-/// irradiance and gradients (its plane noise, the rotational gradient's w, kept).
-fn darken(r: &mut Record) {
-    r.irradiance = [0.0; 3];
-    for c in 0..3 {
-        r.translation_gradient[c] = [0.0; 4];
-        for k in 0..3 {
-            r.rotation_gradient[c][k] = 0.0;
+/// A Cornell cache (48 x 40, records at least 8 pixels wide) whose records `dark` picks (by
+/// index) made dark, as the reduction leaves a record whose plane saw no light (zero
+/// irradiance and gradients; its plane noise, the rotational gradient's w, kept), then
+/// splatted on the GPU as a still frame with tail fill: the records, the visibility buffer,
+/// the GPU's sums and the cache's settings.
+fn splat_with_dark_records(
+    dark: impl Fn(usize, &Record) -> bool,
+) -> (Vec<Record>, Vec<VisSample>, Vec<[f32; 4]>, CacheSettings) {
+    let (renderer, scene, mut cache, mut records, _) = cornell_cache_at(
+        &CacheSettings {
+            r_min_pixels: 8.0,
+            ..settings()
+        },
+        (48, 40),
+    );
+    for (i, r) in records.iter_mut().enumerate() {
+        if dark(i, r) {
+            r.irradiance = [0.0; 3];
+            for c in 0..3 {
+                r.translation_gradient[c] = [0.0; 4];
+                for k in 0..3 {
+                    r.rotation_gradient[c][k] = 0.0;
+                }
+            }
         }
     }
+    cache
+        .records
+        .upload(&renderer.ctx, &records)
+        .expect("upload");
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    let (vis, gpu) = renderer
+        .splat_cache(&prepared, &scene.camera, &cache, true)
+        .expect("splat");
+    let settings = cache.settings().clone();
+    (records, vis, gpu, settings)
 }
 
 /// A pixel that only dark records reach (E = 0 in every channel: planes whose rays all
@@ -156,26 +182,10 @@ fn darken(r: &mut Record) {
 /// dark records reach").
 #[test]
 fn pixels_only_dark_records_reach_take_lit_records_at_the_tail_accuracy() {
-    let (renderer, scene, mut cache, mut records, _) = cornell_cache_at(
-        &CacheSettings {
-            r_min_pixels: 8.0,
-            ..settings()
-        },
-        (48, 40),
-    );
     // Every third record dark.
-    records.iter_mut().step_by(3).for_each(darken);
+    let (records, vis, gpu, settings) = splat_with_dark_records(|i, _| i % 3 == 0);
     let dark = records.iter().filter(|r| r.is_dark()).count();
     assert!(dark > 0 && dark < records.len());
-    cache
-        .records
-        .upload(&renderer.ctx, &records)
-        .expect("upload");
-    let prepared = renderer.prepare(&scene).expect("prepare");
-    let (vis, gpu) = renderer
-        .splat_cache(&prepared, &scene.camera, &cache, true)
-        .expect("splat");
-    let settings = cache.settings();
     let interpolation = settings.interpolation_accuracy();
     let corral = settings.corral.in_gathers();
     let cpu = splat_records_with_tail(
@@ -239,31 +249,9 @@ fn pixels_only_dark_records_reach_take_lit_records_at_the_tail_accuracy() {
 /// other pixel changes.
 #[test]
 fn pixels_only_dark_records_reach_at_the_tail_accuracy_take_records_at_the_last_tier() {
-    let (renderer, scene, mut cache, mut records, _) = cornell_cache_at(
-        &CacheSettings {
-            r_min_pixels: 8.0,
-            ..settings()
-        },
-        (48, 40),
-    );
-    // The records of one half of the box dark (x below the records' median): the pixels
-    // in it far from the other half see no lit record even at the tail's accuracy.
-    let mut xs: Vec<f32> = records.iter().map(|r| r.position[0]).collect();
-    xs.sort_by(f32::total_cmp);
-    let median = xs[xs.len() / 2];
-    records
-        .iter_mut()
-        .filter(|r| r.position[0] < median)
-        .for_each(darken);
-    cache
-        .records
-        .upload(&renderer.ctx, &records)
-        .expect("upload");
-    let prepared = renderer.prepare(&scene).expect("prepare");
-    let (vis, gpu) = renderer
-        .splat_cache(&prepared, &scene.camera, &cache, true)
-        .expect("splat");
-    let settings = cache.settings();
+    // The records of one half of the box dark (x below its middle, 0.278 m of 0.556): the
+    // pixels in it far from the other half see no lit record even at the tail's accuracy.
+    let (records, vis, gpu, settings) = splat_with_dark_records(|_, r| r.position[0] < 0.278);
     let interpolation = settings.interpolation_accuracy();
     let corral = settings.corral.in_gathers();
     let last = settings.last_tier_accuracy();
