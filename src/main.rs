@@ -614,108 +614,97 @@ fn parse_number<T: std::str::FromStr>(s: &str) -> std::result::Result<T, String>
         .map_err(|_| format!("'{s}' is not a number"))
 }
 
+/// A number from the command line that `ok` accepts, else the rule `why` it breaks.
+fn parse_checked<T: std::str::FromStr + Copy>(
+    s: &str,
+    ok: impl Fn(T) -> bool,
+    why: &str,
+) -> std::result::Result<T, String> {
+    let x: T = parse_number(s)?;
+    if ok(x) { Ok(x) } else { Err(why.into()) }
+}
+
 fn parse_accuracy(s: &str) -> std::result::Result<f32, String> {
-    let a: f32 = parse_number(s)?;
-    if a > 0.0 && a <= 1.0 {
-        Ok(a)
-    } else {
-        Err("the accuracy must be in (0, 1]".into())
-    }
+    parse_checked(
+        s,
+        |a: f32| a > 0.0 && a <= 1.0,
+        "the accuracy must be in (0, 1]",
+    )
 }
 
 fn parse_plane_resolution(s: &str) -> std::result::Result<u32, String> {
-    let p: u32 = parse_number(s)?;
-    if (2..=512).contains(&p) {
-        Ok(p)
-    } else {
-        Err("the plane resolution must be in 2..=512".into())
-    }
+    parse_checked(
+        s,
+        |p: u32| (2..=512).contains(&p),
+        "the plane resolution must be in 2..=512",
+    )
 }
 
 fn parse_plane_fov(s: &str) -> std::result::Result<f32, String> {
-    let fov: f32 = parse_number(s)?;
-    if fov > 1.0 && fov < 179.0 {
-        Ok(fov)
-    } else {
-        Err("the plane field of view must be in (1, 179) degrees".into())
-    }
+    parse_checked(
+        s,
+        |fov: f32| fov > 1.0 && fov < 179.0,
+        "the plane field of view must be in (1, 179) degrees",
+    )
 }
 
 fn parse_at_least_one(s: &str) -> std::result::Result<u32, String> {
-    let n: u32 = parse_number(s)?;
-    if n >= 1 {
-        Ok(n)
-    } else {
-        Err("must be at least 1".into())
-    }
+    parse_checked(s, |n: u32| n >= 1, "must be at least 1")
 }
 
 /// Bounces: 1 to [`radsplat::bounce::MAX_BOUNCES`].
 fn parse_bounces(s: &str) -> std::result::Result<u32, String> {
-    let n: u32 = parse_number(s)?;
-    if (1..=radsplat::bounce::MAX_BOUNCES).contains(&n) {
-        Ok(n)
-    } else {
-        Err(format!("must be 1 to {}", radsplat::bounce::MAX_BOUNCES))
-    }
+    let most = radsplat::bounce::MAX_BOUNCES;
+    parse_checked(
+        s,
+        |n: u32| (1..=most).contains(&n),
+        &format!("must be 1 to {most}"),
+    )
 }
 
 fn parse_positive(s: &str) -> std::result::Result<f32, String> {
-    let x: f32 = parse_number(s)?;
-    if x > 0.0 && x.is_finite() {
-        Ok(x)
-    } else {
-        Err("must be a positive number".into())
-    }
+    parse_checked(
+        s,
+        |x: f32| x > 0.0 && x.is_finite(),
+        "must be a positive number",
+    )
 }
 
 fn parse_r_max_factor(s: &str) -> std::result::Result<f32, String> {
-    let x: f32 = parse_number(s)?;
-    if x >= 1.0 && x.is_finite() {
-        Ok(x)
-    } else {
-        Err("must be a number >= 1 (R_max / R_min)".into())
-    }
+    parse_checked(
+        s,
+        |x: f32| x >= 1.0 && x.is_finite(),
+        "must be a number >= 1 (R_max / R_min)",
+    )
 }
 
 fn parse_fraction(s: &str) -> std::result::Result<f32, String> {
-    let x: f32 = parse_number(s)?;
-    if (0.0..=1.0).contains(&x) {
-        Ok(x)
-    } else {
-        Err("must be a fraction in [0, 1]".into())
-    }
+    parse_checked(
+        s,
+        |x: f32| (0.0..=1.0).contains(&x),
+        "must be a fraction in [0, 1]",
+    )
 }
 
 fn parse_tail_factor(s: &str) -> std::result::Result<f32, String> {
-    let x: f32 = parse_number(s)?;
-    if (1.0..=16.0).contains(&x) {
-        Ok(x)
-    } else {
-        Err("must be a number in [1, 16]".into())
-    }
+    parse_checked(
+        s,
+        |x: f32| (1.0..=16.0).contains(&x),
+        "must be a number in [1, 16]",
+    )
 }
 
 fn parse_refine_split(s: &str) -> std::result::Result<u32, String> {
-    let n: u32 = parse_number(s)?;
-    if (1..=8).contains(&n) {
-        Ok(n)
-    } else {
-        Err("must be in 1..=8".into())
-    }
+    parse_checked(s, |n: u32| (1..=8).contains(&n), "must be in 1..=8")
 }
 
 fn parse_record_budget(s: &str) -> std::result::Result<u32, String> {
-    let n: u32 = parse_number(s)?;
-    if n >= 1 {
-        Ok(n)
-    } else {
-        Err(
-            "must be at least 1: no records means no indirect light (for direct light \
-             only, use `render --direct-only`)"
-                .into(),
-        )
-    }
+    parse_checked(
+        s,
+        |n: u32| n >= 1,
+        "must be at least 1: no records means no indirect light (for direct light \
+         only, use `render --direct-only`)",
+    )
 }
 
 /// `--record-radius` (records::RecordRadius without its scale).
