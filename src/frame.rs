@@ -849,21 +849,30 @@ impl Renderer {
     ) -> Result<()> {
         let splat_pass = self.splat_pass()?;
         splat_pass.splat(&self.ctx, src, out, false, times)?;
-        if tail {
-            let tail = SplatSource {
-                accuracy: settings.tail_accuracy(),
-                ..src
-            };
-            let empty = splat_pass.fill_empty(&self.ctx, tail, out, times)?;
-            // The pixels that only dark records reach at the tail's accuracy take every
-            // record that reaches them at Ward's widest (`CacheSettings::last_tier_accuracy`).
-            if let Some(accuracy) = settings.last_tier_accuracy()
-                && src.dark_only_empty
-                && empty > 0
-            {
-                let last = SplatSource { accuracy, ..tail };
-                splat_pass.fill_empty(&self.ctx, last, out, times)?;
+        if !tail {
+            return Ok(());
+        }
+        // Tail fill, then the last tier for the pixels only dark records reach. A tier
+        // changes a pixel only where it reaches further than the gathers before it (the
+        // fills weigh no corral, so a gather that weighed them reached nowhere for sure):
+        // a frame widened for noisy records (the nave: 4 a = 1) skips both. Once a tier
+        // finds no empty pixel, none is left for the next.
+        let mut reached = if src.corral { 0.0 } else { src.accuracy };
+        let tiers = [
+            Some(settings.tail_accuracy()),
+            settings
+                .last_tier_accuracy()
+                .filter(|_| src.dark_only_empty),
+        ];
+        for accuracy in tiers.into_iter().flatten() {
+            if accuracy <= reached {
+                continue;
             }
+            let fill = SplatSource { accuracy, ..src };
+            if splat_pass.fill_empty(&self.ctx, fill, out, times)? == 0 {
+                break;
+            }
+            reached = accuracy;
         }
         Ok(())
     }

@@ -115,26 +115,21 @@ pub fn splat_records_with_tail(
 ) -> Vec<[f32; 4]> {
     let mut sums = vec![[0.0f32; 4]; vis.len()];
     splat_records(records, 0, vis, accuracy, corral, &mut sums);
-    // The tail's tier ignores the corrals: a pixel that the corrals keep from every lit
-    // record at the accuracy takes them at the tail's rather than reading black.
-    let mut tail = vec![[0.0f32; 4]; vis.len()];
-    splat_records_widened(records, 0, vis, tail_accuracy, 0.0, false, &mut tail);
     if dark_only_empty {
         empty_where_only_dark(records, vis, accuracy, corral, &mut sums);
-        empty_where_only_dark(records, vis, tail_accuracy, false, &mut tail);
     }
-    for (sum, t) in sums.iter_mut().zip(tail) {
-        if sum[3] == 0.0 {
-            *sum = t;
+    // The wider tiers ignore the corrals: a pixel that the corrals keep from every lit
+    // record at the accuracy takes them at the tail's rather than reading black.
+    let last = last_accuracy.filter(|_| dark_only_empty);
+    for tier_accuracy in [Some(tail_accuracy), last].into_iter().flatten() {
+        let mut tier = vec![[0.0f32; 4]; vis.len()];
+        splat_records_widened(records, 0, vis, tier_accuracy, 0.0, false, &mut tier);
+        if dark_only_empty {
+            empty_where_only_dark(records, vis, tier_accuracy, false, &mut tier);
         }
-    }
-    if let Some(last_accuracy) = last_accuracy.filter(|_| dark_only_empty) {
-        let mut last = vec![[0.0f32; 4]; vis.len()];
-        splat_records_widened(records, 0, vis, last_accuracy, 0.0, false, &mut last);
-        empty_where_only_dark(records, vis, last_accuracy, false, &mut last);
-        for (sum, l) in sums.iter_mut().zip(last) {
+        for (sum, t) in sums.iter_mut().zip(tier) {
             if sum[3] == 0.0 {
-                *sum = l;
+                *sum = t;
             }
         }
     }
