@@ -544,9 +544,9 @@ impl SplatPass {
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<u32> {
         let (bounds, empty) = self.fill_tile_bounds(ctx, src.scene, src.vis, out, times)?;
-        // Every still frame runs the fill (pixels only dark records reach are left to it,
-        // `SplatSource::dark_only_empty`); most have no empty pixel, and then nothing is
-        // binned.
+        // A still frame runs the fill wherever it reaches further than the gather (pixels
+        // only dark records reach are left to it, `SplatSource::dark_only_empty`); most
+        // have no empty pixel, and then nothing is binned.
         let pixels = ctx
             .read_buffer::<u32>(&empty.count)?
             .first()
