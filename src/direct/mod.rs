@@ -5,7 +5,8 @@
 pub mod reference;
 
 use crate::Result;
-use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
+use crate::gpu::pipeline::{Binding, image_groups};
+use crate::gpu::scene_pass::{ScenePass, ScenePassShader};
 use crate::gpu::{GpuContext, GpuScene, SceneFeatures};
 use crate::visibility::VisibilityBuffer;
 
@@ -21,10 +22,24 @@ pub struct DirectOutput {
 
 /// The direct-light pass (`wgsl/direct_light.wgsl`).
 pub struct DirectLightPass {
-    pass: std::sync::Arc<ComputePass>,
-    /// What the pipeline was compiled for (the bounce cache plays no part in it).
-    features: SceneFeatures,
+    pass: ScenePass,
 }
+
+/// The direct-light pass's shader and bindings: the camera, the visibility buffer, and
+/// the beauty, albedo and direct outputs. Its hits are not shaded with the bounce cache.
+static SHADER: ScenePassShader = ScenePassShader {
+    shader: "direct_light.wgsl",
+    bindings: &[
+        Binding::Uniform,
+        Binding::StorageRead,
+        Binding::StorageReadWrite,
+        Binding::StorageReadWrite,
+        Binding::StorageReadWrite,
+    ],
+    name: "direct-light pass",
+    builder: "DirectLightPass::for_scene",
+    reads_bounce_cache: false,
+};
 
 impl DirectLightPass {
     /// The pass for any scene.
@@ -37,22 +52,8 @@ impl DirectLightPass {
     /// The pass compiled for scenes of `features` alone (their kinds of light, instances and
     /// textures: `gpu::SceneFeatures`); built once per device and set of features.
     pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
-        use Binding::*;
-        let features = features.without_bounce_cache();
         Ok(Self {
-            pass: ComputePass::with_constants(
-                ctx,
-                "direct_light.wgsl",
-                &[
-                    Uniform,
-                    StorageRead,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                ],
-                &[features.constant()],
-            )?,
-            features,
+            pass: ScenePass::compile(ctx, &SHADER, features)?,
         })
     }
 
@@ -65,20 +66,14 @@ impl DirectLightPass {
         vis: &VisibilityBuffer,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<DirectOutput> {
-        // A pipeline compiled without one of the scene's kinds of light would leave that
-        // light out of every pixel, silently.
-        self.features.require(
-            scene.features().without_bounce_cache(),
-            "direct-light pass",
-            "DirectLightPass::for_scene",
-        )?;
+        let pass = self.pass.for_scene(scene.features())?;
         let bytes = u64::from(vis.width) * u64::from(vis.height) * 16;
         let out = DirectOutput {
             beauty: ctx.storage_buffer_sized("beauty", bytes)?,
             albedo: ctx.storage_buffer_sized("albedo", bytes)?,
             direct: ctx.storage_buffer_sized("direct", bytes)?,
         };
-        let bind = self.pass.bind(
+        let bind = pass.bind(
             ctx,
             &[
                 &vis.camera_buffer,
@@ -88,7 +83,7 @@ impl DirectLightPass {
                 &out.direct,
             ],
         );
-        self.pass.record(
+        pass.record(
             encoder,
             &scene.bind_group,
             &bind,

@@ -9,7 +9,8 @@
 
 use crate::Result;
 use crate::gpu::context::max_samples_per_dispatch;
-use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
+use crate::gpu::pipeline::{Binding, image_groups};
+use crate::gpu::scene_pass::{ScenePass, ScenePassShader};
 use crate::gpu::timer::spanning;
 use crate::gpu::{GpuContext, GpuScene, SceneFeatures};
 use crate::visibility::VisibilityBuffer;
@@ -28,10 +29,26 @@ struct GlossyParams {
 
 /// The glossy indirect pass.
 pub struct GlossyIndirectPass {
-    pass: std::sync::Arc<ComputePass>,
-    /// What the pipeline was compiled for.
-    features: SceneFeatures,
+    pass: ScenePass,
 }
+
+/// The glossy pass's shader and bindings: the camera, the visibility buffer, its
+/// parameters, its output, the radiance splat and the bounce cache, which its lobe rays'
+/// hits reflect.
+static SHADER: ScenePassShader = ScenePassShader {
+    shader: "glossy_indirect.wgsl",
+    bindings: &[
+        Binding::Uniform,
+        Binding::StorageRead,
+        Binding::Uniform,
+        Binding::StorageReadWrite,
+        Binding::StorageRead,
+        Binding::StorageRead,
+    ],
+    name: "glossy indirect pass",
+    builder: "GlossyIndirectPass::for_scene",
+    reads_bounce_cache: true,
+};
 
 impl GlossyIndirectPass {
     /// The pass for any scene.
@@ -45,22 +62,8 @@ impl GlossyIndirectPass {
     /// textures, bounce cache: `gpu::SceneFeatures`); built once per device and set of
     /// features.
     pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
-        use Binding::*;
         Ok(Self {
-            pass: ComputePass::with_constants(
-                ctx,
-                "glossy_indirect.wgsl",
-                &[
-                    Uniform,
-                    StorageRead,
-                    Uniform,
-                    StorageReadWrite,
-                    StorageRead,
-                    StorageRead,
-                ],
-                &[features.constant()],
-            )?,
-            features,
+            pass: ScenePass::compile(ctx, &SHADER, features)?,
         })
     }
 
@@ -81,13 +84,7 @@ impl GlossyIndirectPass {
         radiance_covers_all: bool,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<wgpu::Buffer> {
-        // A pipeline compiled without one of the scene's features would shade its lobe
-        // rays' hits without that light, bounce cache or texture, silently.
-        self.features.require(
-            scene.features(),
-            "glossy indirect pass",
-            "GlossyIndirectPass::for_scene",
-        )?;
+        let pass = self.pass.for_scene(scene.features())?;
         let placeholder;
         let radiance_buf = match radiance {
             Some(b) => b,
@@ -123,7 +120,7 @@ impl GlossyIndirectPass {
                     _pad: [0; 3],
                 },
             );
-            let bind = self.pass.bind(
+            let bind = pass.bind(
                 ctx,
                 &[
                     &vis.camera_buffer,
@@ -134,7 +131,7 @@ impl GlossyIndirectPass {
                     &scene.bounce_cache(),
                 ],
             );
-            self.pass.record(
+            pass.record(
                 encoder,
                 &scene.bind_group,
                 &bind,

@@ -7,6 +7,7 @@ pub mod pipeline;
 pub mod prefix_sum;
 pub mod scene_buffers;
 pub mod scene_features;
+pub mod scene_pass;
 pub mod shader;
 pub mod specialise;
 pub mod timer;

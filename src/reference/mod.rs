@@ -38,7 +38,8 @@
 pub mod cpu;
 
 use crate::frame::{Frame, PreparedScene, Renderer};
-use crate::gpu::pipeline::{Binding, ComputePass};
+use crate::gpu::pipeline::Binding;
+use crate::gpu::scene_pass::{ScenePass, ScenePassShader};
 use crate::gpu::{GpuContext, SceneFeatures};
 use crate::output::exr_out::{Channels, encode_exr_owned, frame_channels};
 use crate::output::write_atomically;
@@ -218,10 +219,25 @@ impl ReferenceFrame {
 
 /// The compiled reference pass (`wgsl/reference_indirect.wgsl`).
 pub struct ReferencePass {
-    pass: std::sync::Arc<ComputePass>,
-    /// The scene features it was compiled for (`gpu::SceneFeatures`).
-    features: SceneFeatures,
+    pass: ScenePass,
 }
+
+/// The reference pass's shader and bindings: the camera, the visibility buffer, its
+/// parameters and its two sums (Lambertian and glossy). It traces every bounce itself, so
+/// the bounce cache plays no part in it.
+static SHADER: ScenePassShader = ScenePassShader {
+    shader: "reference_indirect.wgsl",
+    bindings: &[
+        Binding::Uniform,
+        Binding::StorageRead,
+        Binding::Uniform,
+        Binding::StorageReadWrite,
+        Binding::StorageReadWrite,
+    ],
+    name: "reference pass",
+    builder: "ReferencePass::for_scene",
+    reads_bounce_cache: false,
+};
 
 impl ReferencePass {
     /// Compiles the pass on `ctx`, for any scene.
@@ -235,22 +251,8 @@ impl ReferencePass {
     /// textures): less code for the driver to build and, on lavapipe, to run per path.
     /// [`Self::render`] refuses a scene with another feature.
     pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
-        use Binding::*;
-        let features = features.without_bounce_cache();
         Ok(Self {
-            pass: ComputePass::with_constants(
-                ctx,
-                "reference_indirect.wgsl",
-                &[
-                    Uniform,
-                    StorageRead,
-                    Uniform,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                ],
-                &[features.constant()],
-            )?,
-            features,
+            pass: ScenePass::compile(ctx, &SHADER, features)?,
         })
     }
 
@@ -265,11 +267,7 @@ impl ReferencePass {
         options: &ReferenceOptions,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<ReferenceFrame> {
-        self.features.require(
-            prepared.gpu.features().without_bounce_cache(),
-            "reference pass",
-            "ReferencePass::for_scene",
-        )?;
+        let pass = self.pass.for_scene(prepared.gpu.features())?;
         if !(1..=MAX_SPP).contains(&options.spp) {
             return Err(Error::Usage(format!(
                 "spp {} must be between 1 and {MAX_SPP}",
@@ -322,11 +320,9 @@ impl ReferencePass {
                     _pad: [0; 2],
                 },
             );
-            let bind = self
-                .pass
-                .bind(ctx, &[&camera_buffer, &vis, &params, &sums, &glossy_sums]);
+            let bind = pass.bind(ctx, &[&camera_buffer, &vis, &params, &sums, &glossy_sums]);
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
-            self.pass.record(
+            pass.record(
                 &mut encoder,
                 &prepared.gpu.bind_group,
                 &bind,

@@ -1,7 +1,8 @@
 //! The visibility pass: one camera ray per pixel through the two-level BVH, writing the
 //! visibility buffer ([`VisSample`] per pixel) that every later pass reads.
 
-use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
+use crate::gpu::pipeline::{Binding, image_groups};
+use crate::gpu::scene_pass::{ScenePass, ScenePassShader};
 use crate::gpu::{GpuContext, GpuScene, SceneFeatures};
 use crate::scene::Camera;
 use crate::{Error, Result};
@@ -129,10 +130,17 @@ pub fn check_resolution(ctx: &GpuContext, width: u32, height: u32) -> Result<()>
 
 /// The visibility pass (`wgsl/visibility.wgsl`).
 pub struct VisibilityPass {
-    pass: std::sync::Arc<ComputePass>,
-    /// What the pipeline was compiled for (the bounce cache plays no part in it).
-    features: SceneFeatures,
+    pass: ScenePass,
 }
+
+/// The visibility pass's shader and bindings: the camera and the visibility buffer.
+static SHADER: ScenePassShader = ScenePassShader {
+    shader: "visibility.wgsl",
+    bindings: &[Binding::Uniform, Binding::StorageReadWrite],
+    name: "visibility pass",
+    builder: "VisibilityPass::for_scene",
+    reads_bounce_cache: false,
+};
 
 impl VisibilityPass {
     /// The pass for any scene.
@@ -146,15 +154,8 @@ impl VisibilityPass {
     /// the albedo without textures: `gpu::SceneFeatures`); built once per device and set
     /// of features.
     pub fn for_scene(ctx: &GpuContext, features: SceneFeatures) -> Result<Self> {
-        let features = features.without_bounce_cache();
         Ok(Self {
-            pass: ComputePass::with_constants(
-                ctx,
-                "visibility.wgsl",
-                &[Binding::Uniform, Binding::StorageReadWrite],
-                &[features.constant()],
-            )?,
-            features,
+            pass: ScenePass::compile(ctx, &SHADER, features)?,
         })
     }
 
@@ -167,20 +168,14 @@ impl VisibilityPass {
         camera: &Camera,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<VisibilityBuffer> {
-        // A pipeline compiled without a scene's instances or textures would miss its
-        // instanced geometry or shade it untextured, silently.
-        self.features.require(
-            scene.features().without_bounce_cache(),
-            "visibility pass",
-            "VisibilityPass::for_scene",
-        )?;
+        let pass = self.pass.for_scene(scene.features())?;
         check_resolution(ctx, camera.width, camera.height)?;
         let gpu_camera = GpuCamera::new(camera);
         let camera_buffer = ctx.uniform_buffer("camera", &gpu_camera);
         let bytes = u64::from(camera.width) * u64::from(camera.height) * VIS_SAMPLE_BYTES;
         let samples = ctx.storage_buffer_sized("visibility buffer", bytes)?;
-        let bind = self.pass.bind(ctx, &[&camera_buffer, &samples]);
-        self.pass.record(
+        let bind = pass.bind(ctx, &[&camera_buffer, &samples]);
+        pass.record(
             encoder,
             &scene.bind_group,
             &bind,
