@@ -1,6 +1,9 @@
 //! Running a frame: scene → BVH → visibility → direct light → records (placement,
-//! hemisphere planes) → splat → resolve → images. [`Renderer::render_gi_frame`] is the
-//! whole data flow of a global-illumination frame in one function.
+//! hemisphere planes) → splat → resolve → images. [`Renderer::render_gi_frame`] renders a
+//! global-illumination frame; the function behind it (`render_cached_frame_timed`) reads
+//! as the frame's data flow, one call a stage: the records' other sources, visibility and
+//! direct light, the irradiance records' placement and gather, the radiance records, the
+//! resolve.
 
 use crate::bvh::SceneBvh;
 use crate::direct::{DirectLightPass, DirectOutput};
@@ -220,6 +223,42 @@ pub struct PhotonRecordStats {
     pub too_sparse: u32,
     /// Photons the records were reduced from (with repeats).
     pub gathered: u64,
+}
+
+/// What a frame's records take light from beyond their own planes
+/// ([`Renderer::record_sources`]), for its statistics.
+struct RecordSources {
+    bounce: Option<crate::bounce::BounceStats>,
+    vpls: Option<crate::vpl::VplStats>,
+    photons: Option<PhotonRecordStats>,
+}
+
+/// What a frame's radiance records gave it ([`Renderer::radiance_records`]); the default:
+/// none.
+#[derive(Default)]
+struct RadianceOutcome<'p> {
+    /// The pass that computed them.
+    pass: Option<&'p RecordPass>,
+    /// Records in their cache after the frame, and those added this frame.
+    records: u32,
+    new_records: u32,
+    /// Their HSH order.
+    order: u32,
+    /// Whether they cover every pixel with a glossy lobe (no Monte Carlo lobe rays).
+    covers_all: bool,
+    /// Their gather, `(sum w L (rgb), sum w)` per pixel (None in a placement-only pass).
+    sums: Option<wgpu::Buffer>,
+}
+
+/// A resolved frame's images, read back ([`Renderer::resolve_images`]).
+struct ResolvedImages {
+    beauty: Vec<[f32; 4]>,
+    albedo: Vec<[f32; 4]>,
+    direct: Vec<[f32; 4]>,
+    indirect: Vec<[f32; 4]>,
+    visibility: Vec<VisSample>,
+    /// Visible pixels no record reached.
+    uncovered_pixels: u64,
 }
 
 /// Every record of `records`, gathered at `factor` times the settings' accuracy with the
@@ -1189,7 +1228,11 @@ impl Renderer {
         Ok((frame, coverage))
     }
 
-    /// [`Self::render_cached_frame`], its pass timers read by the caller.
+    /// [`Self::render_cached_frame`], its pass timers read by the caller. The frame's data
+    /// flow, stage by stage: where records' light comes from beyond their planes, the
+    /// visibility buffer and direct light, the irradiance records (the held ones' cover,
+    /// placement of new ones, one gather), the radiance records, then the glossy pass and
+    /// the resolve.
     fn render_cached_frame_timed(
         &self,
         scene: &PreparedScene,
@@ -1208,82 +1251,39 @@ impl Renderer {
             radiance,
         } = options;
         let ctx = &self.ctx;
+        let settings = &pass.settings;
         // Shadow rays of each plane hit (its re-shading and plane refresh cast the same).
         let (sampled, delta) = scene.shadow_rays;
         ctx.check_shadow_rays(
-            sampled * u64::from(pass.settings.plane_light_samples) + delta,
+            sampled * u64::from(settings.plane_light_samples) + delta,
             "--plane-light-samples",
         )?;
         let t0 = Instant::now();
         ctx.take_waits();
         let mut times: Vec<(&'static str, f64)> = Vec::new();
 
-        // Bounces past the first: the surface cache every plane hit reflects (once per
-        // prepared scene; nothing with one bounce).
-        // VPL records carry their bounces in the VPL paths; glossy lobe rays still reflect
-        // the cache.
-        let planes = pass.settings.source != crate::records::RecordSource::Vpl;
-        let bounce = if planes || scene.gpu.has_glossy {
-            self.scene_bounce_cache(scene, &pass.settings, &mut times)?
-        } else {
-            None
-        };
-        let vpls = self.scene_vpls(scene, &pass.settings, &mut times)?;
-        // Photon records are placed along the photon array before any pixel asks (thesis
-        // Algorithm 6), into an empty cache; the pixels they leave uncovered get plane
-        // records from the placement below.
-        let photons = if pass.settings.source == crate::records::RecordSource::Photons
-            && records.count == 0
-        {
-            Some(self.photon_records(scene, camera, records, &pass.settings, &mut times)?)
-        } else {
-            None
-        };
+        let sources = self.record_sources(scene, camera, records, settings, &mut times)?;
 
         // Visibility buffer and direct light (placement needs only the visibility).
         let (vis, direct) =
             self.visibility_and_direct(scene, camera, visibility, !placement_only, &mut times)?;
 
-        // Mark the pixels the records the cache already holds cover, place new records
-        // where none does, then splat every record once (the weighted gather).
+        // Irradiance records: mark the pixels the records the cache already holds cover,
+        // place new records where none does, then splat every record once (the weighted
+        // gather).
         let reused_records = records.count;
         // Temporal caching keeps one interpolation factor for every frame.
         let temporal = stage.is_some();
-        let accuracy = pass.settings.accuracy;
-        let splat_pass = self.splat_pass()?;
-        let bounds = splat_pass.tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
-        let mask = CoverageMask::new(ctx, camera.width, camera.height)?;
-        let held = SplatSource::new(
-            &scene.gpu,
+        let bounds = self
+            .splat_pass()?
+            .tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
+        let light_maps = self.plane_light_maps(scene, settings, &mut times)?;
+        let placement = self.place_records(
+            scene,
             &vis,
             &bounds,
-            records,
-            0,
-            accuracy,
-            pass.settings.corral.in_cover(),
-        );
-        splat_pass.cover(ctx, held, &mask, &mut times)?;
-        // Light-space visibility for the plane hits of new records, traced once per scene.
-        let mapped = match pass.settings.plane_shadows {
-            PlaneShadows::Maps => Some(MappedLights::All),
-            PlaneShadows::Auto => Some(MappedLights::DeltaOnly),
-            PlaneShadows::Rays => None,
-        };
-        let light_maps = match mapped {
-            Some(mapped) => {
-                Some(self.scene_light_maps(scene, &pass.settings.light_maps, mapped, &mut times)?)
-            }
-            None => None,
-        };
-        let placement = self.placement_pass()?.place(
-            ctx,
-            &scene.gpu,
-            &vis,
             records,
             pass,
-            splat_pass,
-            &bounds,
-            &mask,
             light_maps.as_deref(),
             max_new_records,
             stage,
@@ -1291,121 +1291,56 @@ impl Renderer {
             progress,
         )?;
         let coverage_records = if count_coverage {
-            pass.settings.record_budget.max(records.count)
+            settings.record_budget.max(records.count)
         } else {
             0
         };
         let splat = SplatBuffer::with_coverage(ctx, camera.width, camera.height, coverage_records)?;
-        let mut widened_pixels = 0;
         let (interpolation_factor, median_record_noise) = if temporal {
-            (pass.settings.interpolation_factor, None)
+            (settings.interpolation_factor, None)
         } else {
-            self.frame_interpolation_factor(&pass.settings, records)?
+            self.frame_interpolation_factor(settings, records)?
         };
-        if !placement_only || count_coverage {
-            // Every record, those placement added included, interpolated at the wider
-            // accuracy (`CacheSettings::interpolation_factor`, widened for noisy
-            // records): placement left every pixel within a of some record, so each is
-            // still reached, by more records.
+        let widened_pixels = if !placement_only || count_coverage {
             let all = frame_gather_source(
                 scene,
                 &vis,
                 &bounds,
                 records,
-                &pass.settings,
+                settings,
                 interpolation_factor,
                 !temporal,
             );
-            // Tail fill also gives the pixels only dark records reach the lit records that
-            // reach them at the tail's accuracy.
-            let tail = placement.tail_from_record.is_some() || all.dark_only_empty;
-            self.gather_with_tail(&pass.settings, all, tail, &splat, &mut times)?;
-            widened_pixels = self
-                .check_widened(
-                    &pass.settings,
-                    all,
-                    interpolation_factor,
-                    tail,
-                    &splat,
-                    &mut times,
-                )?
-                .map_or(0, |(kept, _)| u64::from(kept));
-        }
+            self.gather_records(
+                settings,
+                all,
+                &placement,
+                interpolation_factor,
+                &splat,
+                &mut times,
+            )?
+        } else {
+            0
+        };
 
         // Radiance records: their own placement over the pixels with lobes they shade, at
         // their own accuracy, then their gather.
-        let mut radiance_stats = (0, 0, 0);
-        let mut radiance_pass = None;
-        let mut radiance_covers_all = false;
-        let radiance_sums = match radiance {
-            Some(rf) => {
-                let first_time = times.len();
-                let need = CoverageMask::new(ctx, camera.width, camera.height)?;
-                rf.splat.need_mask(ctx, &scene.gpu, &vis, &need);
-                let accuracy = rf.pass.settings.accuracy;
-                let held = SplatSource::new(
-                    &scene.gpu,
-                    &vis,
-                    &bounds,
-                    rf.records,
-                    0,
-                    accuracy,
-                    rf.pass.settings.corral.in_cover(),
-                );
-                splat_pass.cover(ctx, held, &need, &mut times)?;
-                // Placed in the placement-only pass too (the first pass of interpolated
-                // temporal gradients computes every frame's records).
-                let placed = self.placement_pass()?.place(
-                    ctx,
-                    &scene.gpu,
-                    &vis,
-                    rf.records,
-                    rf.pass,
-                    splat_pass,
-                    &bounds,
-                    &need,
-                    light_maps.as_deref(),
-                    rf.max_new_records,
-                    rf.stage,
-                    &mut times,
-                    |_| {},
-                )?;
-                radiance_pass = Some(rf.pass);
-                radiance_stats = (
-                    rf.records.count,
-                    placed.new_records,
-                    rf.splat.tables.settings.order,
-                );
-                // Placement covered every pixel with a radiance lobe: if every glossy
-                // lobe has one, no pixel needs Monte Carlo lobe rays.
-                radiance_covers_all =
-                    !placed.limit_reached && rf.splat.tables.every_lobe_has_slot();
-                let sums = if placement_only {
-                    None
-                } else {
-                    let all = SplatSource::new(
-                        &scene.gpu,
-                        &vis,
-                        &bounds,
-                        rf.records,
-                        0,
-                        accuracy,
-                        rf.pass.settings.corral.in_gathers(),
-                    );
-                    Some(rf.splat.gather(ctx, splat_pass, all, &mut times)?)
-                };
-                // The radiance cache's passes under their own names.
-                for (name, _) in &mut times[first_time..] {
-                    *name = radiance_pass_name(name);
-                }
-                sums
-            }
-            None => None,
+        let radiance = match radiance {
+            Some(rf) => self.radiance_records(
+                scene,
+                &vis,
+                &bounds,
+                rf,
+                light_maps.as_deref(),
+                placement_only,
+                &mut times,
+            )?,
+            None => RadianceOutcome::default(),
         };
 
         // A VPL record traces one ray per VPL slot; placement counts plane records' rays
         // (tail fill's planes are coarser).
-        let record_rays = match &vpls {
+        let record_rays = match &sources.vpls {
             Some(v) => u64::from(placement.new_records) * u64::from(v.slots),
             None => placement.plane_rays,
         };
@@ -1414,7 +1349,7 @@ impl Renderer {
         let dark_plane_rays = RecordPass::take_dark_plane_rays(
             ctx,
             &std::iter::once(pass)
-                .chain(radiance_pass)
+                .chain(radiance.pass)
                 .collect::<Vec<_>>(),
         )?;
         let (width, height) = (camera.width, camera.height);
@@ -1430,8 +1365,8 @@ impl Renderer {
                 records: records.count,
                 reused_records,
                 plane_rays: record_rays
-                    + radiance_pass.map_or(0, |p| {
-                        u64::from(radiance_stats.1) * p.settings.plane_rays_per_record()
+                    + radiance.pass.map_or(0, |p| {
+                        u64::from(radiance.new_records) * p.settings.plane_rays_per_record()
                     })
                     + dark_plane_rays,
                 dark_plane_rays,
@@ -1440,12 +1375,12 @@ impl Renderer {
                 interpolation_factor,
                 median_record_noise: median_record_noise.unwrap_or(0.0),
                 widened_pixels,
-                radiance_records: radiance_stats.0,
-                new_radiance_records: radiance_stats.1,
-                radiance_order: radiance_stats.2,
-                bounce,
-                vpls,
-                photons,
+                radiance_records: radiance.records,
+                new_radiance_records: radiance.new_records,
+                radiance_order: radiance.order,
+                bounce: sources.bounce,
+                vpls: sources.vpls,
+                photons: sources.photons,
             }),
         };
         let mut coverage = if count_coverage {
@@ -1469,28 +1404,266 @@ impl Renderer {
             return Ok((frame, coverage));
         };
 
-        // Glossy lobes' indirect light (Monte Carlo through the lobe), then the resolve:
-        // direct + albedo / pi * interpolated irradiance + glossy.
+        let images = self.resolve_images(
+            scene,
+            &vis,
+            &splat,
+            &direct,
+            settings.glossy_samples,
+            &radiance,
+            &mut times,
+        )?;
+        let frame = Frame {
+            width,
+            height,
+            beauty: images.beauty,
+            albedo: images.albedo,
+            direct: images.direct,
+            indirect: Some(images.indirect),
+            visibility: images.visibility,
+            stats: stats(&times, images.uncovered_pixels),
+        };
+        Ok((frame, coverage))
+    }
+
+    /// Where a frame's records take light from beyond their own planes: the surface bounce
+    /// cache their plane hits reflect (bounces past the first; once per prepared scene),
+    /// the VPLs of `--records vpl`, and the records placed from the photon map
+    /// (`--records photons`, into an empty cache: thesis Algorithm 6, before any pixel
+    /// asks; the pixels they leave uncovered get plane records from placement).
+    fn record_sources(
+        &self,
+        scene: &PreparedScene,
+        camera: &Camera,
+        records: &mut RecordCache,
+        settings: &CacheSettings,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<RecordSources> {
+        // VPL records carry their bounces in the VPL paths; glossy lobe rays still reflect
+        // the cache.
+        let planes = settings.source != crate::records::RecordSource::Vpl;
+        let bounce = if planes || scene.gpu.has_glossy {
+            self.scene_bounce_cache(scene, settings, times)?
+        } else {
+            None
+        };
+        let vpls = self.scene_vpls(scene, settings, times)?;
+        let photons =
+            if settings.source == crate::records::RecordSource::Photons && records.count == 0 {
+                Some(self.photon_records(scene, camera, records, settings, times)?)
+            } else {
+                None
+            };
+        Ok(RecordSources {
+            bounce,
+            vpls,
+            photons,
+        })
+    }
+
+    /// Light-space visibility for the plane hits of new records
+    /// (`CacheSettings::plane_shadows`), traced once per scene; None where plane hits
+    /// trace shadow rays.
+    fn plane_light_maps(
+        &self,
+        scene: &PreparedScene,
+        settings: &CacheSettings,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<Option<std::sync::Arc<LightMaps>>> {
+        let mapped = match settings.plane_shadows {
+            PlaneShadows::Maps => MappedLights::All,
+            PlaneShadows::Auto => MappedLights::DeltaOnly,
+            PlaneShadows::Rays => return Ok(None),
+        };
+        Ok(Some(self.scene_light_maps(
+            scene,
+            &settings.light_maps,
+            mapped,
+            times,
+        )?))
+    }
+
+    /// Covers the pixels the records `cache` already holds reach (at the placement
+    /// accuracy), then places new records computed by `pass` where none does (thesis
+    /// Algorithm 4, on the GPU).
+    #[allow(clippy::too_many_arguments)]
+    fn place_records(
+        &self,
+        scene: &PreparedScene,
+        vis: &VisibilityBuffer,
+        bounds: &TileBounds,
+        cache: &mut RecordCache,
+        pass: &RecordPass,
+        light_maps: Option<&LightMaps>,
+        max_new_records: Option<u32>,
+        stage: Option<&mut (dyn crate::records::RecordStage + '_)>,
+        times: &mut Vec<(&'static str, f64)>,
+        progress: impl FnMut(u32),
+    ) -> Result<PlacementStats> {
+        let ctx = &self.ctx;
+        let splat_pass = self.splat_pass()?;
+        let settings = &pass.settings;
+        let held = SplatSource::new(
+            &scene.gpu,
+            vis,
+            bounds,
+            cache,
+            0,
+            settings.accuracy,
+            settings.corral.in_cover(),
+        );
+        let mask = CoverageMask::new(ctx, vis.width, vis.height)?;
+        splat_pass.cover(ctx, held, &mask, times)?;
+        self.placement_pass()?.place(
+            ctx,
+            &scene.gpu,
+            vis,
+            cache,
+            pass,
+            splat_pass,
+            bounds,
+            &mask,
+            light_maps,
+            max_new_records,
+            stage,
+            times,
+            progress,
+        )
+    }
+
+    /// Gathers every record of `all` into `splat`, those placement added included, at the
+    /// frame's interpolation factor (`CacheSettings::interpolation_factor`, widened for
+    /// noisy records): placement left every pixel within a of some record, so each is
+    /// still reached, by more records. Tail fill also gives the pixels only dark records
+    /// reach the lit records that reach them at the tail's accuracy. Returns the pixels
+    /// that kept a widened gather ([`Self::check_widened`]).
+    fn gather_records(
+        &self,
+        settings: &CacheSettings,
+        all: SplatSource,
+        placement: &PlacementStats,
+        interpolation_factor: f32,
+        splat: &SplatBuffer,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<u64> {
+        let tail = placement.tail_from_record.is_some() || all.dark_only_empty;
+        self.gather_with_tail(settings, all, tail, splat, times)?;
+        Ok(self
+            .check_widened(settings, all, interpolation_factor, tail, splat, times)?
+            .map_or(0, |(kept, _)| u64::from(kept)))
+    }
+
+    /// The radiance records of a frame (`rf`): their cover of the pixels whose lobes they
+    /// shade, their placement at their own accuracy (in the placement-only pass too: the
+    /// first pass of interpolated temporal gradients computes every frame's records), then
+    /// their gather, its passes timed under their own names.
+    #[allow(clippy::too_many_arguments)]
+    fn radiance_records<'p>(
+        &self,
+        scene: &PreparedScene,
+        vis: &VisibilityBuffer,
+        bounds: &TileBounds,
+        rf: RadianceFrame<'p, '_>,
+        light_maps: Option<&LightMaps>,
+        placement_only: bool,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<RadianceOutcome<'p>> {
+        let ctx = &self.ctx;
+        let splat_pass = self.splat_pass()?;
+        let first_time = times.len();
+        let need = CoverageMask::new(ctx, vis.width, vis.height)?;
+        rf.splat.need_mask(ctx, &scene.gpu, vis, &need);
+        let settings = &rf.pass.settings;
+        let held = SplatSource::new(
+            &scene.gpu,
+            vis,
+            bounds,
+            rf.records,
+            0,
+            settings.accuracy,
+            settings.corral.in_cover(),
+        );
+        splat_pass.cover(ctx, held, &need, times)?;
+        let placed = self.placement_pass()?.place(
+            ctx,
+            &scene.gpu,
+            vis,
+            rf.records,
+            rf.pass,
+            splat_pass,
+            bounds,
+            &need,
+            light_maps,
+            rf.max_new_records,
+            rf.stage,
+            times,
+            |_| {},
+        )?;
+        // Placement covered every pixel with a radiance lobe: if every glossy lobe has
+        // one, no pixel needs Monte Carlo lobe rays.
+        let covers_all = !placed.limit_reached && rf.splat.tables.every_lobe_has_slot();
+        let sums = if placement_only {
+            None
+        } else {
+            let all = SplatSource::new(
+                &scene.gpu,
+                vis,
+                bounds,
+                rf.records,
+                0,
+                settings.accuracy,
+                settings.corral.in_gathers(),
+            );
+            Some(rf.splat.gather(ctx, splat_pass, all, times)?)
+        };
+        for (name, _) in &mut times[first_time..] {
+            *name = radiance_pass_name(name);
+        }
+        Ok(RadianceOutcome {
+            pass: Some(rf.pass),
+            records: rf.records.count,
+            new_records: placed.new_records,
+            order: rf.splat.tables.settings.order,
+            covers_all,
+            sums,
+        })
+    }
+
+    /// Glossy lobes' indirect light (Monte Carlo through the lobe, where radiance records
+    /// do not cover every glossy pixel), then the resolve: direct + albedo / pi *
+    /// interpolated irradiance + glossy; the frame's images read back.
+    #[allow(clippy::too_many_arguments)]
+    fn resolve_images(
+        &self,
+        scene: &PreparedScene,
+        vis: &VisibilityBuffer,
+        splat: &SplatBuffer,
+        direct: &DirectOutput,
+        glossy_samples: u32,
+        radiance: &RadianceOutcome<'_>,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<ResolvedImages> {
+        let ctx = &self.ctx;
         let mut timer = PassTimer::new(ctx, 2);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         // Radiance records covering every glossy pixel need no lobe rays: the resolve takes
         // their mean itself (the glossy pass would only copy it).
-        let radiance_only = radiance_covers_all && radiance_sums.is_some();
+        let radiance_only = radiance.covers_all && radiance.sums.is_some();
         let glossy = if scene.gpu.has_glossy && !radiance_only {
             Some(self.glossy_pass(scene.gpu.features())?.record(
                 ctx,
                 &mut encoder,
                 &scene.gpu,
-                &vis,
-                pass.settings.glossy_samples,
-                radiance_sums.as_ref(),
-                radiance_covers_all,
+                vis,
+                glossy_samples,
+                radiance.sums.as_ref(),
+                radiance.covers_all,
                 timer.next("glossy indirect"),
             )?)
         } else {
             None
         };
-        let glossy_input = match (&glossy, &radiance_sums) {
+        let glossy_input = match (&glossy, &radiance.sums) {
             (Some(g), _) => GlossyInput::Indirect(g),
             (None, Some(sums)) if scene.gpu.has_glossy => GlossyInput::RadianceSums(sums),
             _ => GlossyInput::None,
@@ -1499,7 +1672,7 @@ impl Renderer {
             ctx,
             &mut encoder,
             &scene.gpu,
-            &splat,
+            splat,
             &direct.albedo,
             &direct.beauty,
             glossy_input,
@@ -1532,17 +1705,14 @@ impl Renderer {
             .filter(|(v, s)| v.is_hit() && s[3] <= 0.0)
             .count() as u64;
         ctx.check()?;
-        let frame = Frame {
-            width,
-            height,
+        Ok(ResolvedImages {
             beauty,
             albedo,
             direct: direct_img,
-            indirect: Some(indirect_img),
+            indirect: indirect_img,
             visibility,
-            stats: stats(&times, uncovered_pixels),
-        };
-        Ok((frame, coverage))
+            uncovered_pixels,
+        })
     }
 
     /// The interpolation factor of a frame over `records`
