@@ -99,6 +99,14 @@ fn rmse_of_synthetic_exr_images() {
         serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parse");
     assert_eq!(v["beauty"]["rmse"].as_f64(), Some(0.5));
     assert_eq!(v["indirect"]["relative_rmse"].as_f64(), Some(0.5));
+    // Beauty's error is one pixel's: the worst 1 % (one pixel of 12) holds all of it.
+    // Indirect's is a bias of 1.5x spread over every pixel: one pixel holds 1/12.
+    assert_eq!(v["beauty"]["worst_share"].as_f64(), Some(1.0));
+    assert_eq!(v["indirect"]["mean_ratio"].as_f64(), Some(1.5));
+    let share = v["indirect"]["worst_share"].as_f64().expect("worst_share");
+    assert!((share - 1.0 / 12.0).abs() < 1e-12, "{share}");
+    assert!(out.contains("mean ratio 1.5000"), "{out}");
+    assert!(out.contains("worst 1 % of pixels: 100.0 %"), "{out}");
     let png = image::open(&diff).expect("diff png");
     assert_eq!((png.width(), png.height()), (w, h + LEGEND_ROWS));
 

@@ -3,7 +3,10 @@
 
 For each variant: the indirect light's relative RMSE after a 4x4 box filter, the share of
 the reference's lit 4x4 blocks where the render's indirect light is exactly zero (issue 17
-asks for none), and the render's wall time. References are rendered once per variant,
+asks for none), the ratio of the render's mean indirect light to the reference's (a bias),
+the share of the squared error in the worst 1 % of blocks (near 1 %: noise everywhere; far
+above: a few blocks hold it, and record placement decides the error), and the render's
+wall time. References are rendered once per variant,
 spp and seed, and kept in the output folder; the renders are redone on every run.
 
     benches/variants/check.py [--bin target/release/radsplat] [--spp 1024] [--out DIR]
@@ -69,7 +72,8 @@ def main():
     unknown = [n for n in names if n not in VARIANTS]
     if unknown:
         sys.exit(f"unknown variants: {', '.join(unknown)} (known: {', '.join(VARIANTS)})")
-    print(f"{'variant':18s} {'error %':>8s} {'zero blocks %':>14s} {'wall s':>7s}")
+    print(f"{'variant':18s} {'error %':>8s} {'zero blocks %':>14s} {'mean ratio':>10s} "
+          f"{'worst 1 %':>9s} {'wall s':>7s}")
     for name in names:
         if not found(ASSETS.get(name)):
             print(f"{name:18s} skipped: {ASSETS[name]} not along RADSPLAT_ASSET_PATH")
@@ -89,7 +93,10 @@ def main():
             c = json.load(f)
         error = 100 * c["indirect"]["relative_rmse"]
         zero = 100 * c["indirect_unlit"]
-        print(f"{name:18s} {error:8.2f} {zero:14.3f} {wall:7.2f}", flush=True)
+        ratio = c["indirect"]["mean_ratio"]
+        worst = 100 * c["indirect"]["worst_share"]
+        print(f"{name:18s} {error:8.2f} {zero:14.3f} {ratio:10.3f} {worst:8.1f}% {wall:7.2f}",
+              flush=True)
 
 
 if __name__ == "__main__":

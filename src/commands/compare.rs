@@ -54,11 +54,14 @@ pub fn compare(
     );
     let line = |name: &str, s: &crate::compare::ErrorStats| {
         println!(
-            "{name:<9} RMSE {:.6e}  RMS(ref) {:.6e}  relative RMSE {:.4} ({:.2} %)",
+            "{name:<9} RMSE {:.6e}  RMS(ref) {:.6e}  relative RMSE {:.4} ({:.2} %)  \
+             mean ratio {:.4}  worst 1 % of pixels: {:.1} % of the squared error",
             s.rmse,
             s.rms_reference,
             s.relative_rmse,
-            100.0 * s.relative_rmse
+            100.0 * s.relative_rmse,
+            s.mean_ratio,
+            100.0 * s.worst_share
         );
     };
     line("beauty", &c.beauty);
