@@ -17,6 +17,7 @@ with a line saying so, when RADSPLAT_ASSET_PATH does not find it. Standard libra
 """
 
 import argparse
+import hashlib
 import json
 import os
 import subprocess
@@ -51,6 +52,15 @@ def found(asset):
     return any(p and os.path.exists(os.path.join(p, asset)) for p in paths)
 
 
+def sha256_prefix(path):
+    """The first 12 hex digits of the file's SHA-256 (which build ran)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()[:12]
+
+
 def run(cmd):
     result = subprocess.run(cmd, capture_output=True, text=True)
     if result.returncode != 0:
@@ -72,6 +82,9 @@ def main():
     unknown = [n for n in names if n not in VARIANTS]
     if unknown:
         sys.exit(f"unknown variants: {', '.join(unknown)} (known: {', '.join(VARIANTS)})")
+    # Which build made these numbers: a rebuilt target/release is easy to mistake for
+    # another (stop 66 measured an experiment's build for a while as the default one).
+    print(f"# {args.bin} (sha256 {sha256_prefix(args.bin)}), flags: {' '.join(args.flags) or 'none'}")
     print(f"{'variant':18s} {'error %':>8s} {'zero blocks %':>14s} {'mean ratio':>10s} "
           f"{'worst 1 %':>9s} {'wall s':>7s}")
     for name in names:

@@ -30,7 +30,7 @@ import subprocess
 import sys
 import time
 
-from check import ASSETS, ROOT, VARIANTS, found, run
+from check import ASSETS, ROOT, VARIANTS, found, run, sha256_prefix
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -73,6 +73,9 @@ def main():
     if unknown:
         sys.exit(f"unknown variants: {', '.join(unknown)} (known: {', '.join(VARIANTS)})")
     os.makedirs(args.out, exist_ok=True)
+    for label, binary, flags in builds:
+        print(f"# {label}: {binary} (sha256 {sha256_prefix(binary)}), "
+              f"flags: {' '.join(flags) or 'none'}")
     for name in names:
         if not found(ASSETS.get(name)):
             print(f"{name}: skipped, {ASSETS[name]} not along RADSPLAT_ASSET_PATH")
