@@ -1278,10 +1278,12 @@ impl Renderer {
             .splat_pass()?
             .tile_bounds(ctx, &scene.gpu, &vis, &mut times)?;
         let light_maps = self.plane_light_maps(scene, settings, &mut times)?;
+        let mask = CoverageMask::new(ctx, camera.width, camera.height)?;
         let placement = self.place_records(
             scene,
             &vis,
             &bounds,
+            &mask,
             records,
             pass,
             light_maps.as_deref(),
@@ -1483,15 +1485,18 @@ impl Renderer {
         )?))
     }
 
-    /// Covers the pixels the records `cache` already holds reach (at the placement
-    /// accuracy), then places new records computed by `pass` where none does (thesis
-    /// Algorithm 4, on the GPU).
+    /// Marks in `mask` the pixels the records `cache` already holds reach (at the
+    /// placement accuracy), then places new records computed by `pass` where no record
+    /// reaches a pixel `mask` leaves unmarked (thesis Algorithm 4, on the GPU). Irradiance
+    /// records start from an empty mask; radiance records from one that marks the pixels
+    /// without a lobe they shade.
     #[allow(clippy::too_many_arguments)]
     fn place_records(
         &self,
         scene: &PreparedScene,
         vis: &VisibilityBuffer,
         bounds: &TileBounds,
+        mask: &CoverageMask,
         cache: &mut RecordCache,
         pass: &RecordPass,
         light_maps: Option<&LightMaps>,
@@ -1512,8 +1517,7 @@ impl Renderer {
             settings.accuracy,
             settings.corral.in_cover(),
         );
-        let mask = CoverageMask::new(ctx, vis.width, vis.height)?;
-        splat_pass.cover(ctx, held, &mask, times)?;
+        splat_pass.cover(ctx, held, mask, times)?;
         self.placement_pass()?.place(
             ctx,
             &scene.gpu,
@@ -1522,7 +1526,7 @@ impl Renderer {
             pass,
             splat_pass,
             bounds,
-            &mask,
+            mask,
             light_maps,
             max_new_records,
             stage,
@@ -1573,32 +1577,20 @@ impl Renderer {
         let first_time = times.len();
         let need = CoverageMask::new(ctx, vis.width, vis.height)?;
         rf.splat.need_mask(ctx, &scene.gpu, vis, &need);
-        let settings = &rf.pass.settings;
-        let held = SplatSource::new(
-            &scene.gpu,
+        let placed = self.place_records(
+            scene,
             vis,
-            bounds,
-            rf.records,
-            0,
-            settings.accuracy,
-            settings.corral.in_cover(),
-        );
-        splat_pass.cover(ctx, held, &need, times)?;
-        let placed = self.placement_pass()?.place(
-            ctx,
-            &scene.gpu,
-            vis,
-            rf.records,
-            rf.pass,
-            splat_pass,
             bounds,
             &need,
+            rf.records,
+            rf.pass,
             light_maps,
             rf.max_new_records,
             rf.stage,
             times,
             |_| {},
         )?;
+        let settings = &rf.pass.settings;
         // Placement covered every pixel with a radiance lobe: if every glossy lobe has
         // one, no pixel needs Monte Carlo lobe rays.
         let covers_all = !placed.limit_reached && rf.splat.tables.every_lobe_has_slot();

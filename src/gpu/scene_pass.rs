@@ -69,11 +69,6 @@ impl ScenePass {
         )?;
         Ok(&self.pass)
     }
-
-    /// The features the pass was compiled for.
-    pub fn features(&self) -> SceneFeatures {
-        self.features
-    }
 }
 
 impl ScenePassShader {
