@@ -61,6 +61,40 @@ def sha256_prefix(path):
     return digest.hexdigest()[:12]
 
 
+def select_variants(only):
+    """The variants `--only` names (comma-separated; None: all), in VARIANTS's order of
+    mention; exits naming any unknown one."""
+    names = only.split(",") if only else VARIANTS
+    unknown = [n for n in names if n not in VARIANTS]
+    if unknown:
+        sys.exit(f"unknown variants: {', '.join(unknown)} (known: {', '.join(VARIANTS)})")
+    return names
+
+
+def reference(binary, scene, path, spp, seed, size=None):
+    """Renders `scene`'s reference to `path` once (kept: later calls find it)."""
+    if os.path.exists(path):
+        return
+    size_flags = ["--size", size] if size else []
+    run([binary, "reference", scene, *size_flags, "--spp", str(spp), "--seed", str(seed),
+         "-o", path, "--quiet"])
+
+
+def render(binary, scene, path, flags, size=None):
+    """Renders `scene` to `path`; returns the wall time in seconds."""
+    size_flags = ["--size", size] if size else []
+    t0 = time.monotonic()
+    run([binary, "render", scene, *size_flags, "-o", path, "--quiet"] + flags)
+    return time.monotonic() - t0
+
+
+def compare(binary, img, ref, json_path):
+    """`radsplat compare` of `img` against `ref` after a 4x4 box filter: its JSON."""
+    run([binary, "compare", img, ref, "--downsample", "4", "--json", json_path])
+    with open(json_path) as f:
+        return json.load(f)
+
+
 def run(cmd):
     result = subprocess.run(cmd, capture_output=True, text=True)
     if result.returncode != 0:
@@ -78,10 +112,7 @@ def main():
     ap.add_argument("flags", nargs="*", help="extra `radsplat render` flags (after --)")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    names = args.only.split(",") if args.only else VARIANTS
-    unknown = [n for n in names if n not in VARIANTS]
-    if unknown:
-        sys.exit(f"unknown variants: {', '.join(unknown)} (known: {', '.join(VARIANTS)})")
+    names = select_variants(args.only)
     # Which build made these numbers: a rebuilt target/release is easy to mistake for
     # another (stop 66 measured an experiment's build for a while as the default one).
     print(f"# {args.bin} (sha256 {sha256_prefix(args.bin)}), flags: {' '.join(args.flags) or 'none'}")
@@ -93,17 +124,10 @@ def main():
             continue
         scene = os.path.join(HERE, f"{name}.toml")
         ref = os.path.join(args.out, f"{name}-ref-{args.spp}spp-seed{args.seed}.exr")
-        if not os.path.exists(ref):
-            run([args.bin, "reference", scene, "--spp", str(args.spp), "--seed",
-                 str(args.seed), "-o", ref, "--quiet"])
+        reference(args.bin, scene, ref, args.spp, args.seed)
         img = os.path.join(args.out, f"{name}.exr")
-        t0 = time.monotonic()
-        run([args.bin, "render", scene, "-o", img, "--quiet"] + args.flags)
-        wall = time.monotonic() - t0
-        cmp_json = os.path.join(args.out, f"{name}-compare.json")
-        run([args.bin, "compare", img, ref, "--downsample", "4", "--json", cmp_json])
-        with open(cmp_json) as f:
-            c = json.load(f)
+        wall = render(args.bin, scene, img, args.flags)
+        c = compare(args.bin, img, ref, os.path.join(args.out, f"{name}-compare.json"))
         error = 100 * c["indirect"]["relative_rmse"]
         zero = 100 * c["indirect_unlit"]
         ratio = c["indirect"]["mean_ratio"]

@@ -22,15 +22,13 @@ when their model is not found).
 """
 
 import argparse
-import json
 import os
 import re
 import statistics
-import subprocess
 import sys
-import time
 
-from check import ASSETS, ROOT, VARIANTS, found, run, sha256_prefix
+from check import (ASSETS, ROOT, compare, found, reference, render, select_variants,
+                   sha256_prefix)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -68,10 +66,7 @@ def main():
         sys.exit("--step must be a positive multiple of 4")
     builds = [parse_build(b) for b in args.builds]
     steps = [0] + [int(s) for s in args.steps.split(",") if s.strip()]
-    names = args.only.split(",") if args.only else VARIANTS
-    unknown = [n for n in names if n not in VARIANTS]
-    if unknown:
-        sys.exit(f"unknown variants: {', '.join(unknown)} (known: {', '.join(VARIANTS)})")
+    names = select_variants(args.only)
     os.makedirs(args.out, exist_ok=True)
     for label, binary, flags in builds:
         print(f"# {label}: {binary} (sha256 {sha256_prefix(binary)}), "
@@ -92,19 +87,14 @@ def main():
                 continue
             sizes.append(f"{w}x{h}")
             ref = os.path.join(args.out, f"{name}-{w}x{h}-ref-{args.spp}spp-seed{args.seed}.exr")
-            if not os.path.exists(ref):
-                run([args.ref_bin, "reference", scene, "--size", f"{w}x{h}", "--spp",
-                     str(args.spp), "--seed", str(args.seed), "-o", ref, "--quiet"])
+            reference(args.ref_bin, scene, ref, args.spp, args.seed, f"{w}x{h}")
             line = []
             for label, binary, flags in builds:
                 img = os.path.join(args.out, f"{name}-{w}x{h}-{label}.exr")
-                t0 = time.monotonic()
-                run([binary, "render", scene, "--size", f"{w}x{h}", "-o", img, "--quiet"] + flags)
-                walls[label].append(time.monotonic() - t0)
-                cmp_json = os.path.join(args.out, f"{name}-{w}x{h}-{label}.json")
-                run([args.ref_bin, "compare", img, ref, "--downsample", "4", "--json", cmp_json])
-                with open(cmp_json) as f:
-                    error = 100 * json.load(f)["indirect"]["relative_rmse"]
+                walls[label].append(render(binary, scene, img, flags, f"{w}x{h}"))
+                c = compare(args.ref_bin, img, ref,
+                            os.path.join(args.out, f"{name}-{w}x{h}-{label}.json"))
+                error = 100 * c["indirect"]["relative_rmse"]
                 errors[label].append(error)
                 line.append(f"{label} {error:6.2f} %")
             print(f"{name:16s} {w}x{h:<5d} " + "  ".join(line), flush=True)
