@@ -310,6 +310,8 @@ pub fn run_cli(
     let mut outputs = crate::output::OutputSet::new();
     outputs.plan_opt(json)?;
     let ctx = GpuContext::new()?;
+    // The table is GPU time: timestamps where the device has them.
+    ctx.set_pass_timing(true);
     let bar = if quiet {
         indicatif::ProgressBar::hidden()
     } else {

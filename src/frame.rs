@@ -136,12 +136,14 @@ impl RadianceCache {
 pub struct FrameStats {
     pub width: u32,
     pub height: u32,
-    /// GPU time per pass in ms (timestamp queries; empty if the device lacks them),
-    /// without shader compilation.
+    /// GPU time per pass in ms (timestamp queries), without shader compilation; empty
+    /// unless passes are timed ([`crate::gpu::GpuContext::set_pass_timing`]) on a device
+    /// with timestamps.
     pub pass_ms: Vec<(String, f64)>,
     /// Shader compilation per pass in ms (wall time), for the pipelines first dispatched
     /// during this frame: compiled once per process, at first use, so later frames have
-    /// none (see `gpu::pipeline::ComputePass`).
+    /// none (see `gpu::pipeline::ComputePass`). On drivers that compile at the first
+    /// dispatch (lavapipe), only while passes are timed.
     pub shader_compile_ms: Vec<(String, f64)>,
     /// Wall time of the frame on the CPU side, submit to readback, in ms.
     pub wall_ms: f64,

@@ -42,9 +42,13 @@ enum Command {
         /// Override the scene's light samples per pixel (area lights, environment).
         #[arg(long)]
         light_samples: Option<u32>,
-        /// Write frame statistics as JSON here.
+        /// Write frame statistics as JSON here (pass times only with --time-passes).
         #[arg(long)]
         stats: Option<PathBuf>,
+        /// Time each GPU pass, and shader compilation apart, for the summary and --stats
+        /// (a profile: a few percent slower on lavapipe; the same image).
+        #[arg(long)]
+        time_passes: bool,
         /// Direct light only (no irradiance cache).
         #[arg(long)]
         direct_only: bool,
@@ -230,9 +234,13 @@ enum Command {
         /// red (short-lived) to green (long-lived).
         #[arg(long)]
         lifespan_map: Option<PathBuf>,
-        /// Write per-frame statistics as JSON here.
+        /// Write per-frame statistics as JSON here (pass times only with --time-passes).
         #[arg(long)]
         stats: Option<PathBuf>,
+        /// Time each GPU pass, and shader compilation apart, for --stats (a profile: a
+        /// few percent slower on lavapipe; the same images).
+        #[arg(long)]
+        time_passes: bool,
         /// No progress bar or summary.
         #[arg(short, long)]
         quiet: bool,
@@ -831,6 +839,7 @@ fn main() -> ExitCode {
             size,
             light_samples,
             stats,
+            time_passes,
             direct_only,
             cache,
             record_map,
@@ -842,6 +851,7 @@ fn main() -> ExitCode {
             size,
             light_samples,
             stats,
+            time_passes,
             cache: (!direct_only).then(|| cache.settings(false)),
             record_map,
             quiet,
@@ -868,6 +878,7 @@ fn main() -> ExitCode {
             cache,
             lifespan_map,
             stats,
+            time_passes,
             quiet,
         } => commands::animate::animate(commands::animate::AnimateArgs {
             scene_path: &scene,
@@ -917,6 +928,7 @@ fn main() -> ExitCode {
             }),
             lifespan_map,
             stats,
+            time_passes,
             quiet,
         }),
         Command::TemporalError {

@@ -227,3 +227,53 @@ fn an_animation_with_a_bad_stats_path_writes_no_frame() {
     assert!(err.contains("nodir"), "{err}");
     assert!(entries(&dir).is_empty(), "{:?}", entries(&dir));
 }
+
+/// `render` times its passes only with `--time-passes` (a profile that costs on lavapipe):
+/// without it `--stats` has no pass times and the summary says how to get them; with it
+/// both have them. The image is the same bytes either way.
+#[test]
+fn render_times_its_passes_only_with_time_passes() {
+    let dir = tmp_dir("time-passes");
+    let scene = common::bundled("cornell-box.toml");
+    let mut runs = Vec::new();
+    for timed in [false, true] {
+        let exr = dir.join(format!("out-{timed}.exr"));
+        let stats = dir.join(format!("stats-{timed}.json"));
+        let mut args = vec![
+            "render",
+            s(&scene),
+            "--size",
+            "16x16",
+            "--plane-resolution",
+            "8",
+            "-o",
+            s(&exr),
+            "--stats",
+            s(&stats),
+        ];
+        if timed {
+            args.push("--time-passes");
+        }
+        let (code, _, err) = radsplat(&args);
+        assert_eq!(code, 0, "{err}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).expect("stats")).expect("json");
+        let passes = json["frame"]["pass_ms"].as_array().expect("pass_ms").len();
+        runs.push((std::fs::read(&exr).expect("exr"), passes, err));
+    }
+    let (untimed_exr, untimed_passes, untimed_err) = &runs[0];
+    let (timed_exr, timed_passes, timed_err) = &runs[1];
+    assert_eq!(*untimed_passes, 0, "untimed --stats has pass times");
+    assert!(
+        untimed_err.contains("pass times with --time-passes"),
+        "{untimed_err}"
+    );
+    assert!(untimed_exr == timed_exr, "timing changed the image");
+    let (_, info, _) = radsplat(&["info"]);
+    if info.contains("TIMESTAMP_QUERY (per-pass GPU times, with --time-passes): true") {
+        assert!(*timed_passes > 5, "timed: {timed_passes} pass times");
+        assert!(timed_err.contains("hemisphere planes"), "{timed_err}");
+    } else {
+        assert!(timed_err.contains("no timestamps"), "{timed_err}");
+    }
+}

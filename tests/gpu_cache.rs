@@ -508,6 +508,7 @@ fn placement_is_deterministic_and_the_gi_render_matches_its_golden_hash() {
 fn placement_waits_for_the_device_twice_per_round_and_still_times_its_passes() {
     let scene = common::load("cornell-box.toml", Some((64, 64)));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
+    renderer.ctx.set_pass_timing(true);
     let mut cache = renderer.new_cache(&settings()).expect("cache");
     let frame = render(&renderer, &scene, &mut cache);
     let rounds = u64::from(
@@ -525,7 +526,7 @@ fn placement_waits_for_the_device_twice_per_round_and_still_times_its_passes() {
         waits <= 2 * rounds + 24,
         "{waits} waits for the device in {rounds} placement rounds"
     );
-    if renderer.ctx.has_timestamps() {
+    if renderer.ctx.times_passes() {
         let names: Vec<&str> = frame
             .stats
             .pass_ms

@@ -18,6 +18,7 @@ fn names(times: &[(String, f64)]) -> Vec<&str> {
 #[test]
 fn each_pipeline_is_compiled_once_at_first_use_and_reported_apart() {
     let renderer = Renderer::new(common::gpu()).expect("renderer");
+    renderer.ctx.set_pass_timing(true);
     let scene = common::load("cornell-box.toml", Some((16, 16)));
     let prepared = renderer.prepare(&scene).expect("prepare");
 
@@ -110,6 +111,92 @@ fn each_pipeline_is_compiled_once_at_first_use_and_reported_apart() {
         );
     }
     renderer.ctx.check().expect("no device error");
+}
+
+/// Passes are timed only when asked (`GpuContext::set_pass_timing`): an untimed GI frame
+/// reports no pass times and no compilation on a driver that compiles at the first
+/// dispatch (its first real dispatch compiles, with nothing waited for apart), and gives
+/// the bytes a timed frame gives. Timing asked for later starts with the next frame, and
+/// a pipeline the untimed frame compiled is not reported as compiled again.
+#[test]
+fn passes_are_timed_only_when_asked_and_the_image_does_not_change() {
+    let scene = common::load("cornell-box.toml", Some((32, 32)));
+    let settings = CacheSettings {
+        plane_resolution: 8,
+        ..CacheSettings::default()
+    };
+    let untimed = Renderer::new(common::gpu()).expect("renderer");
+    let prepared = untimed.prepare(&scene).expect("prepare");
+    let mut cache = untimed.new_cache(&settings).expect("cache");
+    let quiet = untimed
+        .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
+        .expect("GI frame");
+    assert!(
+        quiet.stats.pass_ms.is_empty(),
+        "untimed, yet pass times: {:?}",
+        quiet.stats.pass_ms
+    );
+    if untimed.ctx.compiles_at_first_dispatch() {
+        assert!(
+            quiet.stats.shader_compile_ms.is_empty(),
+            "untimed, yet compilations timed apart: {:?}",
+            quiet.stats.shader_compile_ms
+        );
+    }
+
+    let timed = Renderer::new(common::gpu()).expect("renderer");
+    timed.ctx.set_pass_timing(true);
+    let prepared_timed = timed.prepare(&scene).expect("prepare");
+    let mut cache_timed = timed.new_cache(&settings).expect("cache");
+    let profiled = timed
+        .render_gi_frame(
+            &prepared_timed,
+            &scene.camera,
+            &mut cache_timed,
+            None,
+            |_| {},
+        )
+        .expect("GI frame");
+    assert_eq!(quiet.beauty, profiled.beauty, "timing changed the image");
+    if timed.ctx.times_passes() {
+        let names = names(&profiled.stats.pass_ms);
+        for pass in [
+            "visibility",
+            "hemisphere planes",
+            "splat: gather",
+            "resolve",
+        ] {
+            assert!(names.contains(&pass), "no time for {pass}: {names:?}");
+        }
+    }
+    if timed.ctx.compiles_at_first_dispatch() {
+        assert!(
+            names(&profiled.stats.shader_compile_ms).contains(&"hemisphere_plane.wgsl"),
+            "{:?}",
+            profiled.stats.shader_compile_ms
+        );
+    }
+
+    // Switched on after an untimed frame: the next frame is timed, and the pipelines the
+    // first one compiled are not reported again.
+    untimed.ctx.set_pass_timing(true);
+    let mut cache_again = untimed.new_cache(&settings).expect("cache");
+    let later = untimed
+        .render_gi_frame(&prepared, &scene.camera, &mut cache_again, None, |_| {})
+        .expect("GI frame");
+    assert_eq!(later.beauty, quiet.beauty, "the same frame again");
+    assert!(
+        later.stats.shader_compile_ms.is_empty(),
+        "compiled twice: {:?}",
+        later.stats.shader_compile_ms
+    );
+    if untimed.ctx.times_passes() {
+        assert!(
+            !later.stats.pass_ms.is_empty(),
+            "timing switched on, no pass times"
+        );
+    }
+    untimed.ctx.check().expect("no device error");
 }
 
 /// The pipeline cache lives in `<dir>/<wgpu's key for the adapter>.bin`; a saved cache is

@@ -3,7 +3,8 @@
 
 This machine's lavapipe speed swings by 20-30 % within minutes, so medians of runs taken
 minutes apart compare the machine, not the builds. This runs the two binaries
-alternately, N times each, with `--stats`. Each run is compared with its neighbour: the
+alternately, N times each, with `--stats` (and `--time-passes` unless `--untimed`, which
+measures the process as users run it). Each run is compared with its neighbour: the
 ratio B / A of the GPU time of the named passes and of the frame. It prints the median
 ratio with its distribution-free 95 % interval (the sign test's order statistics; from 6
 pairs) and whether that interval lies below 1, above 1 or includes it, the pairs under 1,
@@ -12,7 +13,7 @@ machine 10-pair medians of one change have read 1.12 and 0.94 in one session (st
 read the interval, not the median.
 
     python3 benches/paired/paired.py OLD_BINARY NEW_BINARY scenes/nave.toml --runs 8 \
-        [--passes "hemisphere planes,plane refinement"] [-- extra render flags]
+        [--passes "hemisphere planes,plane refinement" | --untimed] [-- extra render flags]
 
 Standard library only; needs RADSPLAT_ASSET_PATH for scenes outside the repository.
 """
@@ -28,12 +29,28 @@ import time
 from pathlib import Path
 
 
-def run(binary, scene, out_dir, tag, extra):
+_TAKES_TIME_PASSES = {}
+
+
+def takes_time_passes(binary):
+    """Whether `binary render` has --time-passes (binaries before it always timed)."""
+    key = str(binary)
+    if key not in _TAKES_TIME_PASSES:
+        help_text = subprocess.run([key, "render", "--help"], capture_output=True,
+                                   text=True).stdout
+        _TAKES_TIME_PASSES[key] = "--time-passes" in help_text
+    return _TAKES_TIME_PASSES[key]
+
+
+def run(binary, scene, out_dir, tag, extra, timed=True):
     image = out_dir / f"{tag}.exr"
     stats = out_dir / f"{tag}.json"
     t0 = time.perf_counter()
+    # --time-passes: the passes' times are what this script compares (both binaries pay
+    # for the timestamps alike; a binary from before the flag existed times them anyway).
+    timing = ["--time-passes"] if timed and takes_time_passes(binary) else []
     subprocess.run([str(binary), "render", str(scene), "-o", str(image), "--quiet",
-                    "--stats", str(stats), *extra], check=True)
+                    "--stats", str(stats), *timing, *extra], check=True)
     wall = time.perf_counter() - t0
     stats = json.loads(stats.read_text())
     frame = stats["frame"]
@@ -80,6 +97,9 @@ def main():
     ap.add_argument("b", type=Path, help="the new build")
     ap.add_argument("scene", type=Path)
     ap.add_argument("--runs", type=int, default=8)
+    ap.add_argument("--untimed", action="store_true",
+                    help="render without --time-passes, as users run it (no pass ratio; "
+                         "a binary from before the flag still times its passes)")
     ap.add_argument("--passes", default="hemisphere planes,plane refinement",
                     help="comma-separated pass names of --stats' pass_ms, summed (a pass "
                          "one build has and the other lacks counts 0 there)")
@@ -97,10 +117,11 @@ def main():
             got = {}
             for side in order:
                 binary = args.a if side == "a" else args.b
-                got[side] = run(binary, args.scene, out, f"{side}{i}", args.extra)
+                got[side] = run(binary, args.scene, out, f"{side}{i}", args.extra,
+                                not args.untimed)
             (pa, fa, wa, da, sa), (pb, fb, wb, db, sb) = got["a"], got["b"]
             missing = [n for n in names if n not in pa and n not in pb]
-            if missing:
+            if missing and not args.untimed:
                 sys.exit(f"no pass named {missing} in --stats (have: {sorted(pa)})")
             old = sum(pa.get(n, 0.0) for n in names)
             # A build without GPU timestamps reports no pass times: no ratio then.
@@ -112,8 +133,10 @@ def main():
     fmt = lambda xs: " ".join(f"{x:.2f}" for x in xs)
     print(f"{args.scene}, {args.runs} pairs, ratio new / old: the median, its 95 % "
           "interval (sign test), pairs under 1; then every pair")
-    for label, xs in [(' + '.join(names), passes), ("start-up", starts),
-                      ("frame (GPU wall)", frames), ("process wall", walls)]:
+    rows = [("start-up", starts), ("frame (GPU wall)", frames), ("process wall", walls)]
+    if not args.untimed:
+        rows.insert(0, (' + '.join(names), passes))
+    for label, xs in rows:
         print(f"  {label + ':':18s} {summary(xs)}")
         print(f"  {'':18s} ({fmt(xs)})")
     print("  images: " + ("the same bytes" if len(digests) == 1 else

@@ -20,7 +20,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 render() {
     /usr/bin/time -f "%e %U %S" -o "$work/time" "$bin" render scenes/cornell-box.toml \
-        --size 32x32 -o "$work/out.exr" --stats "$work/stats.json" --quiet "$@"
+        --size 32x32 -o "$work/out.exr" --stats "$work/stats.json" --time-passes --quiet "$@"
     read -r wall user sys < "$work/time"
     compile=$(python3 -c "import json;print(round(sum(m for _,m in json.load(open('$work/stats.json'))['frame']['shader_compile_ms'])))")
     echo "$wall $(python3 -c "print($user+$sys)") $compile"

@@ -35,6 +35,8 @@ pub struct AnimateArgs<'a> {
     pub lifespan_map: Option<PathBuf>,
     /// Statistics as JSON.
     pub stats: Option<PathBuf>,
+    /// Time the GPU passes ([`GpuContext::set_pass_timing`]).
+    pub time_passes: bool,
     /// No progress bar or summary.
     pub quiet: bool,
 }
@@ -118,7 +120,9 @@ pub fn animate(mut args: AnimateArgs) -> Result<()> {
         }
         crate::output::output_dir(&frame_path(map, *frames.start())?)?;
     }
-    let renderer = Renderer::new(GpuContext::new()?)?;
+    let ctx = GpuContext::new()?;
+    ctx.set_pass_timing(args.time_passes);
+    let renderer = Renderer::new(ctx)?;
     crate::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
     let count = frames.end() - frames.start() + 1;
     let options = AnimationOptions {

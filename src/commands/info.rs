@@ -52,7 +52,7 @@ pub fn info() -> Result<()> {
     println!("  largest square image              {side}x{side}");
     println!("features used:");
     println!(
-        "  TIMESTAMP_QUERY (per-pass GPU times): {}",
+        "  TIMESTAMP_QUERY (per-pass GPU times, with --time-passes): {}",
         ctx.has_timestamps()
     );
     println!(

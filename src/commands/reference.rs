@@ -42,7 +42,11 @@ pub fn reference(
     outputs.plan_opt(png.as_deref())?;
     outputs.plan_opt(stats.as_deref())?;
     let t0 = std::time::Instant::now();
-    let renderer = Renderer::new(GpuContext::new()?)?;
+    let ctx = GpuContext::new()?;
+    // Its summary reports shader compilation apart from the passes; against the
+    // reference's seconds of tracing, what timing costs is lost in the noise.
+    ctx.set_pass_timing(true);
+    let renderer = Renderer::new(ctx)?;
     crate::visibility::check_resolution(&renderer.ctx, scene.camera.width, scene.camera.height)?;
     let prepared = renderer.prepare(&scene)?;
     let pass = ReferencePass::for_scene(&renderer.ctx, prepared.gpu.features())?;

@@ -22,6 +22,8 @@ pub struct RenderArgs<'a> {
     pub light_samples: Option<u32>,
     /// Statistics as JSON.
     pub stats: Option<PathBuf>,
+    /// Time the GPU passes ([`GpuContext::set_pass_timing`]).
+    pub time_passes: bool,
     /// None: direct light only.
     pub cache: Option<CacheSettings>,
     /// The record sites drawn over the image (PNG).
@@ -40,6 +42,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
         size,
         light_samples,
         stats,
+        time_passes,
         cache,
         record_map,
         quiet,
@@ -76,7 +79,9 @@ pub fn render(args: RenderArgs) -> Result<()> {
     let (loaded, started) = std::thread::scope(|s| {
         // The passes this frame runs are built there too, each on its own thread.
         let starting = s.spawn(|| {
-            let renderer = Renderer::new(GpuContext::new()?)?;
+            let ctx = GpuContext::new()?;
+            ctx.set_pass_timing(time_passes);
+            let renderer = Renderer::new(ctx)?;
             let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
             // Asked for by several building threads: the first receives, the others wait.
             let received = std::sync::OnceLock::new();
@@ -211,17 +216,26 @@ pub fn render(args: RenderArgs) -> Result<()> {
                 );
             }
         }
+        // Drivers that compile at the first dispatch (lavapipe) report compilations only
+        // when passes are timed.
         let compile: f64 = frame.stats.shader_compile_ms.iter().map(|(_, ms)| ms).sum();
+        let compiled = if frame.stats.shader_compile_ms.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", shader compilation {compile:.0} ms ({} pipelines)",
+                frame.stats.shader_compile_ms.len()
+            )
+        };
         eprintln!(
-            "{}x{}, {} triangles, BVH {:.1} ms, shader compilation {:.0} ms ({} pipelines), \
-             GPU: {}; wrote {}{}",
+            "{}x{}, {} triangles, BVH {:.1} ms{compiled}, GPU: {}; wrote {}{}",
             frame.width,
             frame.height,
             prepared.bvh_stats.triangles,
             prepared.bvh_stats.build_ms,
-            compile,
-            frame.stats.shader_compile_ms.len(),
-            if passes.is_empty() {
+            if !time_passes {
+                "pass times with --time-passes".to_string()
+            } else if passes.is_empty() {
                 "no timestamps".to_string()
             } else {
                 passes.join(", ")

@@ -115,6 +115,9 @@ pub struct GpuContext {
     /// The passes built on this device, by shader, bindings and constants
     /// ([`super::pipeline::ComputePass::with_constants`]).
     pub(crate) built_passes: super::pipeline::BuiltPasses,
+    /// Whether passes are timed ([`GpuContext::set_pass_timing`]); shared with the passes,
+    /// which read it at each dispatch.
+    pub(crate) pass_timing: Arc<std::sync::atomic::AtomicBool>,
 }
 
 /// A wgpu pipeline cache kept in a file between runs, so a driver that compiles pipelines
@@ -334,7 +337,34 @@ impl GpuContext {
             waits: Arc::default(),
             deferred_times: Arc::default(),
             built_passes: Default::default(),
+            pass_timing: Arc::default(),
         }
+    }
+
+    /// Times each GPU pass (timestamp queries, where the device has `TIMESTAMP_QUERY`) and,
+    /// on drivers that compile a pipeline at its first dispatch, that compilation apart
+    /// (an empty dispatch of its own, waited for: [`super::pipeline::ComputePass`]). Off
+    /// by default: it is a profile, and it costs. On lavapipe each timestamp wakes
+    /// llvmpipe's idle rasteriser threads (nave-west: 12,000 context switches a frame
+    /// against 4,300 untimed) and each compilation adds two waits for the device, about
+    /// 6 % of the process's wall time there (docs/results.md, "Passes timed only when
+    /// asked"). Untimed frames report no pass times ([`crate::FrameStats::pass_ms`] empty)
+    /// and no first-dispatch compilations. The images are the same bytes either way.
+    pub fn set_pass_timing(&self, on: bool) {
+        self.pass_timing
+            .store(on, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Whether passes are timed: [`GpuContext::set_pass_timing`] asked for it and the
+    /// device has timestamp queries.
+    pub fn times_passes(&self) -> bool {
+        self.pass_timing_asked() && self.has_timestamps()
+    }
+
+    /// Whether [`GpuContext::set_pass_timing`] asked for timing (first-dispatch
+    /// compilations are timed on devices without timestamps too).
+    pub(crate) fn pass_timing_asked(&self) -> bool {
+        self.pass_timing.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// The shader compilations (pass name, ms) measured since the last call: each pipeline
@@ -374,7 +404,8 @@ impl GpuContext {
         self.pipeline_cache.as_ref().map(|c| c.path())
     }
 
-    /// Whether GPU timestamp queries can be used for per-pass timings.
+    /// Whether the device has GPU timestamp queries, which per-pass timings use when they
+    /// are asked for ([`GpuContext::set_pass_timing`]).
     pub fn has_timestamps(&self) -> bool {
         self.device
             .features()

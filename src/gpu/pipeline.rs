@@ -37,12 +37,14 @@ type PassSlot = Mutex<Option<Arc<ComputePass>>>;
 ///
 /// Drivers may compile a pipeline's shader only when it is first dispatched (lavapipe
 /// runs its LLVM JIT then: seconds for a tracing pass on a cold shader cache), which would
-/// count the compilation as that pass's GPU time. So the first dispatch of each pipeline
-/// is preceded by an empty one (zero workgroups, same bind groups) in a submission of its
-/// own, waited for and timed; the time goes to [`GpuContext::take_compile_times`] and the
-/// pass times stay those of the work. Later dispatches cost nothing extra. Drivers that
-/// compile at creation ([`GpuContext::compiles_at_first_dispatch`] false) skip it: there
-/// the creation is timed instead.
+/// count the compilation as that pass's GPU time. So where passes are timed
+/// ([`GpuContext::set_pass_timing`]), the first dispatch of each pipeline is preceded by
+/// an empty one (zero workgroups, same bind groups) in a submission of its own, waited for
+/// and timed; the time goes to [`GpuContext::take_compile_times`] and the pass times stay
+/// those of the work. Later dispatches cost nothing extra. Untimed, the first real
+/// dispatch compiles, unmeasured, and nothing waits. Drivers that compile at creation
+/// ([`GpuContext::compiles_at_first_dispatch`] false) skip it: there the creation is
+/// timed instead.
 pub struct ComputePass {
     pub name: &'static str,
     pub pipeline: wgpu::ComputePipeline,
@@ -52,6 +54,8 @@ pub struct ComputePass {
     queue: wgpu::Queue,
     compile_times: std::sync::Arc<std::sync::Mutex<Vec<(&'static str, f64)>>>,
     compiled: std::sync::atomic::AtomicBool,
+    /// The context's [`GpuContext::set_pass_timing`] switch.
+    timing: std::sync::Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl ComputePass {
@@ -173,6 +177,7 @@ impl ComputePass {
             queue: ctx.queue.clone(),
             compile_times: ctx.compile_times.clone(),
             compiled: std::sync::atomic::AtomicBool::new(!lazy),
+            timing: ctx.pass_timing.clone(),
         })
     }
 
@@ -183,6 +188,11 @@ impl ComputePass {
             .compiled
             .swap(true, std::sync::atomic::Ordering::Relaxed)
         {
+            return;
+        }
+        // Untimed, the dispatch about to be recorded compiles it (and it counts as
+        // compiled from now on: a later timed dispatch finds nothing to compile).
+        if !self.timing.load(std::sync::atomic::Ordering::Relaxed) {
             return;
         }
         // Work submitted earlier must not count: wait for it first. A failure here (device

@@ -30,7 +30,7 @@ pub struct PassTimer {
 
 impl PassTimer {
     pub fn new(ctx: &GpuContext, capacity: u32) -> Self {
-        if !ctx.has_timestamps() {
+        if !ctx.times_passes() {
             return Self {
                 set: None,
                 resolve: None,
