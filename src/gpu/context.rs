@@ -345,7 +345,7 @@ impl GpuContext {
     /// on drivers that compile a pipeline at its first dispatch, that compilation apart
     /// (an empty dispatch of its own, waited for: [`super::pipeline::ComputePass`]). Off
     /// by default: it is a profile, and it costs. On lavapipe each timestamp wakes
-    /// llvmpipe's idle rasteriser threads (nave-west: 12,000 context switches a frame
+    /// llvmpipe's idle rasteriser threads (nave-west: 12,000 context switches a run
     /// against 4,300 untimed) and each compilation adds two waits for the device, about
     /// 6 % of the process's wall time there (docs/results.md, "Passes timed only when
     /// asked"). Untimed frames report no pass times ([`crate::FrameStats::pass_ms`] empty)
@@ -358,13 +358,7 @@ impl GpuContext {
     /// Whether passes are timed: [`GpuContext::set_pass_timing`] asked for it and the
     /// device has timestamp queries.
     pub fn times_passes(&self) -> bool {
-        self.pass_timing_asked() && self.has_timestamps()
-    }
-
-    /// Whether [`GpuContext::set_pass_timing`] asked for timing (first-dispatch
-    /// compilations are timed on devices without timestamps too).
-    pub(crate) fn pass_timing_asked(&self) -> bool {
-        self.pass_timing.load(std::sync::atomic::Ordering::Relaxed)
+        self.pass_timing.load(std::sync::atomic::Ordering::Relaxed) && self.has_timestamps()
     }
 
     /// The shader compilations (pass name, ms) measured since the last call: each pipeline
