@@ -270,11 +270,22 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     if record < params.count {
         let far = HESSIAN_MISS_DISTANCE * sites[record].r_min * params.r_max_factor;
         let turn = record_frame_turn(sites[record]);
-        for (var k = lane; k < count; k += SUM_LANES) {
-            accumulate(&low, base, k, res, far, turn);
-        }
-        for (var k = lane + THREADS; k < count; k += SUM_LANES) {
-            accumulate(&high, base, k, res, far, turn);
+        // One loop over both subsets, alternately (`low` takes k = lane, lane + 128, ...,
+        // `high` lane + 64, lane + 192, ...: each the same terms in the same order as a loop
+        // of its own), so that `accumulate` is inlined once: its two copies were half of
+        // this pipeline's compilation on lavapipe.
+        for (var k = lane; k < count; k += THREADS) {
+            let odd = ((k - lane) / THREADS) % 2u == 1u;
+            var acc = low;
+            if odd {
+                acc = high;
+            }
+            accumulate(&acc, base, k, res, far, turn);
+            if odd {
+                high = acc;
+            } else {
+                low = acc;
+            }
         }
     }
     partials[lane] = add(low, high);
