@@ -81,7 +81,11 @@ fn hit_indirect_irradiance(shaded: ShadedHit, seed: u32, k: u32) -> vec3f {
 
 // 64 invocations a workgroup. Tracing: the plane's pixels in scan order, no idle lanes but
 // the last few of each record's plane, whatever P (8 x 8 tiles of a 17 x 17 plane, the
-// tail's at the defaults, left a SIMD group with one live lane at the end of every row).
+// tail's at the defaults, left a SIMD group with one live lane at the end of every row);
+// where P is a multiple of 4 (the default 24), in blocks of 4 x 2 pixels, one a SIMD group
+// of eight lanes, still without idle lanes: their rays' directions are closer than a row's
+// eight, so they walk more of the BVH together (Sponza's planes 0.973 [0.917, 0.988] of
+// their time, 6 pairs; the nave's 0.985; the same samples, each pixel traced as before).
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) group: vec3u,
@@ -116,6 +120,18 @@ fn main(
     var k = g * 64u + lane;
     var q = 0u;
     var work = k < n;
+    let res = params.resolution;
+    if !refining && res % 4u == 0u {
+        // Invocation i traces pixel (px, py) of 4 x 2 block i / 8, the blocks in scan order.
+        let i = g * 64u + lane;
+        let block = i / 8u;
+        let within = i % 8u;
+        let per_row = res / 4u;
+        let px = (block % per_row) * 4u + within % 4u;
+        let py = (block / per_row) * 2u + within / 4u;
+        k = py * res + px;
+        work = py < res;
+    }
     if refining {
         let first_slot = selected[row];
         let dark = first_slot == DARK_PLANE || first_slot == DARK_GUIDED;
