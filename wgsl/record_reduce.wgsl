@@ -272,8 +272,8 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         let turn = record_frame_turn(sites[record]);
         // One loop over both subsets, alternately (`low` takes k = lane, lane + 128, ...,
         // `high` lane + 64, lane + 192, ...: each the same terms in the same order as a loop
-        // of its own), so that `accumulate` is inlined once: its two copies were half of
-        // this pipeline's compilation on lavapipe.
+        // of its own), so that `accumulate` is inlined once: its second copy was a fifth of
+        // this pipeline's build on lavapipe (nave-west 25 -> 20 ms, docs/results.md stop 68).
         for (var k = lane; k < count; k += THREADS) {
             let odd = ((k - lane) / THREADS) % 2u == 1u;
             var acc = low;
