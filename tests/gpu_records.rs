@@ -93,6 +93,21 @@ fn gpu_planes_and_records_match_the_cpu_reference() {
     });
 }
 
+/// Planes whose pixels the plane pass lays out otherwise than the default 24 x 24's nine
+/// whole workgroups of 4 x 2 blocks: 20 x 20 (blocks, the last workgroup partly past the
+/// plane) and 17 x 17 (scan order, the tail's default). Every pixel is traced, as the CPU
+/// reference traces it.
+#[test]
+fn gpu_planes_of_every_lane_layout_match_the_cpu_reference() {
+    for plane_resolution in [20, 17] {
+        planes_and_records_match_the_cpu_reference(&CacheSettings {
+            plane_resolution,
+            plane_refine: 0.0,
+            ..CacheSettings::default()
+        });
+    }
+}
+
 /// Records sized by the irradiance's Hessian: the GPU's R (the f32 mesh sum in
 /// `record_hessian.wgsl`) matches the f64 mirror within 1e-3, and differs from the
 /// split-sphere R of the same planes (the rule is in force).
