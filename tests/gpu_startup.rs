@@ -125,12 +125,16 @@ fn passes_are_timed_only_when_asked_and_the_image_does_not_change() {
         plane_resolution: 8,
         ..CacheSettings::default()
     };
+    // A GI frame from a fresh cache.
+    let gi_frame = |renderer: &Renderer, prepared: &radsplat::PreparedScene| {
+        let mut cache = renderer.new_cache(&settings).expect("cache");
+        renderer
+            .render_gi_frame(prepared, &scene.camera, &mut cache, None, |_| {})
+            .expect("GI frame")
+    };
     let untimed = Renderer::new(common::gpu()).expect("renderer");
     let prepared = untimed.prepare(&scene).expect("prepare");
-    let mut cache = untimed.new_cache(&settings).expect("cache");
-    let quiet = untimed
-        .render_gi_frame(&prepared, &scene.camera, &mut cache, None, |_| {})
-        .expect("GI frame");
+    let quiet = gi_frame(&untimed, &prepared);
     assert!(
         quiet.stats.pass_ms.is_empty(),
         "untimed, yet pass times: {:?}",
@@ -146,17 +150,7 @@ fn passes_are_timed_only_when_asked_and_the_image_does_not_change() {
 
     let timed = Renderer::new(common::gpu()).expect("renderer");
     timed.ctx.set_pass_timing(true);
-    let prepared_timed = timed.prepare(&scene).expect("prepare");
-    let mut cache_timed = timed.new_cache(&settings).expect("cache");
-    let profiled = timed
-        .render_gi_frame(
-            &prepared_timed,
-            &scene.camera,
-            &mut cache_timed,
-            None,
-            |_| {},
-        )
-        .expect("GI frame");
+    let profiled = gi_frame(&timed, &timed.prepare(&scene).expect("prepare"));
     assert_eq!(quiet.beauty, profiled.beauty, "timing changed the image");
     if timed.ctx.times_passes() {
         let names = names(&profiled.stats.pass_ms);
@@ -180,10 +174,7 @@ fn passes_are_timed_only_when_asked_and_the_image_does_not_change() {
     // Switched on after an untimed frame: the next frame is timed, and the pipelines the
     // first one compiled are not reported again.
     untimed.ctx.set_pass_timing(true);
-    let mut cache_again = untimed.new_cache(&settings).expect("cache");
-    let later = untimed
-        .render_gi_frame(&prepared, &scene.camera, &mut cache_again, None, |_| {})
-        .expect("GI frame");
+    let later = gi_frame(&untimed, &prepared);
     assert_eq!(later.beauty, quiet.beauty, "the same frame again");
     assert!(
         later.stats.shader_compile_ms.is_empty(),
