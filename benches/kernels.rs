@@ -1,7 +1,9 @@
 //! Criterion benchmarks of the ray kernels (the same kernels `radsplat bench` reports):
 //! BVH build, GPU primary / shadow / incoherent rays, and obvhs's CPU traversal of the
-//! incoherent rays on one thread; and the CPU half of photon-mapped records (indexing a
-//! photon map and Algorithm 6 placement over it, `--records photons`). Scene: the bundled Cornell box, or Sponza when
+//! incoherent rays on one thread; the driver's fixed costs that a frame pays per dispatch
+//! and per wait, whatever the work (`driver`: on lavapipe these make much of a small
+//! still's time, docs/results.md stop 69); and the CPU half of photon-mapped records
+//! (indexing a photon map and Algorithm 6 placement over it, `--records photons`). Scene: the bundled Cornell box, or Sponza when
 //! `RADSPLAT_ASSET_PATH` is set (`RADSPLAT_BENCH_SCENE` picks another scene file).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -75,6 +77,65 @@ fn kernels(c: &mut Criterion) {
                 .count()
         })
     });
+    group.finish();
+
+    // The driver's fixed costs, with the passes' own plumbing: a submission waited for
+    // (nothing in it), and dispatches of the one-workgroup prefix sum over 64 counts
+    // (its work is a few microseconds), 64 a submission, each in its own compute pass
+    // with its own parameters and bind group as every pass of a frame records them:
+    // into buffers made once, or into a new 256 KiB buffer each (as a frame's passes
+    // make their scratch buffers; the driver then zeroes and maps fresh memory).
+    let prefix = radsplat::gpu::prefix_sum::PrefixSumPass::new(&ctx).expect("prefix sum");
+    let counts = ctx.storage_buffer("counts", &[1u32; 64]).expect("counts");
+    let offsets = ctx
+        .storage_buffer_sized("offsets", 65 * 4)
+        .expect("offsets");
+    let mut group = c.benchmark_group("driver");
+    group.sample_size(20);
+    group.bench_function("submit_and_wait", |b| {
+        b.iter(|| {
+            let enc = ctx.device.create_command_encoder(&Default::default());
+            ctx.queue.submit([enc.finish()]);
+            ctx.wait().expect("gpu");
+        })
+    });
+    const DISPATCHES: u32 = 64;
+    group.throughput(Throughput::Elements(u64::from(DISPATCHES)));
+    for fresh in [false, true] {
+        let name = if fresh {
+            "dispatch_into_new_256k_buffer"
+        } else {
+            "dispatch"
+        };
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let mut enc = ctx.device.create_command_encoder(&Default::default());
+                let mut scratch = Vec::new();
+                for _ in 0..DISPATCHES {
+                    let out = if fresh {
+                        scratch.push(
+                            ctx.storage_buffer_sized("scratch", 256 << 10)
+                                .expect("buffer"),
+                        );
+                        scratch.last().expect("pushed")
+                    } else {
+                        &offsets
+                    };
+                    prefix.record(
+                        &ctx,
+                        &mut enc,
+                        &gpu_scene.bind_group,
+                        &counts,
+                        out,
+                        64,
+                        None,
+                    );
+                }
+                ctx.queue.submit([enc.finish()]);
+                ctx.wait().expect("gpu");
+            })
+        });
+    }
     group.finish();
 
     // Photon records' CPU work: the photon grid and Algorithm 6's walk, on 2^15 paths
