@@ -28,7 +28,6 @@ docs/results.md ("Where a small still's time goes", stop 69) has a run on nave-w
 import argparse
 import json
 import os
-import re
 import statistics
 import subprocess
 import sys
@@ -36,14 +35,8 @@ import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-
-def own_size(scene):
-    with open(scene) as f:
-        m = re.search(r"^resolution\s*=\s*\[\s*(\d+)\s*,\s*(\d+)\s*\]", f.read(), re.M)
-    if not m:
-        sys.exit(f"{scene}: no [camera] resolution")
-    return int(m.group(1)), int(m.group(2))
+sys.path.insert(0, os.path.join(ROOT, "benches", "variants"))
+from sizes import own_size  # noqa: E402  (the scene's [camera] resolution)
 
 
 def render(binary, scene, size, flags):
@@ -115,6 +108,10 @@ def main():
         ys.append(med[2])
     fixed, per_ray = fit(xs, ys)
     own = ys[0]
+    if per_ray <= 0 or fixed < 0:
+        print("the frames do not grow with the plane rays here (a busy machine, or sizes "
+              "too close): no split; run again, or with more sizes or runs")
+        return
     print(f"frame = {fixed:.0f} ms + {per_ray * 1e3:.3f} us x plane rays "
           f"(least squares over the sizes): at the own size {fixed / own:.0%} of the frame "
           f"does not follow the rays")
