@@ -81,6 +81,18 @@ pub struct BvhStats {
     pub upload_bytes: u64,
 }
 
+/// What [`Renderer::cover_in_rounds`] saw: the coverage mask and the count of marked
+/// pixels after each round, the rounds covered again because their lists did not fit, and
+/// the pixels a cover whose lists did not fit marked (none, if it marks nothing as it
+/// should).
+#[derive(Debug, Default)]
+pub struct CoverRounds {
+    pub masks: Vec<Vec<u32>>,
+    pub marked: Vec<u32>,
+    pub repeats: u32,
+    pub stray: usize,
+}
+
 /// What [`Renderer::splat_cache_in_rounds`] returns: the visibility buffer, the splat sums
 /// `(sum w E', sum w)` and the coverage mask, per pixel.
 pub type SplatRounds = (Vec<VisSample>, Vec<[f32; 4]>, Vec<u32>);
@@ -1097,13 +1109,12 @@ impl Renderer {
         Ok((visibility, sums, covered))
     }
 
-    /// The coverage mask of `cache`'s records covered in rounds (records `..splits[0]`,
-    /// then up to each later split, then the rest) as placement covers them: each round's
-    /// cover submitted without a wait and with room for `room` list entries
-    /// ([`SplatPass::cover_in_flight`]), and covered again, waiting, where its lists did
-    /// not fit. Returns the mask, how many rounds were covered again, and how many pixels
-    /// a cover whose lists did not fit marked (none, if it marks nothing as it should):
-    /// for tests.
+    /// `cache`'s records covered in rounds (records `..splits[0]`, then up to each later
+    /// split, then the rest) as placement covers them, in `mode`: each round's cover
+    /// submitted without a wait and with room for `room` list entries
+    /// ([`SplatPass::cover_in_flight_as`]), and covered again, waiting, with room for its
+    /// lists where they did not fit. For tests.
+    #[allow(clippy::too_many_arguments)]
     pub fn cover_in_rounds(
         &self,
         scene: &PreparedScene,
@@ -1111,14 +1122,15 @@ impl Renderer {
         cache: &IrradianceCache,
         splits: &[u32],
         room: u32,
-    ) -> Result<(Vec<u32>, u32, usize)> {
+        mode: crate::splat::cover::CoverMode,
+    ) -> Result<CoverRounds> {
         let ctx = &self.ctx;
         let mut times = Vec::new();
         let (vis, bounds) = self.visible_tiles(scene, camera, &mut times)?;
         let mask = CoverageMask::new(ctx, camera.width, camera.height)?;
         let splat_pass = self.splat_pass()?;
         let mut first = 0;
-        let (mut repeats, mut stray) = (0, 0);
+        let mut rounds = CoverRounds::default();
         for &end in splits.iter().chain([&cache.records.count]) {
             let partial = cache.records.prefix(end);
             let src = SplatSource::new(
@@ -1131,20 +1143,24 @@ impl Renderer {
                 cache.settings().corral.in_cover(),
             );
             let before = mask.read(ctx)?;
-            if let Some(cover) = splat_pass.cover_in_flight(ctx, src, &mask, room, &mut times)? {
+            if let Some(cover) =
+                splat_pass.cover_in_flight_as(ctx, src, &mask, room, mode, &mut times)?
+            {
                 let total: Vec<u32> = ctx.read_buffer(&cover.total)?;
-                if !cover.fitted(total.first().copied().unwrap_or(0)) {
+                let total = total.first().copied().unwrap_or(0);
+                if !cover.fitted(total) {
                     let after = mask.read(ctx)?;
-                    stray += before.iter().zip(&after).filter(|(b, a)| b != a).count();
-                    splat_pass.cover(ctx, src, &mask, &mut times)?;
-                    repeats += 1;
+                    rounds.stray += before.iter().zip(&after).filter(|(b, a)| b != a).count();
+                    splat_pass.cover_in_flight_as(ctx, src, &mask, total, mode, &mut times)?;
+                    rounds.repeats += 1;
                 }
             }
+            rounds.masks.push(mask.read(ctx)?);
+            rounds.marked.push(mask.marked(ctx)?);
             first = partial.count;
         }
-        let covered = mask.read(ctx)?;
         ctx.check()?;
-        Ok((covered, repeats, stray))
+        Ok(rounds)
     }
 
     /// The light maps of `scene` with `settings` ([`crate::light_maps`]): their layout

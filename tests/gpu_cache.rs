@@ -8,6 +8,7 @@ use radsplat::output::{exr_out, sha256_hex};
 use radsplat::placement::sequential::sequential_placement;
 use radsplat::records::{CacheSettings, Corral, Record, RecordRadius};
 use radsplat::scene::Scene;
+use radsplat::splat::cover::{BY_RECORD_MAX_TILES, CoverMode};
 use radsplat::splat::reference::{
     empty_where_only_dark, record_coverage, splat_records, splat_records_with_tail,
 };
@@ -757,20 +758,30 @@ fn covers_without_a_wait_mark_what_waiting_covers_mark_whatever_their_room() {
     assert!(covered > 0, "nothing covered");
     // Room for 1 entry: every round's lists overflow; for 2^20, none; between, the first
     // rounds' (their records are the largest) and not the last ones'.
+    // The binned cover, whose lists have a room (a small image's placement covers record
+    // by record, without lists: `covers_record_by_record_mark_what_binned_covers_mark`).
     let mut again_by_room = Vec::new();
     for room in [1, 64, 96, 128, 160, 192, 224, 256, 1 << 20] {
-        let (mask, again, stray) = renderer
-            .cover_in_rounds(&prepared, &scene.camera, &cache, &splits, room)
+        let rounds = renderer
+            .cover_in_rounds(
+                &prepared,
+                &scene.camera,
+                &cache,
+                &splits,
+                room,
+                CoverMode::Binned,
+            )
             .expect("covers in flight");
         assert_eq!(
-            mask, waiting,
+            rounds.masks.last(),
+            Some(&waiting),
             "room {room}: the mask differs from waiting covers'"
         );
         assert_eq!(
-            stray, 0,
+            rounds.stray, 0,
             "room {room}: a cover whose lists overflowed marked pixels"
         );
-        again_by_room.push(again);
+        again_by_room.push(rounds.repeats);
     }
     eprintln!("rounds covered again by room: {again_by_room:?}");
     assert_eq!(again_by_room.first(), Some(&4));
@@ -780,6 +791,63 @@ fn covers_without_a_wait_mark_what_waiting_covers_mark_whatever_their_room() {
         again_by_room.iter().any(|&a| (1..4).contains(&a)),
         "no room between overflowing every round and none"
     );
+}
+
+/// On images of at most `BY_RECORD_MAX_TILES` tiles placement covers record by record
+/// (`splat_cover_by_record.wgsl`, one dispatch a round) instead of through the tiles'
+/// lists: round by round the same mask and the same count of marked pixels as the binned
+/// cover, with and without the records' corrals, at the placement's accuracy and at the
+/// tail's wider one, on an image whose tiles span several binning blocks.
+#[test]
+fn covers_record_by_record_mark_what_binned_covers_mark() {
+    for (corral, accuracy) in [
+        (Corral::Cover, None),
+        (Corral::Off, None),
+        (Corral::Cover, Some(0.6)),
+    ] {
+        let (renderer, scene, cache, _, _) = cornell_cache_at(
+            &CacheSettings {
+                corral,
+                accuracy: accuracy.unwrap_or(settings().accuracy),
+                ..settings()
+            },
+            (136, 72),
+        );
+        let tiles = scene.camera.width.div_ceil(8) * scene.camera.height.div_ceil(8);
+        assert!(tiles <= BY_RECORD_MAX_TILES && tiles > 64, "{tiles} tiles");
+        let prepared = renderer.prepare(&scene).expect("prepare");
+        let n = cache.records.count;
+        assert!(n > 20, "{n} records");
+        let splits = [1, n / 8, n / 3, n / 2, 3 * n / 4];
+        let cover = |mode| {
+            renderer
+                .cover_in_rounds(&prepared, &scene.camera, &cache, &splits, 1 << 20, mode)
+                .expect("covers")
+        };
+        let (binned, by_record) = (cover(CoverMode::Binned), cover(CoverMode::Auto));
+        assert_eq!(by_record.repeats, 0, "a cover without lists was made again");
+        for (round, (b, r)) in binned.masks.iter().zip(&by_record.masks).enumerate() {
+            let differ = b.iter().zip(r).filter(|(x, y)| x != y).count();
+            assert_eq!(
+                differ, 0,
+                "{corral:?} {accuracy:?} round {round}: {differ} pixels differ"
+            );
+        }
+        assert_eq!(
+            binned.marked, by_record.marked,
+            "{corral:?} {accuracy:?}: marks"
+        );
+        let covered = by_record
+            .masks
+            .last()
+            .map_or(0, |m| m.iter().filter(|&&c| c != 0).count());
+        assert!(covered > 0, "nothing covered");
+        eprintln!(
+            "{corral:?} {accuracy:?}: {} rounds, marks {:?}",
+            splits.len() + 1,
+            by_record.marked
+        );
+    }
 }
 
 /// Neighbour clamping on insertion: records placed in later rounds obey R_i <= R_j + |p_i -

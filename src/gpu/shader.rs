@@ -282,6 +282,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/splat_cover.wgsl"),
     ),
     (
+        "splat_cover_by_record.wgsl",
+        include_str!("../../wgsl/splat_cover_by_record.wgsl"),
+    ),
+    (
         "coverage_count.wgsl",
         include_str!("../../wgsl/coverage_count.wgsl"),
     ),

@@ -54,6 +54,27 @@ pub fn cover_room(width: u32, height: u32) -> u32 {
     (width.div_ceil(TILE_SIZE) * height.div_ceil(TILE_SIZE) * 4).max(4096)
 }
 
+/// How a placement round's cover finds the pixels its records reach.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CoverMode {
+    /// Record by record on images of at most [`BY_RECORD_MAX_TILES`] tiles, binned on
+    /// larger ones: what placement uses.
+    Auto,
+    /// Always binned (`splat_cover.wgsl` over the tiles' lists), as on large images: for
+    /// tests of the binned cover's lists and their room.
+    Binned,
+}
+
+/// The most tiles (8 x 8 pixels) of an image whose covers go record by record
+/// (`splat_cover_by_record.wgsl`, one dispatch) rather than binned (five: the bins'
+/// counts, their prefix sum, the busy tiles, the lists, the cover): 1,024, a 256 x 256
+/// image. A record's workgroup walks its tiles one after the other, so on larger images
+/// a round's widest records would each walk thousands, where the binned cover spreads
+/// them over the tiles' workgroups. On lavapipe a dispatch costs about 81 us whatever its
+/// work (`cargo bench --bench kernels -- driver`), and a small still's placement makes
+/// dozens of rounds (docs/results.md, stop 69).
+pub const BY_RECORD_MAX_TILES: u32 = 1024;
+
 /// A cover submitted without a wait ([`SplatPass::cover_in_flight`]).
 pub struct CoverInFlight {
     /// The bins' lists' total entries (one u32), read back with the next wait.
@@ -103,6 +124,10 @@ impl SplatPass {
     /// they did not, this cover marked nothing (`splat_cover.wgsl`), and [`Self::cover`]
     /// of the same records marks exactly what it would have. So a placement round waits
     /// for the GPU once, not twice. None when there are no records to cover.
+    ///
+    /// On images of at most [`BY_RECORD_MAX_TILES`] tiles the cover goes record by record
+    /// (`splat_cover_by_record.wgsl`: the same mask and marks in one dispatch, no lists, so
+    /// nothing to overflow).
     pub fn cover_in_flight(
         &self,
         ctx: &GpuContext,
@@ -111,11 +136,30 @@ impl SplatPass {
         capacity: u32,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<Option<CoverInFlight>> {
+        self.cover_in_flight_as(ctx, src, mask, capacity, CoverMode::Auto, times)
+    }
+
+    /// [`Self::cover_in_flight`] in `mode`.
+    pub fn cover_in_flight_as(
+        &self,
+        ctx: &GpuContext,
+        src: SplatSource,
+        mask: &CoverageMask,
+        capacity: u32,
+        mode: CoverMode,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<Option<CoverInFlight>> {
         // The cover's workgroups are the splat's tiles (`@workgroup_size(TILE_SIZE,
-        // TILE_SIZE)`), within the device's 256 invocations.
+        // TILE_SIZE)`), within the device's 256 invocations; a record's workgroup in
+        // `splat_cover_by_record.wgsl` tests one pixel of a tile per invocation (64).
         const _: () = assert!(TILE_SIZE * TILE_SIZE <= 256);
+        const _: () = assert!(TILE_SIZE * TILE_SIZE == 64);
         if src.records.count <= src.first {
             return Ok(None);
+        }
+        let tiles = src.vis.width.div_ceil(TILE_SIZE) * src.vis.height.div_ceil(TILE_SIZE);
+        if mode == CoverMode::Auto && tiles <= BY_RECORD_MAX_TILES {
+            return self.cover_by_record(ctx, src, mask, times).map(Some);
         }
         let cover = self.cover_pipeline(ctx, src.corral)?;
         let mut timer = PassTimer::new(ctx, 5);
@@ -166,7 +210,49 @@ impl SplatPass {
 
     /// The cover's pipeline, with the records' corrals or without (`CORRAL`; the one with
     /// them built when first asked for, then kept by the device).
-    pub(super) fn cover_pipeline(
+    /// [`Self::cover_in_flight`] record by record: one workgroup a new record. Its lists'
+    /// total reads 0 against a capacity of `u32::MAX`: it always fits.
+    fn cover_by_record(
+        &self,
+        ctx: &GpuContext,
+        src: SplatSource,
+        mask: &CoverageMask,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<CoverInFlight> {
+        let pass = self.cover_by_record_pipeline(ctx, src.corral)?;
+        let (params, _) = super::splat_params(ctx, src, super::SplatInto::Fresh, 0)?;
+        let bind = pass.bind(
+            ctx,
+            &[
+                &params,
+                &src.vis.camera_buffer,
+                &src.vis.samples,
+                &src.records.buffer,
+                &src.bounds.buffer,
+                &mask.covered,
+                &mask.marked,
+            ],
+        );
+        let mut timer = PassTimer::new(ctx, 1);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        pass.record(
+            &mut enc,
+            &src.scene.bind_group,
+            &bind,
+            crate::gpu::pipeline::split_groups(ctx, src.records.count - src.first),
+            timer.next("placement: cover"),
+        );
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        times.extend(timer.read(ctx)?);
+        Ok(CoverInFlight {
+            total: ctx.storage_buffer_sized("tile entries total", 4)?,
+            capacity: u32::MAX,
+        })
+    }
+
+    /// The record-by-record cover's pipeline, with the records' corrals where `corral`.
+    pub(super) fn cover_by_record_pipeline(
         &self,
         ctx: &GpuContext,
         corral: bool,
@@ -174,13 +260,29 @@ impl SplatPass {
         Ok(if corral {
             crate::gpu::pipeline::ComputePass::with_constants(
                 ctx,
-                "splat_cover.wgsl",
-                super::COVER_BINDINGS,
+                "splat_cover_by_record.wgsl",
+                super::COVER_BY_RECORD_BINDINGS,
                 &[("CORRAL", 1.0)],
             )?
         } else {
-            std::sync::Arc::clone(&self.cover)
+            std::sync::Arc::clone(&self.cover_by_record)
         })
+    }
+
+    /// The binned cover's pipeline, with the records' corrals where `corral`: built at its
+    /// first use (images of more than [`BY_RECORD_MAX_TILES`] tiles; the device keeps it).
+    pub(super) fn cover_pipeline(
+        &self,
+        ctx: &GpuContext,
+        corral: bool,
+    ) -> Result<std::sync::Arc<crate::gpu::pipeline::ComputePass>> {
+        let constants: &[(&str, f64)] = if corral { &[("CORRAL", 1.0)] } else { &[] };
+        crate::gpu::pipeline::ComputePass::with_constants(
+            ctx,
+            "splat_cover.wgsl",
+            super::COVER_BINDINGS,
+            constants,
+        )
     }
 
     /// The visible pixels of `vis` and how many of them `mask` marks

@@ -70,6 +70,17 @@ const COVER_BINDINGS: &[Binding] = &[
     Binding::StorageRead,
 ];
 
+/// The bindings of `splat_cover_by_record.wgsl`.
+const COVER_BY_RECORD_BINDINGS: &[Binding] = &[
+    Binding::Uniform,
+    Binding::Uniform,
+    Binding::StorageRead,
+    Binding::StorageRead,
+    Binding::StorageRead,
+    Binding::StorageReadWrite,
+    Binding::StorageReadWrite,
+];
+
 /// Bindings `splat_fill.wgsl` adds after the gather's: the empty pixels' list and count.
 const FILL_EXTRA_BINDINGS: &[Binding] = &[Binding::StorageRead, Binding::StorageRead];
 
@@ -393,7 +404,10 @@ pub struct SplatPass {
     gather: GatherPipelines,
     /// Tail fill's gather over the listed empty pixels.
     fill: GatherPipelines,
-    cover: std::sync::Arc<ComputePass>,
+    /// Placement's cover of a small image, record by record (`cover::CoverMode`). The
+    /// binned cover's pipelines (`splat_cover.wgsl`), for larger images, are built at
+    /// their first use (`cover_pipeline`).
+    cover_by_record: std::sync::Arc<ComputePass>,
     count_coverage: std::sync::Arc<ComputePass>,
     bounds: std::sync::Arc<ComputePass>,
     /// The tile bounds of the pixels tail fill's gather fills (`EMPTY_ONLY`).
@@ -408,13 +422,63 @@ pub struct SplatPass {
     consistency: std::sync::OnceLock<consistency::ConsistencyPass>,
 }
 
+/// The splat passes' parameters (`SplatParams`) for `src`, and its image's tiles (x, y),
+/// checked against its tile bounds'.
+fn splat_params(
+    ctx: &GpuContext,
+    src: SplatSource,
+    into: SplatInto,
+    count_coverage: u32,
+) -> Result<(wgpu::Buffer, [u32; 2])> {
+    let SplatSource {
+        vis,
+        bounds,
+        records: cache,
+        first,
+        accuracy,
+        plateau,
+        dark_only_empty,
+        // Pipelines, not parameters, weigh the corrals (`CORRAL`).
+        ..
+    } = src;
+    let (width, height) = (vis.width, vis.height);
+    let tiles_x = width.div_ceil(TILE_SIZE);
+    let tiles_y = height.div_ceil(TILE_SIZE);
+    if [bounds.tiles_x, bounds.tiles_y] != [tiles_x, tiles_y] {
+        return Err(Error::Usage(format!(
+            "splat: tile bounds of {}x{} tiles for an image of {tiles_x}x{tiles_y}",
+            bounds.tiles_x, bounds.tiles_y
+        )));
+    }
+    let params = ctx.uniform_buffer(
+        "splat params",
+        &SplatParams {
+            width,
+            height,
+            tiles_x,
+            tiles_y,
+            first_record: first,
+            record_end: cache.count,
+            accuracy,
+            accumulate: into as u32,
+            count_coverage,
+            plateau,
+            dark_only_empty: u32::from(dark_only_empty),
+            _pad: 0,
+        },
+    );
+    Ok((params, [tiles_x, tiles_y]))
+}
+
 impl SplatPass {
-    /// Builds now the pipelines a frame with `corral` will ask for (the cover's and the
-    /// gather's with the records' corrals), so that they build beside the other passes
-    /// rather than at their first splat. The device keeps them.
+    /// Builds now the pipelines a frame with `corral` will ask for (the record-by-record
+    /// cover's and the gather's with the records' corrals), so that they build beside the
+    /// other passes rather than at their first splat. The device keeps them. (The binned
+    /// cover, for images of more than `cover::BY_RECORD_MAX_TILES` tiles, builds at its
+    /// first round: a few ms in a frame of seconds.)
     pub fn build_for_corral(&self, ctx: &GpuContext, corral: crate::records::Corral) -> Result<()> {
         if corral.in_cover() {
-            self.cover_pipeline(ctx, true)?;
+            self.cover_by_record_pipeline(ctx, true)?;
         }
         if corral.in_gathers() {
             self.gather.for_mode(ctx, COUNT_NONE, true)?;
@@ -473,7 +537,11 @@ impl SplatPass {
                 "splat_fill.wgsl",
                 [GATHER_BINDINGS, FILL_EXTRA_BINDINGS].concat(),
             )?,
-            cover: ComputePass::new(ctx, "splat_cover.wgsl", COVER_BINDINGS)?,
+            cover_by_record: ComputePass::new(
+                ctx,
+                "splat_cover_by_record.wgsl",
+                COVER_BY_RECORD_BINDINGS,
+            )?,
             count_coverage: ComputePass::new(
                 ctx,
                 "coverage_count.wgsl",
@@ -734,40 +802,11 @@ impl SplatPass {
             bounds,
             records: cache,
             first,
-            accuracy,
-            plateau,
-            dark_only_empty,
-            // Pipelines, not parameters, weigh the corrals (`CORRAL`).
-            corral: _,
+            ..
         } = src;
-        let (width, height) = (vis.width, vis.height);
-        let tiles_x = width.div_ceil(TILE_SIZE);
-        let tiles_y = height.div_ceil(TILE_SIZE);
+        let (params, [tiles_x, tiles_y]) = splat_params(ctx, src, into, count_coverage)?;
         let tiles = tiles_x * tiles_y;
-        if [bounds.tiles_x, bounds.tiles_y] != [tiles_x, tiles_y] {
-            return Err(Error::Usage(format!(
-                "splat: tile bounds of {}x{} tiles for an image of {tiles_x}x{tiles_y}",
-                bounds.tiles_x, bounds.tiles_y
-            )));
-        }
         let records = cache.count.saturating_sub(first);
-        let params = ctx.uniform_buffer(
-            "splat params",
-            &SplatParams {
-                width,
-                height,
-                tiles_x,
-                tiles_y,
-                first_record: first,
-                record_end: cache.count,
-                accuracy,
-                accumulate: into as u32,
-                count_coverage,
-                plateau,
-                dark_only_empty: u32::from(dark_only_empty),
-                _pad: 0,
-            },
-        );
         let record_tiles = ctx.storage_buffer_sized("record tiles", u64::from(records) * 16)?;
         let tile_counts = ctx.storage_buffer_sized("tile counts", u64::from(tiles) * 4)?;
         let tile_offsets = ctx.storage_buffer_sized("tile offsets", u64::from(tiles + 1) * 4)?;
