@@ -3,6 +3,7 @@
 // counts do not depend on thread timing).
 //!include shared/records.wgsl
 //!include shared/splat.wgsl
+//!include shared/tile_walk.wgsl
 
 @group(1) @binding(0) var<uniform> params: SplatParams;
 @group(1) @binding(1) var<uniform> camera: Camera;
@@ -10,6 +11,15 @@
 @group(1) @binding(3) var<storage, read_write> record_tiles: array<vec4u>;
 @group(1) @binding(4) var<storage, read_write> tile_counts: array<atomic<u32>>;
 @group(1) @binding(5) var<storage, read> bounds: array<TileBound>;
+
+// Each tile the record may reach gets one more entry in its count.
+struct TileVisitor {
+    record: u32,
+}
+
+fn visit_tile(v: TileVisitor, tile: u32) {
+    atomicAdd(&tile_counts[tile], 1u);
+}
 
 @compute @workgroup_size(256)
 fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
@@ -22,27 +32,5 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
     let reach = params.accuracy * r.radius;
     let tiles = sphere_tiles(camera, params, r.position, reach);
     record_tiles[i] = tiles;
-    if tiles.x > tiles.z {
-        return;
-    }
-    for (var by = tiles.y / BLOCK_TILES; by <= tiles.w / BLOCK_TILES; by++) {
-        for (var bx = tiles.x / BLOCK_TILES; bx <= tiles.z / BLOCK_TILES; bx++) {
-            let block = bounds[block_bound_index(params, bx, by)];
-            if !tile_may_receive(block, r.position, reach, r.normal, params.accuracy) {
-                continue;
-            }
-            let inner = block_tiles(tiles, bx, by);
-            for (var ty = inner.y; ty <= inner.w; ty++) {
-                for (var tx = inner.x; tx <= inner.z; tx++) {
-                    if !block_has_tile(block, tx, ty) {
-                        continue;
-                    }
-                    let tile = ty * params.tiles_x + tx;
-                    if tile_may_receive(bounds[tile], r.position, reach, r.normal, params.accuracy) {
-                        atomicAdd(&tile_counts[tile], 1u);
-                    }
-                }
-            }
-        }
-    }
+    walk_reached_tiles(TileVisitor(k), tiles, r.position, reach, r.normal);
 }

@@ -5,6 +5,7 @@
 // bins marks nothing.
 //!include shared/records.wgsl
 //!include shared/splat.wgsl
+//!include shared/tile_walk.wgsl
 
 @group(1) @binding(0) var<uniform> params: SplatParams;
 @group(1) @binding(1) var<storage, read> record_tiles: array<vec4u>;
@@ -13,6 +14,20 @@
 @group(1) @binding(4) var<storage, read_write> entries: array<vec2u>;
 @group(1) @binding(5) var<storage, read> records: array<Record>;
 @group(1) @binding(6) var<storage, read> bounds: array<TileBound>;
+
+// Each tile the record may reach (the count's walk and tests, on the same values: the same
+// tiles) gets (record, tile) in its list.
+struct TileVisitor {
+    record: u32,
+}
+
+fn visit_tile(v: TileVisitor, tile: u32) {
+    let slot = atomicAdd(&tile_cursors[tile], 1u);
+    let at = tile_offsets[tile] + slot;
+    if at < arrayLength(&entries) {
+        entries[at] = vec2u(v.record, tile);
+    }
+}
 
 @compute @workgroup_size(256)
 fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
@@ -25,33 +40,5 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
     let center = records[k].position;
     let reach = params.accuracy * records[k].radius;
     let normal = records[k].normal;
-    if tiles.x > tiles.z {
-        return;
-    }
-    // The count's walk and tests, on the same values: the same tiles.
-    for (var by = tiles.y / BLOCK_TILES; by <= tiles.w / BLOCK_TILES; by++) {
-        for (var bx = tiles.x / BLOCK_TILES; bx <= tiles.z / BLOCK_TILES; bx++) {
-            let block = bounds[block_bound_index(params, bx, by)];
-            if !tile_may_receive(block, center, reach, normal, params.accuracy) {
-                continue;
-            }
-            let inner = block_tiles(tiles, bx, by);
-            for (var ty = inner.y; ty <= inner.w; ty++) {
-                for (var tx = inner.x; tx <= inner.z; tx++) {
-                    if !block_has_tile(block, tx, ty) {
-                        continue;
-                    }
-                    let tile = ty * params.tiles_x + tx;
-                    if !tile_may_receive(bounds[tile], center, reach, normal, params.accuracy) {
-                        continue;
-                    }
-                    let slot = atomicAdd(&tile_cursors[tile], 1u);
-                    let at = tile_offsets[tile] + slot;
-                    if at < arrayLength(&entries) {
-                        entries[at] = vec2u(params.first_record + i, tile);
-                    }
-                }
-            }
-        }
-    }
+    walk_reached_tiles(TileVisitor(k), tiles, center, reach, normal);
 }

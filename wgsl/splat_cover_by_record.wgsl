@@ -1,14 +1,14 @@
 // Splat cover, record by record (placement's cache-miss test on small images,
 // SplatPass::cover_in_flight): one workgroup a new record marks the visible pixels it
-// contributes to. It walks the tiles the binning would list it in, with the binning's own
-// block and tile tests in the same order (splat_bin_count.wgsl), and tests each of their
-// pixels as splat_cover.wgsl tests the pixel against its tile's list (the same shared
-// test, shared/splat_weight.wgsl): so the same (record, pixel) pairs decide, and the mask
-// is the same. It needs no bins: one dispatch where the binned cover makes five, and on
+// contributes to. It walks the tiles the binning would list it in (shared/tile_walk.wgsl,
+// binning's own walk) and tests each of their pixels as splat_cover.wgsl tests the pixel
+// against its tile's list (the same shared test, shared/splat_weight.wgsl): so the same
+// (record, pixel) pairs decide, and the mask is the same. It needs no bins: one dispatch where the binned cover makes five, and on
 // lavapipe a dispatch costs about 81 us whatever its work (docs/results.md, stop 69).
 // Records of one dispatch may mark the same pixel: `atomicExchange` lets the first count
 // it (integer atomics: exact, order-free).
 //!include shared/splat_weight.wgsl
+//!include shared/tile_walk.wgsl
 
 @group(1) @binding(0) var<uniform> params: SplatParams;
 @group(1) @binding(1) var<uniform> camera: Camera;
@@ -43,6 +43,16 @@ fn cover_pixel(r: Record, tile: u32, lane: u32) {
     }
 }
 
+// The record (its reach, `record_reach`) and this invocation's pixel of each tile.
+struct TileVisitor {
+    record: Record,
+    lane: u32,
+}
+
+fn visit_tile(v: TileVisitor, tile: u32) {
+    cover_pixel(v.record, tile, v.lane);
+}
+
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) group: vec3u,
@@ -58,27 +68,5 @@ fn main(
     let r = record_reach(k);
     let reach = params.accuracy * r.radius;
     let tiles = sphere_tiles(camera, params, r.position, reach);
-    if tiles.x > tiles.z {
-        return;
-    }
-    for (var by = tiles.y / BLOCK_TILES; by <= tiles.w / BLOCK_TILES; by++) {
-        for (var bx = tiles.x / BLOCK_TILES; bx <= tiles.z / BLOCK_TILES; bx++) {
-            let block = bounds[block_bound_index(params, bx, by)];
-            if !tile_may_receive(block, r.position, reach, r.normal, params.accuracy) {
-                continue;
-            }
-            let inner = block_tiles(tiles, bx, by);
-            for (var ty = inner.y; ty <= inner.w; ty++) {
-                for (var tx = inner.x; tx <= inner.z; tx++) {
-                    if !block_has_tile(block, tx, ty) {
-                        continue;
-                    }
-                    let tile = ty * params.tiles_x + tx;
-                    if tile_may_receive(bounds[tile], r.position, reach, r.normal, params.accuracy) {
-                        cover_pixel(r, tile, lane);
-                    }
-                }
-            }
-        }
-    }
+    walk_reached_tiles(TileVisitor(r, lane), tiles, r.position, reach, r.normal);
 }

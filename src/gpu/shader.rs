@@ -282,6 +282,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/splat_cover.wgsl"),
     ),
     (
+        "shared/tile_walk.wgsl",
+        include_str!("../../wgsl/shared/tile_walk.wgsl"),
+    ),
+    (
         "splat_cover_by_record.wgsl",
         include_str!("../../wgsl/splat_cover_by_record.wgsl"),
     ),
