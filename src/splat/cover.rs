@@ -75,6 +75,18 @@ pub enum CoverMode {
 /// dozens of rounds (docs/results.md, stop 69).
 pub const BY_RECORD_MAX_TILES: u32 = 1024;
 
+/// A cover's pipeline (`shader` with `bindings`), with the records' corrals where `corral`
+/// (`CORRAL`): built at its first use, then kept by the device.
+pub(super) fn cover_pass(
+    ctx: &GpuContext,
+    shader: &'static str,
+    bindings: &[crate::gpu::pipeline::Binding],
+    corral: bool,
+) -> Result<std::sync::Arc<crate::gpu::pipeline::ComputePass>> {
+    let constants: &[(&str, f64)] = if corral { &[("CORRAL", 1.0)] } else { &[] };
+    crate::gpu::pipeline::ComputePass::with_constants(ctx, shader, bindings, constants)
+}
+
 /// A cover submitted without a wait ([`SplatPass::cover_in_flight`]).
 pub struct CoverInFlight {
     /// The bins' lists' total entries (one u32), read back with the next wait.
@@ -208,8 +220,6 @@ impl SplatPass {
         }))
     }
 
-    /// The cover's pipeline, with the records' corrals or without (`CORRAL`; the one with
-    /// them built when first asked for, then kept by the device).
     /// [`Self::cover_in_flight`] record by record: one workgroup a new record. Its lists'
     /// total reads 0 against a capacity of `u32::MAX`: it always fits.
     fn cover_by_record(
@@ -246,43 +256,35 @@ impl SplatPass {
         ctx.queue.submit([enc.finish()]);
         times.extend(timer.read(ctx)?);
         Ok(CoverInFlight {
-            total: ctx.storage_buffer_sized("tile entries total", 4)?,
+            total: self.no_lists_total.clone(),
             capacity: u32::MAX,
         })
     }
 
-    /// The record-by-record cover's pipeline, with the records' corrals where `corral`.
+    /// The record-by-record cover's pipeline, with the records' corrals where `corral`
+    /// (the one without them is built with the splat pass: small images' placement uses it
+    /// from its first round).
     pub(super) fn cover_by_record_pipeline(
         &self,
         ctx: &GpuContext,
         corral: bool,
     ) -> Result<std::sync::Arc<crate::gpu::pipeline::ComputePass>> {
-        Ok(if corral {
-            crate::gpu::pipeline::ComputePass::with_constants(
-                ctx,
-                "splat_cover_by_record.wgsl",
-                super::COVER_BY_RECORD_BINDINGS,
-                &[("CORRAL", 1.0)],
-            )?
-        } else {
-            std::sync::Arc::clone(&self.cover_by_record)
-        })
+        cover_pass(
+            ctx,
+            "splat_cover_by_record.wgsl",
+            super::COVER_BY_RECORD_BINDINGS,
+            corral,
+        )
     }
 
     /// The binned cover's pipeline, with the records' corrals where `corral`: built at its
-    /// first use (images of more than [`BY_RECORD_MAX_TILES`] tiles; the device keeps it).
+    /// first use (images of more than [`BY_RECORD_MAX_TILES`] tiles).
     pub(super) fn cover_pipeline(
         &self,
         ctx: &GpuContext,
         corral: bool,
     ) -> Result<std::sync::Arc<crate::gpu::pipeline::ComputePass>> {
-        let constants: &[(&str, f64)] = if corral { &[("CORRAL", 1.0)] } else { &[] };
-        crate::gpu::pipeline::ComputePass::with_constants(
-            ctx,
-            "splat_cover.wgsl",
-            super::COVER_BINDINGS,
-            constants,
-        )
+        cover_pass(ctx, "splat_cover.wgsl", super::COVER_BINDINGS, corral)
     }
 
     /// The visible pixels of `vis` and how many of them `mask` marks

@@ -404,10 +404,9 @@ pub struct SplatPass {
     gather: GatherPipelines,
     /// Tail fill's gather over the listed empty pixels.
     fill: GatherPipelines,
-    /// Placement's cover of a small image, record by record (`cover::CoverMode`). The
-    /// binned cover's pipelines (`splat_cover.wgsl`), for larger images, are built at
-    /// their first use (`cover_pipeline`).
-    cover_by_record: std::sync::Arc<ComputePass>,
+    /// What a record-by-record cover (`cover::CoverMode`) gives as its lists' total: a
+    /// zero, never written (it has no lists), made once rather than every round.
+    no_lists_total: wgpu::Buffer,
     count_coverage: std::sync::Arc<ComputePass>,
     bounds: std::sync::Arc<ComputePass>,
     /// The tile bounds of the pixels tail fill's gather fills (`EMPTY_ONLY`).
@@ -488,6 +487,14 @@ impl SplatPass {
 
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         use Binding::*;
+        // Small images' placement covers record by record from its first round (the
+        // binned cover, for larger ones, builds at its first use).
+        cover::cover_pass(
+            ctx,
+            "splat_cover_by_record.wgsl",
+            COVER_BY_RECORD_BINDINGS,
+            false,
+        )?;
         Ok(Self {
             count: ComputePass::new(
                 ctx,
@@ -537,11 +544,7 @@ impl SplatPass {
                 "splat_fill.wgsl",
                 [GATHER_BINDINGS, FILL_EXTRA_BINDINGS].concat(),
             )?,
-            cover_by_record: ComputePass::new(
-                ctx,
-                "splat_cover_by_record.wgsl",
-                COVER_BY_RECORD_BINDINGS,
-            )?,
+            no_lists_total: ctx.storage_buffer_sized("cover lists total (none)", 4)?,
             count_coverage: ComputePass::new(
                 ctx,
                 "coverage_count.wgsl",
