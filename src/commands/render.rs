@@ -94,7 +94,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
                         .unwrap_or(SceneFeatures::ALL)
                 })
             };
-            let gi_cache = renderer.build_passes_for(cache.as_ref(), cores, &features)?;
+            let gi_cache = renderer.build_frame_start_passes(cache.as_ref(), cores, &features)?;
             Ok::<_, Error>((renderer, gi_cache))
         });
         let loaded = (|| {
@@ -147,19 +147,39 @@ pub fn render(args: RenderArgs) -> Result<()> {
     bar.inc(1);
     bar.set_message("rendering");
     let mut records = Vec::new();
-    let frame = match gi_cache {
-        None => renderer.render_frame(&prepared, &scene.camera)?,
-        Some(mut cache) => {
-            let frame =
-                renderer.render_gi_frame(&prepared, &scene.camera, &mut cache, None, |n| {
-                    bar.set_message(format!("rendering: {n} records"));
-                })?;
-            if record_map.is_some() || stats.is_some() {
-                records = cache.read(&renderer.ctx)?;
-            }
-            frame
+    // The passes the frame asks for once its first passes have run (the record pass's
+    // pipelines, placement's covers, the gathers, the resolve) build on other threads
+    // meanwhile, at the lowest priority, on the cores lavapipe leaves idle
+    // (`Renderer::build_ahead`); the frame builds any it reaches first itself and waits for
+    // one being built. A build that fails there fails again, with its message, in the
+    // frame.
+    let ahead = gi_cache
+        .as_ref()
+        .map(|c| (c.pass.pipeline_recipes(), c.pass.settings.clone()));
+    let frame = std::thread::scope(|s| {
+        if let Some((recipes, settings)) = &ahead {
+            s.spawn(|| {
+                let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+                let idle = crate::frame::BuildPriority::IdleCores;
+                if let Err(e) = renderer.build_ahead(recipes, settings, cores, idle) {
+                    log::debug!("building ahead: {e}");
+                }
+            });
         }
-    };
+        match gi_cache {
+            None => renderer.render_frame(&prepared, &scene.camera),
+            Some(mut cache) => {
+                let frame =
+                    renderer.render_gi_frame(&prepared, &scene.camera, &mut cache, None, |n| {
+                        bar.set_message(format!("rendering: {n} records"));
+                    })?;
+                if record_map.is_some() || stats.is_some() {
+                    records = cache.read(&renderer.ctx)?;
+                }
+                Ok(frame)
+            }
+        }
+    })?;
     phases.end("frame");
     bar.inc(1);
     bar.set_message("writing");

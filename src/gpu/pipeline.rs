@@ -33,6 +33,80 @@ pub(crate) struct BuiltPasses {
 /// One key's pass, once built.
 type PassSlot = Mutex<Option<Arc<ComputePass>>>;
 
+/// A pass (or a group of pipelines) built when it is first asked for: by the frame that
+/// needs it, or earlier by a thread building ahead
+/// (`crate::frame::Renderer::build_ahead`). Its pipelines go through
+/// [`ComputePass::with_constants`], which builds each once per device, so two threads that
+/// ask at once build each pipeline once (the later one waits for it) and keep one of the
+/// two small structs.
+pub(crate) struct OnFirstUse<T>(std::sync::OnceLock<T>);
+
+impl<T> OnFirstUse<T> {
+    pub(crate) fn new() -> Self {
+        Self(std::sync::OnceLock::new())
+    }
+
+    /// The pass, built by `make` on first use (if two threads race, one build is kept).
+    pub(crate) fn get(&self, make: impl FnOnce() -> Result<T>) -> Result<&T> {
+        if let Some(pass) = self.0.get() {
+            return Ok(pass);
+        }
+        let pass = make()?;
+        Ok(self.0.get_or_init(|| pass))
+    }
+}
+
+/// What a pass is built from: its shader, its group-1 bindings and its pipeline constants
+/// ([`ComputePass::with_constants`]). A thread that holds a recipe can build the pass
+/// ahead of the frame that will ask for it: the device keeps it.
+#[derive(Clone, Debug)]
+pub struct PassRecipe {
+    pub name: &'static str,
+    pub bindings: Vec<Binding>,
+    pub constants: Vec<(&'static str, f64)>,
+}
+
+impl PassRecipe {
+    /// The pass, built now or found built (once per device).
+    pub fn build(&self, ctx: &GpuContext) -> Result<Arc<ComputePass>> {
+        ComputePass::with_constants(ctx, self.name, &self.bindings, &self.constants)
+    }
+}
+
+/// A pass built from its recipe at its first use (or found built, by a thread that built
+/// its recipe ahead).
+pub struct LazyPass {
+    recipe: PassRecipe,
+    built: OnFirstUse<Arc<ComputePass>>,
+}
+
+impl LazyPass {
+    pub fn new(
+        name: &'static str,
+        bindings: &[Binding],
+        constants: &[(&'static str, f64)],
+    ) -> Self {
+        Self {
+            recipe: PassRecipe {
+                name,
+                bindings: bindings.to_vec(),
+                constants: constants.to_vec(),
+            },
+            built: OnFirstUse::new(),
+        }
+    }
+
+    /// The pass, built on first use.
+    pub fn get(&self, ctx: &GpuContext) -> Result<&Arc<ComputePass>> {
+        self.built.get(|| self.recipe.build(ctx))
+    }
+
+    /// What it is built from.
+    pub fn recipe(&self) -> &PassRecipe {
+        &self.recipe
+    }
+}
+
 /// A compiled compute pass.
 ///
 /// Drivers may compile a pipeline's shader only when it is first dispatched (lavapipe

@@ -5,14 +5,13 @@ use super::{
     CacheSettings, PlaneBatch, PlanePixel, PlaneSample, RecordCache, RecordKind, RecordRadius,
     RecordSite, RecordSource, RecordStage, neighbour_grid, radiance_projection, refine, vpl_gather,
 };
-use crate::gpu::pipeline::{Binding, ComputePass};
+use crate::gpu::pipeline::{Binding, LazyPass, PassRecipe};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::{GpuContext, SceneFeatures};
 use crate::light_maps::LightMaps;
 use crate::visibility::VisibilityBuffer;
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
-use std::sync::Arc;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -145,9 +144,10 @@ pub struct RecordPass {
     /// Every record pass of a device has the same pipelines (built once per device,
     /// [`ComputePass::with_constants`]): tail fill's ([`Self::tail_pass`]), radiance
     /// records', temporal caching's.
-    sites: Arc<ComputePass>,
-    plane: Arc<ComputePass>,
-    reduce: Arc<ComputePass>,
+    /// Built at first use ([`Self::pipeline_recipes`] builds them ahead).
+    sites: LazyPass,
+    plane: LazyPass,
+    reduce: LazyPass,
     /// The grid over earlier records that neighbour clamping searches.
     neighbour_grid: neighbour_grid::NeighbourGridPass,
     /// The plane table for `settings`.
@@ -226,27 +226,15 @@ impl RecordPass {
         // As many records per dispatch as fit one binding, at most 256 (a few seconds of
         // rays on a CPU device, so progress stays visible).
         let batch = (ctx.max_binding_size() / plane_bytes).clamp(1, 256) as u32;
-        // The refinement's selection compiles on a thread of their own while this one
-        // compiles the plane's (which also refines: one copy of the traversal and
-        // shading, which lavapipe compiles in about 0.1 s); the record pass is the longest
-        // of the passes a frame builds at start-up (`Renderer::build_passes`).
-        let (refine, built) = std::thread::scope(|s| {
-            let refine = s.spawn(|| {
-                if planes {
-                    refine::RefinePass::new(ctx, settings)
-                } else {
-                    Ok(None)
-                }
-            });
-            let built =
-                Self::without_refinement(ctx, settings, kind, planes, projection, batch, features);
-            let refine = refine
-                .join()
-                .unwrap_or_else(|_| Err(Error::Gpu("building the refinement panicked".into())));
-            (refine, built)
-        });
-        let mut pass = built?;
-        pass.refine = refine?;
+        // Its pipelines build at their first use, or ahead from `pipeline_recipes`
+        // (`Renderer::build_ahead`, on as many threads as cores).
+        let mut pass =
+            Self::without_refinement(ctx, settings, kind, planes, projection, batch, features)?;
+        pass.refine = if planes {
+            refine::RefinePass::new(ctx, settings)?
+        } else {
+            None
+        };
         Ok(pass)
     }
 
@@ -262,16 +250,15 @@ impl RecordPass {
     ) -> Result<Self> {
         use Binding::*;
         Ok(Self {
-            sites: ComputePass::new(
-                ctx,
+            sites: LazyPass::new(
                 "record_sites.wgsl",
                 &[Uniform, Uniform, StorageRead, StorageRead, StorageReadWrite],
-            )?,
+                &[],
+            ),
             // Traces the planes and refines them (`refine::RefinePass::record`). Ten storage
             // buffers: with the scene's six, the 16 a stage may bind
             // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
-            plane: ComputePass::with_constants(
-                ctx,
+            plane: LazyPass::new(
                 "hemisphere_plane.wgsl",
                 &[
                     Uniform,
@@ -287,11 +274,10 @@ impl RecordPass {
                     StorageRead,
                 ],
                 &[features.constant()],
-            )?,
+            ),
             // The Hessian's mesh sum only in the pipeline that uses it (lavapipe ran the
             // split-sphere reduction slower with the unused branch compiled in).
-            reduce: ComputePass::with_constants(
-                ctx,
+            reduce: LazyPass::new(
                 "record_reduce.wgsl",
                 &[
                     Uniform,
@@ -315,7 +301,7 @@ impl RecordPass {
                     // built the larger pipeline 1.2x as slowly).
                     ("CORRAL", f64::from(u8::from(settings.corral.in_records()))),
                 ],
-            )?,
+            ),
             neighbour_grid: neighbour_grid::NeighbourGridPass::new(ctx)?,
             table: PlaneTable::new(ctx, settings.plane_resolution, settings)?,
             refine: None,
@@ -334,6 +320,19 @@ impl RecordPass {
             },
             tail: std::sync::OnceLock::new(),
         })
+    }
+
+    /// What its pipelines are built from, the longest to build first (the plane's, then the
+    /// refinement's selection, the reduction, the sites): a thread that builds them ahead
+    /// leaves this pass nothing to build at its first records.
+    pub fn pipeline_recipes(&self) -> Vec<PassRecipe> {
+        let mut recipes = vec![self.plane.recipe().clone()];
+        if let Some(r) = &self.refine {
+            recipes.push(r.select_recipe().clone());
+        }
+        recipes.push(self.reduce.recipe().clone());
+        recipes.push(self.sites.recipe().clone());
+        recipes
     }
 
     /// Rays traced since the last call by planes that saw no light and were refined
@@ -463,7 +462,7 @@ impl RecordPass {
             "record sites",
             u64::from(count) * std::mem::size_of::<RecordSite>() as u64,
         )?;
-        let bind = self.sites.bind(
+        let bind = self.sites.get(ctx)?.bind(
             ctx,
             &[
                 &params,
@@ -474,7 +473,7 @@ impl RecordPass {
             ],
         );
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        self.sites.record(
+        self.sites.get(ctx)?.record(
             &mut enc,
             &scene.bind_group,
             &bind,
@@ -622,7 +621,7 @@ impl RecordPass {
                     noise.as_ref(),
                     light_maps,
                     timer.next("hemisphere planes"),
-                );
+                )?;
             }
             // Refinement follows the planes however they were made: a refreshed plane is
             // its traced plane exactly (temporal caching's plane refresh), so refining it
@@ -647,7 +646,7 @@ impl RecordPass {
                     ctx,
                     &mut enc,
                     scene,
-                    &self.plane,
+                    self.plane.get(ctx)?,
                     &self.table,
                     &batch_sites,
                     &samples,
@@ -802,8 +801,9 @@ impl RecordPass {
         noise: Option<&wgpu::Buffer>,
         light_maps: &LightMaps,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
+    ) -> Result<()> {
         let res = self.settings.plane_resolution;
+        let plane = self.plane.get(ctx)?;
         let plane_params = ctx.uniform_buffer(
             "plane params",
             &PlaneParams {
@@ -817,7 +817,7 @@ impl RecordPass {
                 ..PlaneParams::zeroed()
             },
         );
-        let plane_bind = self.plane.bind(
+        let plane_bind = plane.bind(
             ctx,
             &[
                 &plane_params,
@@ -833,13 +833,14 @@ impl RecordPass {
                 &self.no_selection,
             ],
         );
-        self.plane.record(
+        plane.record(
             enc,
             &scene.bind_group,
             &plane_bind,
             [(res * res).div_ceil(64), 1, batch.count],
             timestamps,
         );
+        Ok(())
     }
 
     /// Records the reduction of a batch's planes (`table`'s resolution, in `samples`) into
@@ -883,7 +884,7 @@ impl RecordPass {
                 hessian_scale: self.settings.record_radius.hessian_scale(),
             },
         );
-        let bind = self.reduce.bind(
+        let bind = self.reduce.get(ctx)?.bind(
             ctx,
             &[
                 &params,
@@ -896,7 +897,7 @@ impl RecordPass {
                 &grid.records,
             ],
         );
-        self.reduce.record(
+        self.reduce.get(ctx)?.record(
             enc,
             &scene.bind_group,
             &bind,
@@ -961,7 +962,7 @@ impl RecordPass {
             ctx,
             &mut enc,
             scene,
-            &self.plane,
+            self.plane.get(ctx)?,
             &self.table,
             &sites_buf,
             &samples,
@@ -1066,7 +1067,7 @@ impl RecordPass {
             noise,
             light_maps,
             None,
-        );
+        )?;
         let out = then(&mut enc, &batch)?;
         ctx.queue.submit([enc.finish()]);
         let mut now: Vec<PlaneSample> = ctx.read_buffer(&samples)?;

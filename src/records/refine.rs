@@ -33,7 +33,7 @@
 use super::{CacheSettings, HemispherePlane, PlaneParams, PlaneSample, PlaneTable, RecordSite};
 use crate::Result;
 use crate::gpu::GpuContext;
-use crate::gpu::pipeline::{Binding, ComputePass};
+use crate::gpu::pipeline::{Binding, ComputePass, LazyPass, PassRecipe};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::light_maps::lit_grid::{self, LitGridParams};
 use bytemuck::{Pod, Zeroable};
@@ -321,7 +321,8 @@ struct SelectParams {
 /// The GPU passes of refinement for one [`CacheSettings`] (built when `plane_refine`
 /// selects at least one pixel or dark planes are refined, `dark_plane_refine`).
 pub struct RefinePass {
-    select: std::sync::Arc<ComputePass>,
+    /// Built at first use (or ahead, from [`Self::select_recipe`]).
+    select: LazyPass,
     /// What the refinement binds for the plane pass's hits (it writes none).
     no_hits: wgpu::Buffer,
     /// The indirect dispatch (x y z) that refines a batch's dark planes, which the
@@ -342,6 +343,11 @@ pub struct RefinePass {
 }
 
 impl RefinePass {
+    /// What the selection's pipeline is built from.
+    pub fn select_recipe(&self) -> &PassRecipe {
+        self.select.recipe()
+    }
+
     /// The selection pass for `settings` (the refinement's rays are traced by the record
     /// pass's plane pipeline, [`Self::record`]); `None` when refinement is off.
     pub fn new(ctx: &GpuContext, settings: &CacheSettings) -> Result<Option<Self>> {
@@ -354,8 +360,7 @@ impl RefinePass {
         Ok(Some(Self {
             // Nine storage buffers: with the scene's six, 15 of the 16 a stage may bind
             // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
-            select: ComputePass::new(
-                ctx,
+            select: LazyPass::new(
                 "plane_refine_select.wgsl",
                 &[
                     Uniform,
@@ -370,7 +375,8 @@ impl RefinePass {
                     StorageRead,
                     StorageReadWrite,
                 ],
-            )?,
+                &[],
+            ),
             no_hits: ctx.storage_buffer_sized("no refined hits", 16)?,
             dark_dispatch: ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("dark plane refinement dispatch"),
@@ -434,7 +440,7 @@ impl RefinePass {
                 _pad: 0,
             },
         );
-        let bind = self.select.bind(
+        let bind = self.select.get(ctx)?.bind(
             ctx,
             &[
                 &select_params,
@@ -457,7 +463,7 @@ impl RefinePass {
             u64::from(count) * u64::from(self.slots()) * 4,
             None,
         );
-        self.select.record(
+        self.select.get(ctx)?.record(
             enc,
             &scene.bind_group,
             &bind,

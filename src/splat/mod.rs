@@ -17,7 +17,7 @@ pub use cover::{CoverInFlight, CoverageMask};
 pub use tile_bounds::TileBounds;
 
 use crate::gpu::GpuContext;
-use crate::gpu::pipeline::{Binding, ComputePass, image_groups};
+use crate::gpu::pipeline::{Binding, ComputePass, OnFirstUse, image_groups};
 use crate::gpu::scene_buffers::GpuScene;
 use crate::gpu::timer::PassTimer;
 use crate::records::RecordCache;
@@ -139,6 +139,65 @@ impl GatherPipelines {
             return Ok(std::sync::Arc::clone(&self.plain));
         }
         Self::build(ctx, self.name, &self.bindings, counting, corral)
+    }
+}
+
+/// The pipelines that bin records into tiles (`splat_bin_*.wgsl` and a prefix sum).
+struct Binning {
+    count: std::sync::Arc<ComputePass>,
+    scan: crate::gpu::prefix_sum::PrefixSumPass,
+    busy_tiles: std::sync::Arc<ComputePass>,
+    scatter: std::sync::Arc<ComputePass>,
+    sort: std::sync::Arc<ComputePass>,
+}
+
+impl Binning {
+    fn new(ctx: &GpuContext) -> Result<Self> {
+        use Binding::*;
+        Ok(Self {
+            count: ComputePass::new(
+                ctx,
+                "splat_bin_count.wgsl",
+                &[
+                    Uniform,
+                    Uniform,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                    StorageRead,
+                ],
+            )?,
+            scan: crate::gpu::prefix_sum::PrefixSumPass::new(ctx)?,
+            busy_tiles: ComputePass::new(
+                ctx,
+                "splat_bin_tiles.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                ],
+            )?,
+            scatter: ComputePass::new(
+                ctx,
+                "splat_bin_scatter.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageReadWrite,
+                    StorageRead,
+                    StorageRead,
+                ],
+            )?,
+            sort: ComputePass::new(
+                ctx,
+                "splat_bin_sort.wgsl",
+                &[Uniform, StorageRead, StorageRead, StorageReadWrite],
+            )?,
+        })
     }
 }
 
@@ -396,14 +455,13 @@ impl<'a> SplatSource<'a> {
 }
 
 pub struct SplatPass {
-    count: std::sync::Arc<ComputePass>,
-    scan: crate::gpu::prefix_sum::PrefixSumPass,
-    busy_tiles: std::sync::Arc<ComputePass>,
-    scatter: std::sync::Arc<ComputePass>,
-    sort: std::sync::Arc<ComputePass>,
-    gather: GatherPipelines,
+    /// Binning records into tiles: the gather's, and the binned cover's on large images.
+    /// Built at first use, like the gathers: a still frame first asks for them after its
+    /// placement, so they can build while it places records (`SplatPass::build_late`).
+    binning: OnFirstUse<Binning>,
+    gather: OnFirstUse<GatherPipelines>,
     /// Tail fill's gather over the listed empty pixels.
-    fill: GatherPipelines,
+    fill: OnFirstUse<GatherPipelines>,
     /// What a record-by-record cover (`cover::CoverMode`) gives as its lists' total: a
     /// zero, never written (it has no lists), made once rather than every round.
     no_lists_total: wgpu::Buffer,
@@ -470,80 +528,24 @@ fn splat_params(
 }
 
 impl SplatPass {
-    /// Builds now the pipelines a frame with `corral` will ask for (the record-by-record
-    /// cover's and the gather's with the records' corrals), so that they build beside the
-    /// other passes rather than at their first splat. The device keeps them. (The binned
-    /// cover, for images of more than `cover::BY_RECORD_MAX_TILES` tiles, builds at its
-    /// first round: a few ms in a frame of seconds.)
-    pub fn build_for_corral(&self, ctx: &GpuContext, corral: crate::records::Corral) -> Result<()> {
+    /// Builds now placement's record-by-record covers for a frame with `corral` (with the
+    /// records' corrals first when the cover weighs them: a still frame's first rounds ask
+    /// for it, tail fill for the other). The device keeps them. (The binned cover, for
+    /// images of more than `cover::BY_RECORD_MAX_TILES` tiles, builds at its first round
+    /// from the binning, [`Self::build_late`].)
+    pub fn build_covers(&self, ctx: &GpuContext, corral: crate::records::Corral) -> Result<()> {
         if corral.in_cover() {
             self.cover_by_record_pipeline(ctx, true)?;
         }
-        if corral.in_gathers() {
-            self.gather.for_mode(ctx, COUNT_NONE, true)?;
-        }
-        Ok(())
+        self.cover_by_record_pipeline(ctx, false).map(|_| ())
     }
 
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         use Binding::*;
-        // Small images' placement covers record by record from its first round (the
-        // binned cover, for larger ones, builds at its first use).
-        cover::cover_pass(
-            ctx,
-            "splat_cover_by_record.wgsl",
-            COVER_BY_RECORD_BINDINGS,
-            false,
-        )?;
         Ok(Self {
-            count: ComputePass::new(
-                ctx,
-                "splat_bin_count.wgsl",
-                &[
-                    Uniform,
-                    Uniform,
-                    StorageRead,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                    StorageRead,
-                ],
-            )?,
-            scan: crate::gpu::prefix_sum::PrefixSumPass::new(ctx)?,
-            busy_tiles: ComputePass::new(
-                ctx,
-                "splat_bin_tiles.wgsl",
-                &[
-                    Uniform,
-                    StorageRead,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                ],
-            )?,
-            scatter: ComputePass::new(
-                ctx,
-                "splat_bin_scatter.wgsl",
-                &[
-                    Uniform,
-                    StorageRead,
-                    StorageRead,
-                    StorageReadWrite,
-                    StorageReadWrite,
-                    StorageRead,
-                    StorageRead,
-                ],
-            )?,
-            sort: ComputePass::new(
-                ctx,
-                "splat_bin_sort.wgsl",
-                &[Uniform, StorageRead, StorageRead, StorageReadWrite],
-            )?,
-            gather: GatherPipelines::new(ctx, "splat_gather.wgsl", GATHER_BINDINGS.to_vec())?,
-            fill: GatherPipelines::new(
-                ctx,
-                "splat_fill.wgsl",
-                [GATHER_BINDINGS, FILL_EXTRA_BINDINGS].concat(),
-            )?,
+            binning: OnFirstUse::new(),
+            gather: OnFirstUse::new(),
+            fill: OnFirstUse::new(),
             no_lists_total: ctx.storage_buffer_sized("cover lists total (none)", 4)?,
             count_coverage: ComputePass::new(
                 ctx,
@@ -569,6 +571,50 @@ impl SplatPass {
             },
             consistency: std::sync::OnceLock::new(),
         })
+    }
+
+    /// The pipelines that bin records into tiles, built at their first use.
+    fn binning(&self, ctx: &GpuContext) -> Result<&Binning> {
+        self.binning.get(|| Binning::new(ctx))
+    }
+
+    /// The gather's pipelines, the still frame's (no counting, no corral) built with them.
+    fn gather(&self, ctx: &GpuContext) -> Result<&GatherPipelines> {
+        self.gather
+            .get(|| GatherPipelines::new(ctx, "splat_gather.wgsl", GATHER_BINDINGS.to_vec()))
+    }
+
+    /// Tail fill's gather pipelines, as [`Self::gather`].
+    fn fill(&self, ctx: &GpuContext) -> Result<&GatherPipelines> {
+        self.fill.get(|| {
+            GatherPipelines::new(
+                ctx,
+                "splat_fill.wgsl",
+                [GATHER_BINDINGS, FILL_EXTRA_BINDINGS].concat(),
+            )
+        })
+    }
+
+    /// Builds the pipelines a still frame with `corral` first asks for once its placement
+    /// is done: the binning, the gather and tail fill's gather, and with `widening` the
+    /// widened gather's check. A frame asks for them itself when it needs them; built
+    /// ahead on other threads (`Renderer::build_ahead`), they build while
+    /// the frame places its records, when lavapipe leaves a core idle (its compilations at
+    /// a pipeline's first dispatch, one at a time, and the plane passes' last workgroups).
+    pub fn build_late(
+        &self,
+        ctx: &GpuContext,
+        corral: crate::records::Corral,
+        widening: bool,
+    ) -> Result<()> {
+        self.binning(ctx)?;
+        self.gather(ctx)?
+            .for_mode(ctx, COUNT_NONE, corral.in_gathers())?;
+        self.fill(ctx)?;
+        if widening {
+            self.consistency(ctx)?;
+        }
+        Ok(())
     }
 
     /// The check of a widened gather against the default one
@@ -638,7 +684,7 @@ impl SplatPass {
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         // Tail fill weighs no corral (`SplatSource::corral`).
-        let fill = self.fill.for_mode(ctx, out.coverage_mode, false)?;
+        let fill = self.fill(ctx)?.for_mode(ctx, out.coverage_mode, false)?;
         let bind = fill.bind(
             ctx,
             &[
@@ -687,7 +733,9 @@ impl SplatPass {
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         if bins.total > 0 || !accumulate {
-            let gather = self.gather.for_mode(ctx, out.coverage_mode, src.corral)?;
+            let gather = self
+                .gather(ctx)?
+                .for_mode(ctx, out.coverage_mode, src.corral)?;
             let bind = gather.bind(
                 ctx,
                 &[
@@ -762,11 +810,11 @@ impl SplatPass {
             let mut timer = PassTimer::new(ctx, 2);
             let mut enc = ctx.device.create_command_encoder(&Default::default());
             self.record_bin_scatter(ctx, src, &counts, &entries, &mut enc, &mut timer)?;
-            let bind = self.sort.bind(
+            let bind = self.binning(ctx)?.sort.bind(
                 ctx,
                 &[&counts.params, &counts.tile_offsets, &entries, &sorted],
             );
-            self.sort.record(
+            self.binning(ctx)?.sort.record(
                 &mut enc,
                 &src.scene.bind_group,
                 &bind,
@@ -832,7 +880,7 @@ impl SplatPass {
             ["placement: cover bin count", "placement: cover bin scan"]
         };
         if records > 0 {
-            let bind = self.count.bind(
+            let bind = self.binning(ctx)?.count.bind(
                 ctx,
                 &[
                     &params,
@@ -843,7 +891,7 @@ impl SplatPass {
                     &bounds.buffer,
                 ],
             );
-            self.count.record(
+            self.binning(ctx)?.count.record(
                 enc,
                 &scene.bind_group,
                 &bind,
@@ -851,7 +899,7 @@ impl SplatPass {
                 timer.next(count_label),
             );
         }
-        self.scan.record(
+        self.binning(ctx)?.scan.record(
             ctx,
             enc,
             &scene.bind_group,
@@ -862,7 +910,7 @@ impl SplatPass {
         );
         if !sorted {
             // Only the cover dispatches over the busy tiles; a gather runs every tile.
-            let bind = self.busy_tiles.bind(
+            let bind = self.binning(ctx)?.busy_tiles.bind(
                 ctx,
                 &[
                     &params,
@@ -872,7 +920,7 @@ impl SplatPass {
                     &cover_groups,
                 ],
             );
-            self.busy_tiles.record(
+            self.binning(ctx)?.busy_tiles.record(
                 enc,
                 &scene.bind_group,
                 &bind,
@@ -911,7 +959,7 @@ impl SplatPass {
         }
         let tiles = counts.tiles[0] * counts.tiles[1];
         let cursors = ctx.storage_buffer_sized("tile cursors", u64::from(tiles) * 4)?;
-        let bind = self.scatter.bind(
+        let bind = self.binning(ctx)?.scatter.bind(
             ctx,
             &[
                 &counts.params,
@@ -923,7 +971,7 @@ impl SplatPass {
                 &src.bounds.buffer,
             ],
         );
-        self.scatter.record(
+        self.binning(ctx)?.scatter.record(
             enc,
             &src.scene.bind_group,
             &bind,
