@@ -4,6 +4,8 @@
 
 mod common;
 
+use radsplat::frame::BuildPriority;
+use radsplat::gpu::SceneFeatures;
 use radsplat::output::{exr_out, sha256_hex};
 use radsplat::placement::sequential::sequential_placement;
 use radsplat::records::{CacheSettings, Corral, Record, RecordRadius};
@@ -574,6 +576,38 @@ fn passes_built_ahead_on_many_threads_render_the_same_bytes() {
                 .expect("direct passes")
                 .is_none(),
             "a cache without GI settings"
+        );
+    }
+    // As `radsplat render` does: the frame starts after its first passes while the rest
+    // build beside it, at the lowest priority, pipelines the frame reaches first built by
+    // the frame itself.
+    for threads in [1, 16] {
+        let beside = Renderer::new(common::gpu()).expect("renderer");
+        let mut cache = beside
+            .build_frame_start_passes(Some(&settings()), threads, &|| SceneFeatures::ALL)
+            .expect("first passes")
+            .expect("a cache for GI settings");
+        let recipes = cache.pass.pipeline_recipes();
+        let pass_settings = cache.pass.settings.clone();
+        assert!(
+            recipes.iter().any(|r| r.name == "hemisphere_plane.wgsl"),
+            "the plane's pipeline is not among those built ahead"
+        );
+        let frame = std::thread::scope(|s| {
+            let builder = s.spawn(|| {
+                beside.build_ahead(&recipes, &pass_settings, threads, BuildPriority::IdleCores)
+            });
+            let frame = render(&beside, &scene, &mut cache);
+            builder
+                .join()
+                .expect("builder")
+                .expect("passes built ahead");
+            frame
+        });
+        let got = exr_out::encode_exr(64, 64, &exr_out::frame_channels(&frame)).expect("exr");
+        assert!(
+            got == want,
+            "built beside the frame, {threads} threads: other bytes"
         );
     }
     let broken = CacheSettings {

@@ -35,7 +35,7 @@ type PassSlot = Mutex<Option<Arc<ComputePass>>>;
 
 /// A pass (or a group of pipelines) built when it is first asked for: by the frame that
 /// needs it, or earlier by a thread building ahead
-/// (`crate::frame::Renderer::build_ahead`). Its pipelines go through
+/// (`Renderer::build_ahead`, in the frame layer). Its pipelines go through
 /// [`ComputePass::with_constants`], which builds each once per device, so two threads that
 /// ask at once build each pipeline once (the later one waits for it) and keep one of the
 /// two small structs.
