@@ -844,7 +844,7 @@ fn main() -> ExitCode {
             cache,
             record_map,
             quiet,
-        } => commands::render::render(commands::render::RenderArgs {
+        } => match commands::render::render(commands::render::RenderArgs {
             scene_path: &scene,
             output,
             png,
@@ -855,7 +855,12 @@ fn main() -> ExitCode {
             cache: (!direct_only).then(|| cache.settings(false)),
             record_map,
             quiet,
-        }),
+        }) {
+            // Its outputs are committed: the process ends here, the device not torn down
+            // (`Rendered::end_process`).
+            Ok(rendered) => rendered.end_process(),
+            Err(e) => Err(e),
+        },
         Command::Animate {
             scene,
             frames,

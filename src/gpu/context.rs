@@ -393,6 +393,14 @@ impl GpuContext {
         self.check()
     }
 
+    /// Writes the pipeline cache back now (as its drop does; [`PipelineCacheFile::save`]),
+    /// for a process that ends without dropping its context.
+    pub fn save_pipeline_cache(&self) {
+        if let Some(cache) = &self.pipeline_cache {
+            cache.save();
+        }
+    }
+
     /// The file the pipeline cache is kept in, where there is one.
     pub fn pipeline_cache_path(&self) -> Option<&std::path::Path> {
         self.pipeline_cache.as_ref().map(|c| c.path())
