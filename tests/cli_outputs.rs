@@ -100,6 +100,54 @@ fn a_failed_render_leaves_every_existing_output_as_it_was() {
     }
 }
 
+/// A good render ends its process once its outputs are committed, without tearing the
+/// device down (`Rendered::end_process`): it exits 0 with every output written (and no
+/// temporary file), its summary printed, and the pipeline cache saved where the device
+/// keeps one, as a context's drop would.
+#[test]
+fn a_good_render_ends_with_its_outputs_and_pipeline_cache_written() {
+    let dir = tmp_dir("render-ok");
+    let cache_dir = dir.join("pipelines");
+    let scene = common::bundled("cornell-box.toml");
+    let (exr, png, stats) = (dir.join("out.exr"), dir.join("out.png"), dir.join("s.json"));
+    let out = Command::new(env!("CARGO_BIN_EXE_radsplat"))
+        .args([
+            "render",
+            s(&scene),
+            "--size",
+            "8x8",
+            "--plane-resolution",
+            "8",
+            "-o",
+            s(&exr),
+            "--png",
+            s(&png),
+            "--stats",
+            s(&stats),
+        ])
+        .env("RADSPLAT_CACHE_DIR", &cache_dir)
+        .env_remove("XDG_RUNTIME_DIR")
+        .output()
+        .expect("run radsplat");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(err.contains("wrote"), "the summary is printed: {err}");
+    assert_eq!(entries(&dir), ["out.exr", "out.png", "pipelines", "s.json"]);
+    assert!(std::fs::metadata(&exr).expect("exr").len() > 0);
+    let ctx = common::gpu();
+    if ctx
+        .device
+        .features()
+        .contains(wgpu::Features::PIPELINE_CACHE)
+    {
+        let info = ctx.adapter_info.clone().expect("own adapter");
+        let key = wgpu::util::pipeline_cache_key(&info).expect("key");
+        let saved = std::fs::read(cache_dir.join(format!("{key}.bin")))
+            .expect("the pipeline cache saved before the process ended");
+        assert!(!saved.is_empty());
+    }
+}
+
 /// `reference --png nodir/x.png` likewise leaves its EXR alone; a good run writes both.
 #[test]
 fn a_failed_reference_leaves_its_exr_alone_and_a_good_one_writes_all() {
