@@ -826,6 +826,7 @@ impl Renderer {
             self.build_ahead(
                 &gi.pass.pipeline_recipes(),
                 &gi.pass.settings,
+                features(),
                 threads,
                 BuildPriority::Now,
             )?;
@@ -833,13 +834,14 @@ impl Renderer {
         Ok(built)
     }
 
-    /// The passes a frame runs before its first records (visibility, direct light, the
-    /// light maps, the splat's tile bounds, placement's selection), built on up to
-    /// `threads` threads, and the cache for `cache`'s settings, whose pipelines are not
-    /// built yet: [`Self::build_passes_for`] builds them next ([`Self::build_ahead`]);
-    /// `radsplat render` builds them on other threads while its frame begins, so that
-    /// lavapipe's one-at-a-time compilations at a pipeline's first dispatch leave no core
-    /// idle and the frame starts sooner.
+    /// The passes a frame runs first, built on up to `threads` threads: the visibility
+    /// pass, and with `cache` the splat pass (its tile bounds; its later pipelines build at
+    /// first use) and placement's selection, with the cache for `cache`'s settings, whose
+    /// record pass's pipelines are not built yet; without it the direct light too.
+    /// [`Self::build_passes_for`] builds the rest next ([`Self::build_ahead`]);
+    /// `radsplat render` builds it on other threads while its frame begins, so that the
+    /// frame starts sooner and the builds take the cores lavapipe leaves idle (its
+    /// compilations at a pipeline's first dispatch, one at a time).
     pub fn build_frame_start_passes(
         &self,
         cache: Option<&CacheSettings>,
@@ -847,17 +849,17 @@ impl Renderer {
         features: &(dyn Fn() -> SceneFeatures + Sync),
     ) -> Result<Option<IrradianceCache>> {
         let built_cache = std::sync::Mutex::new(None);
-        let mut builds: Vec<Build> = Vec::new();
-        // The two passes the frame runs first (they wait for the scene's features).
-        builds.extend([
-            Box::new(|| self.direct_pass(features()).map(|_| ())) as Build,
-            Box::new(|| self.visibility_pass(features()).map(|_| ())),
-        ]);
+        // The pass the frame runs first (it waits for the scene's features).
+        let mut builds: Vec<Build> =
+            vec![Box::new(|| self.visibility_pass(features()).map(|_| ()))];
+        if cache.is_none() {
+            // A direct-light frame runs only it and the direct light.
+            builds.push(Box::new(|| self.direct_pass(features()).map(|_| ())));
+        }
         if let Some(settings) = cache {
             let built = &built_cache;
             builds.extend([
-                Box::new(|| self.light_map_pass().map(|_| ())) as Build,
-                Box::new(|| self.splat_pass().map(|_| ())),
+                Box::new(|| self.splat_pass().map(|_| ())) as Build,
                 Box::new(|| self.placement_pass().map(|_| ())),
                 // The cache's record pass, its pipelines not built (`pipeline_recipes`).
                 Box::new(move || {
@@ -872,8 +874,9 @@ impl Renderer {
         Ok(built_cache.into_inner().unwrap_or_else(|p| p.into_inner()))
     }
 
-    /// Builds, on up to `threads` threads, what a frame with `settings` asks for once its
-    /// first passes have run, in the order it asks: `recipes` (the record pass's pipelines,
+    /// Builds, on up to `threads` threads, what a frame with `settings` over a scene with
+    /// `features` asks for after its visibility pass, in the order it asks: the direct
+    /// light and the light maps, `recipes` (the record pass's pipelines,
     /// [`RecordPass::pipeline_recipes`]: the longest builds), placement's covers
     /// ([`SplatPass::build_covers`]), then the splat's binning and gathers
     /// ([`SplatPass::build_late`]) and the resolve. A frame builds whatever it reaches
@@ -883,13 +886,19 @@ impl Renderer {
         &self,
         recipes: &[crate::gpu::pipeline::PassRecipe],
         settings: &CacheSettings,
+        features: SceneFeatures,
         threads: usize,
         priority: BuildPriority,
     ) -> Result<()> {
-        let mut builds: Vec<Build> = recipes
-            .iter()
-            .map(|r| Box::new(move || r.build(&self.ctx).map(|_| ())) as Build)
-            .collect();
+        let mut builds: Vec<Build> = vec![
+            Box::new(move || self.direct_pass(features).map(|_| ())),
+            Box::new(|| self.light_map_pass().map(|_| ())),
+        ];
+        builds.extend(
+            recipes
+                .iter()
+                .map(|r| Box::new(move || r.build(&self.ctx).map(|_| ())) as Build),
+        );
         builds.extend([
             Box::new(|| self.splat_pass()?.build_covers(&self.ctx, settings.corral)) as Build,
             Box::new(|| {

@@ -595,7 +595,13 @@ fn passes_built_ahead_on_many_threads_render_the_same_bytes() {
         );
         let frame = std::thread::scope(|s| {
             let builder = s.spawn(|| {
-                beside.build_ahead(&recipes, &pass_settings, threads, BuildPriority::IdleCores)
+                beside.build_ahead(
+                    &recipes,
+                    &pass_settings,
+                    SceneFeatures::ALL,
+                    threads,
+                    BuildPriority::IdleCores,
+                )
             });
             let frame = render(&beside, &scene, &mut cache);
             builder

@@ -183,7 +183,8 @@ pub fn render(args: RenderArgs) -> Result<Rendered> {
             s.spawn(|| {
                 let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
                 let idle = crate::frame::BuildPriority::IdleCores;
-                if let Err(e) = renderer.build_ahead(recipes, settings, cores, idle) {
+                let features = SceneFeatures::of(&scene);
+                if let Err(e) = renderer.build_ahead(recipes, settings, features, cores, idle) {
                     log::debug!("building ahead: {e}");
                 }
             });
