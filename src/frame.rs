@@ -394,8 +394,9 @@ fn lower_this_threads_priority() {
 }
 
 /// Runs `builds` on up to `threads` threads (at least one) at `priority`, each thread
-/// taking the next in order; the first error is returned once all have stopped. More threads than cores only
-/// made the builds contend (Cornell box 128x128: 0.51 s against 0.4 s serial).
+/// taking the next in order; the first error is returned once all have stopped. More
+/// threads than cores only made the builds contend (Cornell box 128x128: 0.51 s against
+/// 0.4 s serial).
 fn run_builds(builds: &[Build], threads: usize, priority: BuildPriority) -> Result<()> {
     let next = std::sync::atomic::AtomicUsize::new(0);
     let worker = || -> Result<()> {

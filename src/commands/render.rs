@@ -169,9 +169,10 @@ pub fn render(args: RenderArgs) -> Result<Rendered> {
     bar.inc(1);
     bar.set_message("rendering");
     let mut records = Vec::new();
-    // The passes the frame asks for once its first passes have run (the record pass's
-    // pipelines, placement's covers, the gathers, the resolve) build on other threads
-    // meanwhile, at the lowest priority, on the cores lavapipe leaves idle
+    // The passes the frame asks for after its visibility pass (the direct light, the light
+    // maps, the record pass's pipelines, placement's covers, the gathers, the resolve)
+    // build on other threads meanwhile, at the lowest priority, on the cores lavapipe
+    // leaves idle
     // (`Renderer::build_ahead`); the frame builds any it reaches first itself and waits for
     // one being built. A build that fails there fails again, with its message, in the
     // frame.
