@@ -34,9 +34,9 @@ pub struct RenderArgs<'a> {
 
 /// What a render leaves once its outputs are committed: the device, its passes and the
 /// scene's buffers. Dropping it tears the device down: about 10 ms of a small still's
-/// 0.55 s on lavapipe (its pipelines' JIT code, its threads), and 10 ms more of exit
-/// handlers after it. A process that ends right after can skip that:
-/// [`Rendered::end_process`].
+/// 0.55 s on lavapipe (its pipelines' JIT code, its threads), and the process then took
+/// 9 ms more from `main`'s return to its end. A process that ends right after can skip
+/// most of that: [`Rendered::end_process`].
 pub struct Rendered {
     renderer: Renderer,
     _scene: crate::PreparedScene,
