@@ -462,7 +462,8 @@ impl RecordPass {
             "record sites",
             u64::from(count) * std::mem::size_of::<RecordSite>() as u64,
         )?;
-        let bind = self.sites.get(ctx)?.bind(
+        let sites_pass = self.sites.get(ctx)?;
+        let bind = sites_pass.bind(
             ctx,
             &[
                 &params,
@@ -473,7 +474,7 @@ impl RecordPass {
             ],
         );
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        self.sites.get(ctx)?.record(
+        sites_pass.record(
             &mut enc,
             &scene.bind_group,
             &bind,
@@ -884,7 +885,8 @@ impl RecordPass {
                 hessian_scale: self.settings.record_radius.hessian_scale(),
             },
         );
-        let bind = self.reduce.get(ctx)?.bind(
+        let reduce = self.reduce.get(ctx)?;
+        let bind = reduce.bind(
             ctx,
             &[
                 &params,
@@ -897,7 +899,7 @@ impl RecordPass {
                 &grid.records,
             ],
         );
-        self.reduce.get(ctx)?.record(
+        reduce.record(
             enc,
             &scene.bind_group,
             &bind,

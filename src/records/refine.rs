@@ -440,7 +440,8 @@ impl RefinePass {
                 _pad: 0,
             },
         );
-        let bind = self.select.get(ctx)?.bind(
+        let select = self.select.get(ctx)?;
+        let bind = select.bind(
             ctx,
             &[
                 &select_params,
@@ -463,7 +464,7 @@ impl RefinePass {
             u64::from(count) * u64::from(self.slots()) * 4,
             None,
         );
-        self.select.get(ctx)?.record(
+        select.record(
             enc,
             &scene.bind_group,
             &bind,

@@ -476,7 +476,7 @@ pub struct SplatPass {
     no_sums: wgpu::Buffer,
     no_empty: tile_bounds::EmptyPixels,
     /// The widened gather's check against the default one, built when a frame first widens.
-    consistency: std::sync::OnceLock<consistency::ConsistencyPass>,
+    consistency: OnFirstUse<consistency::ConsistencyPass>,
 }
 
 /// The splat passes' parameters (`SplatParams`) for `src`, and its image's tiles (x, y),
@@ -569,7 +569,7 @@ impl SplatPass {
                 list: ctx.storage_buffer_sized("no empty pixels", 4)?,
                 count: ctx.storage_buffer_sized("no empty pixel count", 4)?,
             },
-            consistency: std::sync::OnceLock::new(),
+            consistency: OnFirstUse::new(),
         })
     }
 
@@ -620,11 +620,8 @@ impl SplatPass {
     /// The check of a widened gather against the default one
     /// ([`consistency::ConsistencyPass`]), built when a frame first widens.
     pub fn consistency(&self, ctx: &GpuContext) -> Result<&consistency::ConsistencyPass> {
-        if let Some(pass) = self.consistency.get() {
-            return Ok(pass);
-        }
-        let built = consistency::ConsistencyPass::new(ctx)?;
-        Ok(self.consistency.get_or_init(|| built))
+        self.consistency
+            .get(|| consistency::ConsistencyPass::new(ctx))
     }
 
     /// Splats `src`'s records into `out`: onto its previous sums when `accumulate`, else
@@ -810,11 +807,12 @@ impl SplatPass {
             let mut timer = PassTimer::new(ctx, 2);
             let mut enc = ctx.device.create_command_encoder(&Default::default());
             self.record_bin_scatter(ctx, src, &counts, &entries, &mut enc, &mut timer)?;
-            let bind = self.binning(ctx)?.sort.bind(
+            let sort = &self.binning(ctx)?.sort;
+            let bind = sort.bind(
                 ctx,
                 &[&counts.params, &counts.tile_offsets, &entries, &sorted],
             );
-            self.binning(ctx)?.sort.record(
+            sort.record(
                 &mut enc,
                 &src.scene.bind_group,
                 &bind,
@@ -879,8 +877,9 @@ impl SplatPass {
         } else {
             ["placement: cover bin count", "placement: cover bin scan"]
         };
+        let binning = self.binning(ctx)?;
         if records > 0 {
-            let bind = self.binning(ctx)?.count.bind(
+            let bind = binning.count.bind(
                 ctx,
                 &[
                     &params,
@@ -891,7 +890,7 @@ impl SplatPass {
                     &bounds.buffer,
                 ],
             );
-            self.binning(ctx)?.count.record(
+            binning.count.record(
                 enc,
                 &scene.bind_group,
                 &bind,
@@ -899,7 +898,7 @@ impl SplatPass {
                 timer.next(count_label),
             );
         }
-        self.binning(ctx)?.scan.record(
+        binning.scan.record(
             ctx,
             enc,
             &scene.bind_group,
@@ -910,7 +909,7 @@ impl SplatPass {
         );
         if !sorted {
             // Only the cover dispatches over the busy tiles; a gather runs every tile.
-            let bind = self.binning(ctx)?.busy_tiles.bind(
+            let bind = binning.busy_tiles.bind(
                 ctx,
                 &[
                     &params,
@@ -920,7 +919,7 @@ impl SplatPass {
                     &cover_groups,
                 ],
             );
-            self.binning(ctx)?.busy_tiles.record(
+            binning.busy_tiles.record(
                 enc,
                 &scene.bind_group,
                 &bind,
@@ -959,7 +958,8 @@ impl SplatPass {
         }
         let tiles = counts.tiles[0] * counts.tiles[1];
         let cursors = ctx.storage_buffer_sized("tile cursors", u64::from(tiles) * 4)?;
-        let bind = self.binning(ctx)?.scatter.bind(
+        let scatter = &self.binning(ctx)?.scatter;
+        let bind = scatter.bind(
             ctx,
             &[
                 &counts.params,
@@ -971,7 +971,7 @@ impl SplatPass {
                 &src.bounds.buffer,
             ],
         );
-        self.binning(ctx)?.scatter.record(
+        scatter.record(
             enc,
             &src.scene.bind_group,
             &bind,
