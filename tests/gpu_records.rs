@@ -827,6 +827,109 @@ fn gpu_refinement_under_an_environment_discounts_its_samples_as_the_cpu() {
     );
 }
 
+/// How `plane_refine_select.wgsl`'s radix select over `keys` ends, for K = `k`: settled in
+/// a round whose bin holds exactly the keys still to take (`Bin`), settled on a first bin
+/// of zeros alone (`Zeros`: fewer than K pixels with contrast), or after all four rounds
+/// (`Rounds`: ties at the threshold, or two keys sharing its top 24 bits). The walk from the
+/// top bin down is the shader's (which sums four bins a thread first: the same bin).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum RadixEnd {
+    Bin,
+    Zeros,
+    Rounds,
+}
+
+fn radix_select_end(keys: &[u32], k: u32) -> RadixEnd {
+    let zeros = keys.iter().filter(|&&key| key == 0).count() as u32;
+    let (mut prefix, mut remaining) = (0u32, k);
+    for round in 0..4u32 {
+        let shift = 24 - 8 * round;
+        let mask = if round > 0 {
+            u32::MAX << (shift + 8)
+        } else {
+            0
+        };
+        let mut histogram = [0u32; 256];
+        for &key in keys.iter().filter(|&&key| key & mask == prefix) {
+            histogram[((key >> shift) & 255) as usize] += 1;
+        }
+        let (mut above, mut bin) = (0, 255usize);
+        while above + histogram[bin] < remaining && bin > 0 {
+            above += histogram[bin];
+            bin -= 1;
+        }
+        remaining -= above;
+        prefix |= (bin as u32) << shift;
+        if round < 3 && prefix != 0 && histogram[bin] == remaining {
+            return RadixEnd::Bin;
+        }
+        if round == 0 && prefix == 0 && histogram[0] == zeros {
+            return RadixEnd::Zeros;
+        }
+    }
+    RadixEnd::Rounds
+}
+
+/// The selection's radix select stops early where the rounds left could not change what it
+/// selects (a bin that holds exactly the keys still to take; a first bin of zeros alone,
+/// most lit planes of a hall lit through windows). Each way it ends selects the pixels the
+/// CPU mirror does, in the nave (planes with a little light in much darkness) and the
+/// Cornell box (contrast everywhere); every way occurs here, so none goes untested.
+#[test]
+fn gpu_selection_matches_the_cpu_however_its_radix_select_ends() {
+    let renderer = Renderer::new(common::gpu()).expect("renderer");
+    let mut ends = Vec::new();
+    for (name, size, plane_refine) in [
+        ("nave.toml", (48, 48), 0.1),
+        ("nave.toml", (48, 48), 0.02),
+        ("cornell-box.toml", (32, 32), 0.1),
+    ] {
+        let settings = CacheSettings {
+            plane_refine,
+            ..CacheSettings::default()
+        };
+        let k = settings.refined_pixels();
+        let per = (settings.plane_resolution * settings.plane_resolution) as usize;
+        let scene = common::load(name, Some(size));
+        let sites = sites(&scene, &renderer, &settings, 24);
+        let Refined {
+            pass,
+            reference,
+            gpu,
+            ..
+        } = refined(&renderer, &scene, &settings, &sites);
+        let slots = pass.refine_slots() as usize;
+        for i in 0..sites.len() {
+            let coarse = &gpu.coarse[i * per..(i + 1) * per];
+            let noise = &gpu.noise[i * per..(i + 1) * per];
+            if refine::is_dark(&reference.plane, coarse) {
+                continue;
+            }
+            let keys = refine::contrast_keys(&reference.plane, coarse, noise);
+            let end = radix_select_end(&keys, k);
+            assert_eq!(
+                &gpu.selected[i * slots..i * slots + k as usize],
+                &refine::select_pixels(&reference.plane, coarse, noise, k, true, None)[..],
+                "{name} K {k} site {i} ({end:?}): selected pixels"
+            );
+            ends.push(end);
+        }
+    }
+    let count = |end| ends.iter().filter(|&&e| e == end).count();
+    let (bin, zeros, rounds) = (
+        count(RadixEnd::Bin),
+        count(RadixEnd::Zeros),
+        count(RadixEnd::Rounds),
+    );
+    eprintln!(
+        "lit planes whose select settled on a bin {bin}, on zeros {zeros}, after four rounds {rounds}"
+    );
+    assert!(
+        bin > 0 && zeros > 0 && rounds > 0,
+        "a way the select ends went untested: {bin} / {zeros} / {rounds}"
+    );
+}
+
 /// Refinement ranked pixels by contrast that one environment sample per hit made up, and
 /// replacing the pixels whose sample happened to be extreme darkened env-sphere's indirect
 /// light by 4.6 % at this size (0.954 of the same render unrefined; docs/results.md). With

@@ -124,6 +124,8 @@ var<workgroup> plane_dark: u32;    // `lit` read once, for a uniform branch
 var<workgroup> counts: array<u32, THREADS>;
 var<workgroup> prefix_key: u32;
 var<workgroup> remaining: u32;
+var<workgroup> settled: u32;       // radix select: 1, the bin found takes all its keys; 2, T is 0
+var<workgroup> zero_keys: atomic<u32>;
 
 // The contrast of two samples (channel sums `ya`, `yb`): their difference less what the
 // two got from environment samples (`na`, `nb`, from `noise`), which one shadow ray a hit
@@ -326,10 +328,23 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     if lane == 0u {
         prefix_key = 0u;
         remaining = params.refined;
+        settled = 0u;
+        atomicStore(&zero_keys, 0u);
     }
     // Radix select, 8 bits a round from the top: the K-th largest key T, and how many of
-    // the keys equal to T are taken (`remaining`).
+    // the keys equal to T are taken (`remaining`). Two cases settle it before the fourth
+    // round, with the pixels the rounds left would select:
+    // - a round's bin holds exactly the keys still to take: every key in that bin and
+    //   above is taken, every key below it is not, whatever their lower bits (the rounds
+    //   left would narrow the bin down to its smallest key and take all of its ties);
+    // - the first round's bin is 0 and holds only zeros: T is 0, and the rounds left
+    //   would find bin 0 with nothing above it each time. Most lit planes of a hall lit
+    //   through windows see fewer than K pixels of contrast (nave-west: all of them).
+    // Each skips the rounds' histograms, the bulk of this pass's work.
     for (var round = 0u; round < 4u; round++) {
+        if workgroupUniformLoad(&settled) != 0u {
+            break;
+        }
         let shift = 24u - 8u * round;
         var mask = 0u;
         if round > 0u {
@@ -340,11 +355,16 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         }
         workgroupBarrier();
         let prefix = prefix_key;
+        var zeros = 0u;
         for (var k = first; k < last; k++) {
             let key = keys[base + k];
             if (key & mask) == prefix {
                 atomicAdd(&histogram[(key >> shift) & 255u], 1u);
             }
+            zeros += u32(key == 0u);
+        }
+        if round == 0u && zeros != 0u {
+            atomicAdd(&zero_keys, zeros);
         }
         workgroupBarrier();
         // The bin of the K-th largest key, from the top: the highest bin where the keys in
@@ -377,11 +397,25 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             }
             remaining -= above;
             prefix_key = prefix | (bin << shift);
+            // (A bin of a zero prefix may hold zeros, which no threshold one below it
+            // leaves out: the second case, or the rounds.)
+            if round < 3u && prefix_key != 0u && atomicLoad(&histogram[bin]) == remaining {
+                settled = 1u;
+            } else if round == 0u && prefix_key == 0u
+                && atomicLoad(&zero_keys) == atomicLoad(&histogram[0]) {
+                settled = 2u;
+            }
         }
         workgroupBarrier();
     }
-    let threshold = prefix_key;
-    let ties = remaining;
+    // Settled on a bin: the keys from the bin's lowest value up (T - 1 taken as the
+    // threshold, with no ties); else T (0 where settled on zeros) and its ties.
+    var threshold = prefix_key;
+    var ties = remaining;
+    if settled == 1u {
+        threshold = prefix_key - 1u;
+        ties = 0u;
+    }
     // Rank of each key equal to T among them, in pixel order.
     var equal = 0u;
     for (var k = first; k < last; k++) {
