@@ -50,7 +50,7 @@ struct SelectParams {
     cell_size: u32,
     cells_x: u32,
     cells_y: u32,
-    parity: u32,
+    first_parity: u32,
     _pad: [u32; 2],
 }
 
@@ -139,8 +139,8 @@ impl PlacementPass {
     }
 
     /// Candidate pixels of the parity classes `from..4` of one cell size, in cell order,
-    /// all selected against the same coverage, with the mask's marked count (for tail
-    /// fill): one submission and one wait. Placement uses the first class with
+    /// all selected against the same coverage in one dispatch, with the mask's marked
+    /// count (for tail fill): one submission and one wait. Placement uses the first class with
     /// candidates; its records change the coverage, so the later classes are selected
     /// again after them (a class without candidates has none after more coverage either).
     /// `in_flight`: the last round's cover, whose lists' total is read in the same wait
@@ -158,42 +158,44 @@ impl PlacementPass {
     ) -> Result<(Vec<Vec<u32>>, u32, u32)> {
         let cells_x = vis.width.div_ceil(cell_size);
         let cells_y = vis.height.div_ceil(cell_size);
+        // Cells of each parity class `from..4`; the shader writes one slot for each, class
+        // after class, in one dispatch.
+        let active: Vec<u32> = (from..4)
+            .map(|parity| {
+                let half_x = (cells_x + 1 - parity % 2) / 2;
+                let half_y = (cells_y + 1 - parity / 2) / 2;
+                half_x * half_y
+            })
+            .collect();
+        let cells: u32 = active.iter().sum();
+        let out = ctx.storage_buffer_sized("candidates", u64::from(cells.max(1)) * 4)?;
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        let mut outs = Vec::new();
-        for parity in from..4 {
-            // Cells of this parity class; the shader writes one slot for each.
-            let half_x = (cells_x + 1 - parity % 2) / 2;
-            let half_y = (cells_y + 1 - parity / 2) / 2;
-            let active = half_x * half_y;
-            let out = ctx.storage_buffer_sized("candidates", u64::from(active.max(1)) * 4)?;
-            if active > 0 {
-                let params = ctx.uniform_buffer(
-                    "select params",
-                    &SelectParams {
-                        width: vis.width,
-                        height: vis.height,
-                        cell_size,
-                        cells_x,
-                        cells_y,
-                        parity,
-                        _pad: [0; 2],
-                    },
-                );
-                let bind = self
-                    .select
-                    .bind(ctx, &[&params, &vis.samples, &mask.covered, &out]);
-                self.select.record(
-                    &mut enc,
-                    &scene.bind_group,
-                    &bind,
-                    [active.div_ceil(64), 1, 1],
-                    None,
-                );
-            }
-            outs.push((out, active));
+        if cells > 0 {
+            let params = ctx.uniform_buffer(
+                "select params",
+                &SelectParams {
+                    width: vis.width,
+                    height: vis.height,
+                    cell_size,
+                    cells_x,
+                    cells_y,
+                    first_parity: from,
+                    _pad: [0; 2],
+                },
+            );
+            let bind = self
+                .select
+                .bind(ctx, &[&params, &vis.samples, &mask.covered, &out]);
+            self.select.record(
+                &mut enc,
+                &scene.bind_group,
+                &bind,
+                [cells.div_ceil(64), 1, 1],
+                None,
+            );
         }
         ctx.queue.submit([enc.finish()]);
-        let mut reads: Vec<&wgpu::Buffer> = outs.iter().map(|(b, _)| b).collect();
+        let mut reads: Vec<&wgpu::Buffer> = vec![&out];
         reads.push(&mask.marked);
         if let Some(cover) = in_flight {
             reads.push(&cover.total);
@@ -204,13 +206,19 @@ impl PlacementPass {
             None => 0,
         };
         let marked = all.pop().and_then(|m| m.first().copied()).unwrap_or(0);
-        let lists = all
-            .into_iter()
-            .zip(&outs)
-            .map(|(mut slots, &(_, active))| {
-                slots.truncate(active as usize);
-                slots.retain(|&p| p != NO_CANDIDATE);
-                slots
+        let slots = all.pop().unwrap_or_default();
+        let mut start = 0usize;
+        let lists = active
+            .iter()
+            .map(|&n| {
+                let end = (start + n as usize).min(slots.len());
+                let list: Vec<u32> = slots[start.min(end)..end]
+                    .iter()
+                    .copied()
+                    .filter(|&p| p != NO_CANDIDATE)
+                    .collect();
+                start = end;
+                list
             })
             .collect();
         Ok((lists, marked, total))
