@@ -375,7 +375,8 @@ pub fn module(
 ///
 /// Every loop in `wgsl/` ends, whatever the data. Each is one of:
 /// - a count up to a bound fixed before it starts (`for` over pixels, lights, slots, rings,
-///   histogram bins, the halvings of a reduction, the bits of an index);
+///   histogram bins, the halvings of a reduction, the bits of an index, placement's parity
+///   classes);
 /// - a bisection whose interval shrinks each time round (`env_invert`);
 /// - a walk that moves on by at least one entry each time round and stops at the list's
 ///   end (`shadow_loop_next` over samples and lights, the refinement selection's bin walks);
@@ -443,6 +444,7 @@ mod tests {
         let expected: &[(&str, usize)] = &[
             ("bounce_gather.wgsl", 1),          // a row walk up to n
             ("direct_light.wgsl", 1),           // shadow_loop_next
+            ("placement_select.wgsl", 1),       // parity classes, up to the fourth
             ("plane_refine_select.wgsl", 2),    // bin walks, each bounded by its last bin
             ("record_reduce.wgsl", 1),          // the neighbour grid's rings
             ("shared/bvh.wgsl", 2),             // the traversal and its inner-node loop
