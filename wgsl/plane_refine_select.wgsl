@@ -169,6 +169,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     // `select_pixels`.
     if lane == 0u {
         atomicStore(&lit, 0u);
+        atomicStore(&zero_keys, 0u);
     }
     workgroupBarrier();
     for (var k = first; k < last; k++) {
@@ -293,6 +294,9 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         }
         return;
     }
+    // Keys of exactly zero (no contrast), counted as they are made: the radix select below
+    // settles on them.
+    var zeros = 0u;
     for (var k = first; k < last; k++) {
         let i = k % res;
         // The 4-neighbours' channel sums and environment shares, each loaded once (a
@@ -323,13 +327,17 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         c = max(c, select(0.0, edge_contrast(yr, nr, yd, nd), has_r && has_d));
         c = max(c, select(0.0, edge_contrast(yr, nr, yu, nu), has_r && has_u));
         c = max(c, select(0.0, edge_contrast(yd, nd, yu, nu), has_d && has_u));
-        keys[base + k] = bitcast<u32>(c * plane[k].weights.x);
+        let key = bitcast<u32>(c * plane[k].weights.x);
+        keys[base + k] = key;
+        zeros += u32(key == 0u);
+    }
+    if zeros != 0u {
+        atomicAdd(&zero_keys, zeros);
     }
     if lane == 0u {
         prefix_key = 0u;
         remaining = params.refined;
         settled = 0u;
-        atomicStore(&zero_keys, 0u);
     }
     // Radix select, 8 bits a round from the top: the K-th largest key T, and how many of
     // the keys equal to T are taken (`remaining`). Two cases settle it before the fourth
@@ -337,9 +345,9 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     // - a round's bin holds exactly the keys still to take: every key in that bin and
     //   above is taken, every key below it is not, whatever their lower bits (the rounds
     //   left would narrow the bin down to its smallest key and take all of its ties);
-    // - the first round's bin is 0 and holds only zeros: T is 0, and the rounds left
-    //   would find bin 0 with nothing above it each time. Most lit planes of a hall lit
-    //   through windows see fewer than K pixels of contrast (nave-west: all of them).
+    // - the first round's bin is 0 and holds only zeros (`zero_keys`): T is 0, and the
+    //   rounds left would find bin 0 with nothing above it each time. Most lit planes of a
+    //   hall lit through windows see fewer than K pixels of contrast (nave-west: all).
     // Each skips the rounds' histograms, the bulk of this pass's work.
     for (var round = 0u; round < 4u; round++) {
         if workgroupUniformLoad(&settled) != 0u {
@@ -355,16 +363,11 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         }
         workgroupBarrier();
         let prefix = prefix_key;
-        var zeros = 0u;
         for (var k = first; k < last; k++) {
             let key = keys[base + k];
             if (key & mask) == prefix {
                 atomicAdd(&histogram[(key >> shift) & 255u], 1u);
             }
-            zeros += u32(key == 0u);
-        }
-        if round == 0u && zeros != 0u {
-            atomicAdd(&zero_keys, zeros);
         }
         workgroupBarrier();
         // The bin of the K-th largest key, from the top: the highest bin where the keys in

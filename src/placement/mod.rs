@@ -212,7 +212,7 @@ impl PlacementPass {
             .iter()
             .map(|&n| {
                 let end = (start + n as usize).min(slots.len());
-                let list: Vec<u32> = slots[start.min(end)..end]
+                let list: Vec<u32> = slots[start..end]
                     .iter()
                     .copied()
                     .filter(|&p| p != NO_CANDIDATE)
