@@ -1448,9 +1448,9 @@ impl Renderer {
             Some(v) => u64::from(placement.new_records) * u64::from(v.slots),
             None => placement.plane_rays,
         };
-        // Planes that saw no light were refined everywhere: their rays beyond the count
-        // above.
-        let dark_plane_rays = RecordPass::take_dark_plane_rays(
+        // Planes that saw no light were refined everywhere (their rays beyond the count
+        // above), and lit planes may have refined fewer than K pixels.
+        let refinement_rays = RecordPass::take_refinement_rays(
             ctx,
             &std::iter::once(pass)
                 .chain(radiance.pass)
@@ -1468,12 +1468,13 @@ impl Renderer {
             cache: Some(CacheFrameStats {
                 records: records.count,
                 reused_records,
-                plane_rays: record_rays
+                plane_rays: (record_rays
                     + radiance.pass.map_or(0, |p| {
                         u64::from(radiance.new_records) * p.settings.plane_rays_per_record()
                     })
-                    + dark_plane_rays,
-                dark_plane_rays,
+                    + refinement_rays.dark)
+                    .saturating_sub(refinement_rays.unused),
+                dark_plane_rays: refinement_rays.dark,
                 placement,
                 uncovered_pixels,
                 interpolation_factor,

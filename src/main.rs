@@ -588,7 +588,9 @@ struct CacheArgs {
     /// Adaptive plane refinement (Radiance's -as): the fraction F in [0, 1] of each
     /// record's plane pixels, those of highest contrast to their neighbours (less what
     /// their environment samples gave them: that part is noise), traced again
-    /// with --plane-refine-split^2 rays each. Costs F x split^2 x P^2 more plane rays per
+    /// with --plane-refine-split^2 rays each; where fewer have contrast and the light maps
+    /// see every lit surface (suns, point and rect lights alone), pixels near a lit surface
+    /// take the rest. Costs up to F x split^2 x P^2 more plane rays per
     /// record (F = 0.1, split 2: +40 %), and two passes; a plane that saw no light is
     /// refined everywhere (see --no-dark-plane-refine). 0: none by contrast. Temporal
     /// caching (`animate`) refines by contrast only with --temporal-refine, and only

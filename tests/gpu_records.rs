@@ -656,9 +656,19 @@ fn gpu_dark_planes_are_left_unrefined_when_dark_plane_refinement_is_off() {
 /// pixels it leaves out keep their traced samples bit for bit and the listed ones get the
 /// CPU's refined depths; and the guided planes find the light that refining every pixel
 /// finds, for fewer rays.
-#[test]
-fn gpu_dark_planes_refine_near_lit_surfaces_as_the_cpu() {
-    use radsplat::records::refine::{DarkGuide, is_dark};
+/// The nave (a low sun through small windows, every light mapped, so that the light maps
+/// see every lit surface) with its lit grid read back: the GPU's grid is the pyramid of its
+/// own finest level.
+struct NaveGuide {
+    renderer: Renderer,
+    scene: Scene,
+    settings: CacheSettings,
+    maps: std::sync::Arc<radsplat::light_maps::LightMaps>,
+    grid: radsplat::light_maps::lit_grid::LitGridParams,
+    voxels: Vec<u32>,
+}
+
+fn nave_guide() -> NaveGuide {
     let scene = common::load("nave.toml", Some((48, 48)));
     let renderer = Renderer::new(common::gpu()).expect("renderer");
     let settings = CacheSettings::default();
@@ -683,7 +693,28 @@ fn gpu_dark_planes_refine_near_lit_surfaces_as_the_cpu() {
     pyramid[finest..].fill(0);
     grid.reduce(&mut pyramid);
     assert_eq!(pyramid, voxels, "the coarser levels are the CPU's pyramid");
+    NaveGuide {
+        renderer,
+        scene,
+        settings,
+        maps,
+        grid,
+        voxels,
+    }
+}
 
+#[test]
+fn gpu_dark_planes_refine_near_lit_surfaces_as_the_cpu() {
+    use radsplat::records::refine::{DarkGuide, is_dark};
+    let NaveGuide {
+        renderer,
+        scene,
+        settings,
+        maps,
+        grid,
+        voxels,
+    } = nave_guide();
+    let prepared = renderer.prepare(&scene).expect("prepare");
     let sites = sites(&scene, &renderer, &settings, 160);
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let reference = RecordReference::new(&scene, &settings);
@@ -770,6 +801,140 @@ fn gpu_dark_planes_refine_near_lit_surfaces_as_the_cpu() {
         lit_guided * 10 >= lit_everywhere * 9,
         "guided refinement found light in {lit_guided} planes, everywhere in {lit_everywhere}"
     );
+}
+
+/// Where the light maps see every lit surface (the nave), a lit plane with fewer than K
+/// pixels of contrast gives its other slots to pixels of no contrast near light
+/// (`records::refine::near_light`), the heaviest cosine weights first, and to no others:
+/// the GPU's selection is the CPU's (rounding of a hit point at a voxel's or a face's edge
+/// may flip a pixel: counted), its slots past the last pixel say `UNUSED_SLOT`, and fewer
+/// slots are filled than the planes had spare (before, the first pixels of no contrast by
+/// index took them all, far from light or not).
+#[test]
+fn gpu_lit_planes_give_their_spare_slots_to_pixels_near_light_as_the_cpu() {
+    use radsplat::records::refine::{
+        DarkGuide, contrast_keys, filler_order, is_dark, near_light, select_pixels,
+    };
+    let NaveGuide {
+        renderer,
+        scene,
+        settings,
+        maps,
+        grid,
+        voxels,
+    } = nave_guide();
+    let prepared = renderer.prepare(&scene).expect("prepare");
+    // K at the default, and half the plane: there more slots are spare than pixels near
+    // light, and planes run short.
+    for plane_refine in [settings.plane_refine, 0.5] {
+        let settings = CacheSettings {
+            plane_refine,
+            ..settings.clone()
+        };
+        let k = settings.refined_pixels() as usize;
+        let sites = sites(&scene, &renderer, &settings, 160);
+        let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
+        let reference = RecordReference::new(&scene, &settings);
+        let gpu = pass
+            .trace_planes_refined_with(&renderer.ctx, &prepared.gpu, &sites, &maps)
+            .expect("refined planes");
+        renderer.ctx.check().expect("no wgpu errors");
+        let per = (settings.plane_resolution * settings.plane_resolution) as usize;
+        let slots = pass.refine_slots() as usize;
+        let order = filler_order(&reference.plane);
+        let (mut lit, mut filling, mut short, mut selected_total, mut differ) = (0, 0, 0, 0, 0);
+        let (mut filled, mut passed_over, mut unused_slots) = (0, 0, 0u64);
+        for (i, site) in sites.iter().enumerate() {
+            let coarse = &gpu.coarse[i * per..(i + 1) * per];
+            if is_dark(&reference.plane, coarse) {
+                continue;
+            }
+            lit += 1;
+            let noise = &gpu.noise[i * per..(i + 1) * per];
+            let guide = DarkGuide {
+                grid: &grid,
+                voxels: &voxels,
+                site,
+            };
+            let cpu = select_pixels(
+                &reference.plane,
+                coarse,
+                noise,
+                k as u32,
+                true,
+                Some(&guide),
+            );
+            let row = &gpu.selected[i * slots..i * slots + k];
+            let used = row
+                .iter()
+                .position(|&p| p == refine::UNUSED_SLOT)
+                .unwrap_or(k);
+            assert!(
+                row[used..].iter().all(|&p| p == refine::UNUSED_SLOT),
+                "site {i}: unused slots only after the last pixel: {row:?}"
+            );
+            let mine = &row[..used];
+            assert!(
+                mine.windows(2).all(|w| w[0] < w[1]),
+                "site {i}: pixel order"
+            );
+            selected_total += cpu.len();
+            differ += mine.len().abs_diff(cpu.len())
+                + cpu
+                    .iter()
+                    .filter(|p| mine.binary_search(p).is_err())
+                    .count();
+            short += usize::from(used < k);
+            unused_slots += (k - used) as u64;
+            let keys = contrast_keys(&reference.plane, coarse, noise);
+            let contrast = keys.iter().filter(|&&key| key != 0).count();
+            if contrast >= k {
+                assert_eq!(cpu.len(), k, "site {i}: K pixels of contrast or more");
+                continue;
+            }
+            filling += 1;
+            let fills: Vec<u32> = cpu
+                .iter()
+                .copied()
+                .filter(|&p| keys[p as usize] == 0)
+                .collect();
+            filled += fills.len();
+            // Pixels of no contrast the fill passed over, heavier than its last pixel: far
+            // from light (before, the first pixels by index took the slots, far or near).
+            let last = order
+                .iter()
+                .rposition(|p| fills.contains(p))
+                .map_or(order.len(), |r| r + 1);
+            passed_over += order[..last]
+                .iter()
+                .filter(|&&p| keys[p as usize] == 0 && !fills.contains(&p))
+                .inspect(|&&p| {
+                    assert!(
+                        !near_light(&reference.plane, coarse, &guide, p, false),
+                        "site {i}: pixel {p} near light passed over"
+                    )
+                })
+                .count();
+        }
+        eprintln!(
+            "K = {k}: {lit} lit planes, {filling} with fewer pixels of contrast: {filled} \
+             slots filled near light, {passed_over} pixels far from light passed over, \
+             {short} planes short of K; {differ} of {selected_total} selected pixels differ"
+        );
+        assert!(filling >= 10, "only {filling} planes fill near light");
+        assert!(
+            filled > 0 && passed_over > 0,
+            "{filled} filled, {passed_over} passed over"
+        );
+        if plane_refine == 0.5 {
+            assert!(short > 0, "no plane ran short of pixels near light");
+        }
+        assert!(differ * 200 <= selected_total, "{differ} pixels differ");
+        // The frame's ray count leaves out the rays the unused slots did not trace.
+        let rays = RecordPass::take_refinement_rays(&renderer.ctx, &[&pass]).expect("rays");
+        let split = u64::from(settings.plane_refine_split);
+        assert_eq!(rays.unused, unused_slots * split * split);
+    }
 }
 
 /// The same under five lights: refinement's sub-samples choose their lights as the
@@ -1454,6 +1619,8 @@ fn tail_pass_computes_the_records_of_a_pass_built_at_its_resolution() {
         "coarser planes give other records"
     );
     // The dark planes were counted by each pass's own counter.
-    let dark = RecordPass::take_dark_plane_rays(&renderer.ctx, &[&pass]).expect("dark rays");
+    let dark = RecordPass::take_refinement_rays(&renderer.ctx, &[&pass])
+        .expect("dark rays")
+        .dark;
     assert!(dark > 0, "the dark sites' planes were refined");
 }

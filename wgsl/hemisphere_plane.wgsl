@@ -54,6 +54,8 @@ const NO_PIXELS: u32 = 0xfffffffeu;
 // A dark plane refined only at the pixels its selection lists: slot 1 holds their count,
 // slots 2.. the pixels (records::refine::DARK_GUIDED).
 const DARK_GUIDED: u32 = 0xfffffffdu;
+// A lit plane's selection slot past its last pixel (records::refine::UNUSED_SLOT).
+const UNUSED_SLOT: u32 = 0xfffffffcu;
 
 @group(1) @binding(0) var<uniform> params: PlaneParams;
 @group(1) @binding(1) var<storage, read> sites: array<RecordSite>;
@@ -155,6 +157,11 @@ fn main(
             k = j;
         } else {
             k = selected[row + min(j, params.refined - 1u)];
+            if k == UNUSED_SLOT {
+                // Past a lit plane's last pixel (fewer than K near light).
+                work = false;
+                k = 0u;
+            }
         }
     }
     var traced = TracedSample(PlaneSample(vec3f(0.0), -1.0), PlaneHit(NO_HIT, 0u, 0.0, 0.0), 0.0);

@@ -24,6 +24,8 @@ const THREADS: u32 = 64u;
 const DARK_PLANE: u32 = 0xffffffffu;
 // The first slot of a selection that refines nothing (records::refine::NO_PIXELS).
 const NO_PIXELS: u32 = 0xfffffffeu;
+// A lit plane's slots past its last selected pixel (records::refine::UNUSED_SLOT).
+const UNUSED_SLOT: u32 = 0xfffffffcu;
 
 struct SelectParams {
     resolution: u32,
@@ -41,7 +43,8 @@ struct SelectParams {
 @group(1) @binding(2) var<storage, read> samples: array<PlaneSample>;
 @group(1) @binding(3) var<storage, read_write> keys: array<u32>;
 @group(1) @binding(4) var<storage, read_write> selected: array<u32>;
-// Planes refined everywhere, for the frame's ray count (RecordPass::take_dark_plane_rays).
+// For the frame's ray count (RecordPass::take_dark_plane_rays): planes refined everywhere,
+// pixels listed by guided dark planes, guided dark planes, lit planes' unused slots.
 @group(1) @binding(5) var<storage, read_write> dark_planes: array<atomic<u32>>;
 // Per sample: what its environment samples gave it (hemisphere_plane.wgsl `noise`; zeros
 // where the plane pass did not write them).
@@ -52,6 +55,9 @@ struct SelectParams {
 // The indirect dispatch (x y z, cleared before this pass) that refines the dark planes, and
 // (element 3) how many workgroups it holds: one per `per_group` pixels of each dark plane.
 @group(1) @binding(10) var<storage, read_write> dark_dispatch: array<atomic<u32>, 4>;
+// The plane's pixels by cosine weight, largest first (ties: lower index), for
+// `fill_near_light` (records::refine::filler_order).
+@group(1) @binding(11) var<storage, read> filler_order: array<u32>;
 
 // Appends the workgroups that refine `record`, a dark plane with `pixels` pixels to refine,
 // after the batch's selections (cleared before this pass): workgroup g of the plane is
@@ -118,14 +124,120 @@ fn on_plane(e: vec3f, sn: vec3f) -> bool {
     return abs(dot(e, sn)) <= 0.02 * length(e);
 }
 
+// Whether pixel k's sub-rays can land near a lit surface (records::refine::near_light):
+// the ball that reaches the pixel's 4-neighbours' hits (the pixel's footprint, and across
+// an edge the farther surface) must touch a lit voxel whose lit side the pixel's direction
+// can see, and where all four neighbours lie on one plane, a lit side facing as that
+// surface does. A pixel next to a miss is refined where a neighbour hit (an edge). `own`:
+// the ball is centred at the pixel's own hit, and its own miss is an edge too (a dark
+// plane, whose samples are all zero); else at its neighbours' mean hit, its own sample
+// left out, so that choosing it does not depend on that sample (a lit plane: a centre
+// ray that caught a patch smaller than its pixel lands in a lit voxel, and refining the
+// pixels whose own ray did undoes exactly the lucky hits, a bias: records::refine).
+fn near_light(site: RecordSite, frame: mat3x3f, base: u32, k: u32, own: bool) -> bool {
+    let res = params.resolution;
+    let n = res * res;
+    let i = k % res;
+    let p = plane_hit_point(frame, site.position, base, k);
+    // The 4-neighbours in fixed slots with a flag each (a dynamically indexed
+    // local array is a tree of branches at every access on lavapipe); an
+    // absent one loads the pixel itself, unused.
+    let has_l = i > 0u;
+    let has_r = i + 1u < res;
+    let has_d = k >= res;
+    let has_u = k + res < n;
+    let ql = plane_hit_point(frame, site.position, base, select(k, k - 1u, has_l));
+    let qr = plane_hit_point(frame, site.position, base, select(k, k + 1u, has_r));
+    let qd = plane_hit_point(frame, site.position, base, select(k, k - res, has_d));
+    let qu = plane_hit_point(frame, site.position, base, select(k, k + res, has_u));
+    var centre = p;
+    if !own {
+        // The present neighbours' hits (w: 1 each), summed in a fixed order.
+        let sum = select(vec4f(0.0), ql, has_l) + select(vec4f(0.0), qr, has_r)
+            + select(vec4f(0.0), qd, has_d) + select(vec4f(0.0), qu, has_u);
+        centre = select(vec4f(0.0), vec4f(sum.xyz / sum.w, 1.0), sum.w > 0.0);
+    }
+    var reach = NeighbourReach(0.0, own && p.w == 0.0, own && p.w != 0.0);
+    reach_neighbour(&reach, centre, ql, has_l);
+    reach_neighbour(&reach, centre, qr, has_r);
+    reach_neighbour(&reach, centre, qd, has_d);
+    reach_neighbour(&reach, centre, qu, has_u);
+    let radius = reach.radius;
+    let missed = reach.missed;
+    let any_hit = reach.any_hit;
+    var refine = false;
+    if missed {
+        refine = any_hit;   // an edge against a miss: refine it
+    } else if centre.w != 0.0 {
+        let d = normalize(frame * vec3f(plane[k].rot_center.zw, 1.0));
+        var faces = lit_faces_seen(d);
+        if has_l && has_r && has_d && has_u {
+            // All four neighbours on one plane: the pixel's sub-rays land on that
+            // surface, whose lit side is one of the faces its normal is near (facing
+            // the record).
+            var sn = cross(qr.xyz - ql.xyz, qu.xyz - qd.xyz);
+            let len = length(sn);
+            if len > 0.0 {
+                sn = sn / len;
+                if dot(sn, d) > 0.0 {
+                    sn = -sn;
+                }
+                let c = centre.xyz;
+                let flat = on_plane(ql.xyz - c, sn) && on_plane(qr.xyz - c, sn)
+                    && on_plane(qd.xyz - c, sn) && on_plane(qu.xyz - c, sn);
+                if flat {
+                    faces &= lit_faces_near(sn);
+                }
+            }
+        }
+        refine = lit_near(centre.xyz, radius, faces);
+    }
+    return refine;
+}
+
 var<workgroup> histogram: array<atomic<u32>, 256>;
 var<workgroup> lit: atomic<u32>;   // any sample of the plane has light
 var<workgroup> plane_dark: u32;    // `lit` read once, for a uniform branch
 var<workgroup> counts: array<u32, THREADS>;
 var<workgroup> prefix_key: u32;
 var<workgroup> remaining: u32;
-var<workgroup> settled: u32;       // radix select: 1, the bin found takes all its keys; 2, T is 0
+var<workgroup> settled: u32;       // radix select: 1, the bin found takes all its keys; 2, T is 0;
+                                   // 3, filled near light: every key above 0
 var<workgroup> zero_keys: atomic<u32>;
+var<workgroup> need: u32;          // pixels of no contrast still to select near light
+
+// Gives the first `need` pixels of no contrast near light, in `filler_order` (cosine
+// weight, largest first; records::refine::filler_order), key 1: above every zero, so that
+// the selection takes them. A workgroup tests 64 pixels a step, and stops once it has
+// found enough (most lit planes of a hall lit through windows: in a step or two).
+fn fill_near_light(lane: u32, record: u32, base: u32) {
+    let n = params.resolution * params.resolution;
+    let site = sites[record];
+    let frame = record_frame(site);
+    for (var start = 0u; start < n; start += THREADS) {
+        let wanted = workgroupUniformLoad(&need);
+        if wanted == 0u {
+            break;
+        }
+        let i = start + lane;
+        var k = 0u;
+        var found = false;
+        if i < n {
+            k = filler_order[i];
+            found = keys[base + k] == 0u && near_light(site, frame, base, k, false);
+        }
+        counts[lane] = u32(found);
+        scan_counts(lane);
+        if found && counts[lane] < wanted {
+            keys[base + k] = 1u;
+        }
+        if lane == THREADS - 1u {
+            need = wanted - min(wanted, counts[lane] + u32(found));
+        }
+    }
+    // The keys written here are read by the threads that own their pixels.
+    storageBarrier();
+}
 
 // The contrast of two samples (channel sums `ya`, `yb`): their difference less what the
 // two got from environment samples (`na`, `nb`, from `noise`), which one shadow ray a hit
@@ -206,53 +318,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             let frame = record_frame(site);
             var mine = 0u;
             for (var k = first; k < last; k++) {
-                let i = k % res;
-                let p = plane_hit_point(frame, site.position, base, k);
-                // The 4-neighbours in fixed slots with a flag each (a dynamically indexed
-                // local array is a tree of branches at every access on lavapipe); an
-                // absent one loads the pixel itself, unused.
-                let has_l = i > 0u;
-                let has_r = i + 1u < res;
-                let has_d = k >= res;
-                let has_u = k + res < n;
-                let ql = plane_hit_point(frame, site.position, base, select(k, k - 1u, has_l));
-                let qr = plane_hit_point(frame, site.position, base, select(k, k + 1u, has_r));
-                let qd = plane_hit_point(frame, site.position, base, select(k, k - res, has_d));
-                let qu = plane_hit_point(frame, site.position, base, select(k, k + res, has_u));
-                var reach = NeighbourReach(0.0, p.w == 0.0, p.w != 0.0);
-                reach_neighbour(&reach, p, ql, has_l);
-                reach_neighbour(&reach, p, qr, has_r);
-                reach_neighbour(&reach, p, qd, has_d);
-                reach_neighbour(&reach, p, qu, has_u);
-                let radius = reach.radius;
-                let missed = reach.missed;
-                let any_hit = reach.any_hit;
-                var refine = false;
-                if missed {
-                    refine = any_hit;   // an edge against a miss: refine it
-                } else {
-                    let d = normalize(frame * vec3f(plane[k].rot_center.zw, 1.0));
-                    var faces = lit_faces_seen(d);
-                    if has_l && has_r && has_d && has_u {
-                        // All four neighbours on the pixel's own plane: its sub-rays land on
-                        // that surface, whose lit side is one of the faces its normal is
-                        // near (facing the record).
-                        var sn = cross(qr.xyz - ql.xyz, qu.xyz - qd.xyz);
-                        let len = length(sn);
-                        if len > 0.0 {
-                            sn = sn / len;
-                            if dot(sn, d) > 0.0 {
-                                sn = -sn;
-                            }
-                            let flat = on_plane(ql.xyz - p.xyz, sn) && on_plane(qr.xyz - p.xyz, sn)
-                                && on_plane(qd.xyz - p.xyz, sn) && on_plane(qu.xyz - p.xyz, sn);
-                            if flat {
-                                faces &= lit_faces_near(sn);
-                            }
-                        }
-                    }
-                    refine = lit_near(p.xyz, radius, faces);
-                }
+                let refine = near_light(site, frame, base, k, true);
                 keys[base + k] = u32(refine);
                 mine += u32(refine);
             }
@@ -339,6 +405,26 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         remaining = params.refined;
         settled = 0u;
     }
+    if params.guided != 0u {
+        // Fewer than K pixels of contrast, where the light maps see every lit surface: the
+        // rest of the K go to pixels of no contrast whose sub-rays can land near a lit
+        // surface (`near_light`, as a dark plane's), the largest cosine weights first, and
+        // none to the others: a sunlit patch between the centre rays is found where it
+        // can be, and no ray goes where the lit grid says it cannot find light (the first
+        // rows of the plane took them before, by pixel index). Every pixel of a key above
+        // 0 is then selected: no radix select.
+        workgroupBarrier();
+        if lane == 0u {
+            let contrast = n - atomicLoad(&zero_keys);
+            need = select(0u, params.refined - contrast, contrast < params.refined);
+            if need != 0u {
+                settled = 3u;
+            }
+        }
+        if workgroupUniformLoad(&need) != 0u {
+            fill_near_light(lane, record, base);
+        }
+    }
     // Radix select, 8 bits a round from the top: the K-th largest key T, and how many of
     // the keys equal to T are taken (`remaining`). Two cases settle it before the fourth
     // round, with the pixels the rounds left would select:
@@ -418,6 +504,8 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     if settled == 1u {
         threshold = prefix_key - 1u;
         ties = 0u;
+    } else if settled == 3u {
+        ties = 0u;      // T = 0: every key above it, no zero
     }
     // Rank of each key equal to T among them, in pixel order.
     var equal = 0u;
@@ -449,5 +537,12 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             slot += 1u;
         }
         rank += u32(key == threshold);
+    }
+    if lane == THREADS - 1u && slot < params.refined {
+        // Fewer than K near light: the slots after the last pixel say so.
+        atomicAdd(&dark_planes[3], params.refined - slot);
+        for (var s = slot; s < params.refined; s++) {
+            selected[record * params.slots + s] = UNUSED_SLOT;
+        }
     }
 }

@@ -39,7 +39,7 @@ use glam::Vec3;
 pub use kind::RecordKind;
 pub use plane::{HemispherePlane, PlaneMode, PlanePixel, PlaneSpacing, RefineSample};
 pub(crate) use record_pass::PlaneParams;
-pub use record_pass::{PlaneTable, RecordPass, ReductionBatch, RefinedPlanes};
+pub use record_pass::{PlaneTable, RecordPass, ReductionBatch, RefinedPlanes, RefinementRays};
 pub use settings::{CacheSettings, MAX_GLOSSY_SAMPLES, PlaneShadows, RecordRadius};
 pub use source::RecordSource;
 pub use stage::{PlaneBatch, RecordStage};

@@ -104,6 +104,9 @@ pub struct PlaneTable {
     pub pixels: wgpu::Buffer,
     /// Sum of the pixels' cosine weights (pi when the border is stretched).
     pub cos_weight_sum: f32,
+    /// The pixels by cosine weight, largest first ([`refine::filler_order`]): the order in
+    /// which refinement gives a lit plane's spare slots to pixels near light.
+    pub filler_order: wgpu::Buffer,
 }
 
 impl PlaneTable {
@@ -133,8 +136,22 @@ impl PlaneTable {
             resolution,
             pixels: ctx.storage_buffer("plane table", &pixels)?,
             cos_weight_sum: cos_weight_sum as f32,
+            filler_order: ctx
+                .storage_buffer("plane filler order", &refine::filler_order(&table))?,
         })
     }
+}
+
+/// How refinement's rays differ from [`CacheSettings::plane_rays_per_record`]'s
+/// `K split^2` a record ([`RecordPass::take_refinement_rays`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RefinementRays {
+    /// Traced beyond it by planes that saw no light (refined everywhere, or at every pixel
+    /// near light, instead of at K pixels).
+    pub dark: u64,
+    /// Not traced of it by lit planes that found fewer than K pixels to refine (where the
+    /// light maps see every lit surface, pixels of no contrast far from light are not).
+    pub unused: u64,
 }
 
 /// Computes records on the GPU: `record_sites.wgsl` (pixels → sites),
@@ -335,31 +352,37 @@ impl RecordPass {
         recipes
     }
 
-    /// Rays traced since the last call by planes that saw no light and were refined
-    /// everywhere ([`refine::select_pixels`]), beyond [`CacheSettings::plane_rays_per_record`]:
-    /// those of `passes` and their tail passes, read in one wait for the device (none when
-    /// no pass refines), the counters then cleared.
-    pub fn take_dark_plane_rays(ctx: &GpuContext, passes: &[&RecordPass]) -> Result<u64> {
+    /// How refinement's rays since the last call differ from
+    /// [`CacheSettings::plane_rays_per_record`]'s `K split^2` a record
+    /// ([`refine::select_pixels`]): those of `passes` and their tail passes, read in one wait
+    /// for the device (none when no pass refines), the counters then cleared.
+    pub fn take_refinement_rays(
+        ctx: &GpuContext,
+        passes: &[&RecordPass],
+    ) -> Result<RefinementRays> {
         let refines: Vec<&refine::RefinePass> = passes
             .iter()
             .flat_map(|&pass| std::iter::once(pass).chain(pass.tail.get().map(|t| &**t)))
             .filter_map(|pass| pass.refine.as_ref())
             .collect();
+        let mut rays = RefinementRays::default();
         if refines.is_empty() {
-            return Ok(0);
+            return Ok(rays);
         }
         let counters: Vec<&wgpu::Buffer> = refines.iter().map(|r| r.dark_planes()).collect();
         let counts: Vec<Vec<u32>> = ctx.read_buffers(&counters)?;
-        let mut rays = 0;
         for (r, count) in refines.iter().zip(&counts) {
-            rays += u64::from(count.first().copied().unwrap_or(0)) * r.extra_rays_per_dark_plane();
+            let count = |i: usize| u64::from(count.get(i).copied().unwrap_or(0));
+            let per_pixel = r.rays_per_guided_pixel();
+            rays.dark += count(0) * r.extra_rays_per_dark_plane();
             // Guided dark planes: their flagged pixels instead of the K by contrast.
-            let flagged = u64::from(count.get(1).copied().unwrap_or(0));
-            let guided = u64::from(count.get(2).copied().unwrap_or(0));
-            rays += flagged * r.rays_per_guided_pixel();
-            rays = rays.saturating_sub(guided * u64::from(r.refined()) * r.rays_per_guided_pixel());
+            rays.dark += count(1) * per_pixel;
+            rays.dark = rays
+                .dark
+                .saturating_sub(count(2) * u64::from(r.refined()) * per_pixel);
+            rays.unused += count(3) * per_pixel;
             ctx.queue
-                .write_buffer(r.dark_planes(), 0, bytemuck::bytes_of(&[0u32; 3]));
+                .write_buffer(r.dark_planes(), 0, bytemuck::bytes_of(&[0u32; 4]));
         }
         Ok(rays)
     }

@@ -7,8 +7,11 @@
 //! the pixel ([`HemispherePlane::refine_samples`]), and the pixel's sample becomes their
 //! weighted mean with the centre ray ([`merge`]). The reduction is unchanged and reads the
 //! refined pixels. Rays per record: `P^2 + K split^2` (a fixed cost: K pixels are refined
-//! even where fewer have any contrast); a plane that saw no light at all is refined
-//! everywhere instead ([`select_pixels`]), `P^2 (1 + split^2)` rays. Ward notes the naive
+//! even where fewer have any contrast: the first pixels of no contrast by index fill the
+//! rest, except where the frame's light maps see every lit surface, and there pixels of no
+//! contrast near light, the heaviest first, and no others: [`select_pixels`],
+//! [`near_light`]); a plane that saw no light at all is refined everywhere instead
+//! ([`select_pixels`]), `P^2 (1 + split^2)` rays. Ward notes the naive
 //! form is biased [S2 L276–287]: a pixel refined because its own centre ray differs from
 //! its neighbours is replaced by a mean that undoes exactly the lucky hits (a centre ray
 //! that caught a patch smaller than its pixel), while the unlucky pixels (a centre ray
@@ -61,6 +64,11 @@ pub const NO_PIXELS: u32 = u32::MAX - 1;
 /// in pixel order. On the CPU the selection is the list itself.
 pub const DARK_GUIDED: u32 = u32::MAX - 2;
 
+/// A lit plane's selection slot past its last selected pixel: where the light maps see
+/// every lit surface, a lit plane refines no pixel of no contrast that is far from light,
+/// so it may select fewer than K (`plane_refine_select.wgsl`; the CPU's list is shorter).
+pub const UNUSED_SLOT: u32 = u32::MAX - 3;
+
 /// Where the lit surfaces are, for refining a dark plane near them alone: the frame's lit
 /// grid (`light_maps::lit_grid`), read back, and the site whose plane it is.
 #[derive(Clone, Copy)]
@@ -83,6 +91,30 @@ pub fn guided_pixels(
     samples: &[PlaneSample],
     guide: &DarkGuide,
 ) -> Vec<u32> {
+    let n = plane.resolution * plane.resolution;
+    (0..n)
+        .filter(|&k| near_light(plane, samples, guide, k, true))
+        .collect()
+}
+
+/// Whether pixel `k`'s sub-rays can land near a lit surface of `guide`'s lit grid
+/// (`near_light` in `plane_refine_select.wgsl`): the ball that reaches the pixel's
+/// 4-neighbours' hits touches a lit voxel whose lit side the pixel's direction can see
+/// ([`LitGridParams::near`], [`lit_grid::faces_seen`]) and, where all four neighbours lie
+/// on one plane (so its sub-rays land on that surface), a lit side facing as that surface
+/// does ([`lit_grid::faces_near`]); a pixel next to a miss is refined where a neighbour
+/// hit. `own`: the ball is centred at the pixel's own hit and its own miss is an edge too
+/// (a dark plane's [`guided_pixels`]); else at its neighbours' mean hit, its own sample left
+/// out (a lit plane's spare slots, [`select_pixels`]: a centre ray that caught a patch
+/// smaller than its pixel lands in a lit voxel, and refining for it would undo exactly the
+/// lucky hits, the bias the module's note describes).
+pub fn near_light(
+    plane: &HemispherePlane,
+    samples: &[PlaneSample],
+    guide: &DarkGuide,
+    k: u32,
+    own: bool,
+) -> bool {
     let site = guide.site;
     let frame = crate::sampling::record_frame(Vec3::from(site.normal), site.seed);
     let origin = Vec3::from(site.position);
@@ -93,66 +125,71 @@ pub fn guided_pixels(
         let c = plane.pixels[k as usize].center;
         (z > 0.0).then(|| origin + frame * Vec3::new(c[0], c[1], 1.0) * z)
     };
-    (0..n)
-        .filter(|&k| {
-            let i = k % res;
-            let p = point(k);
-            let mut neighbours = Vec::with_capacity(4);
-            if i > 0 {
-                neighbours.push(k - 1);
+    let i = k % res;
+    let mut neighbours = Vec::with_capacity(4);
+    if i > 0 {
+        neighbours.push(k - 1);
+    }
+    if i + 1 < res {
+        neighbours.push(k + 1);
+    }
+    if k >= res {
+        neighbours.push(k - res);
+    }
+    if k + res < n {
+        neighbours.push(k + res);
+    }
+    let qs: Vec<Option<Vec3>> = neighbours.into_iter().map(point).collect();
+    let p = if own {
+        point(k)
+    } else {
+        // The neighbours' mean hit, summed in the GPU's order.
+        let (sum, hits) = qs
+            .iter()
+            .flatten()
+            .fold((Vec3::ZERO, 0.0f32), |(s, h), &q| (s + q, h + 1.0));
+        (hits > 0.0).then(|| sum / hits)
+    };
+    let (mut radius, mut missed, mut any_hit) = (0.0f32, own && p.is_none(), own && p.is_some());
+    for &q in &qs {
+        match (q, p) {
+            (None, _) => missed = true,
+            (Some(q), Some(p)) => {
+                any_hit = true;
+                radius = radius.max((q - p).length());
             }
-            if i + 1 < res {
-                neighbours.push(k + 1);
-            }
-            if k >= res {
-                neighbours.push(k - res);
-            }
-            if k + res < n {
-                neighbours.push(k + res);
-            }
-            let (mut radius, mut missed, mut any_hit) = (0.0f32, p.is_none(), p.is_some());
-            let qs: Vec<Option<Vec3>> = neighbours.into_iter().map(point).collect();
-            for &q in &qs {
-                match (q, p) {
-                    (None, _) => missed = true,
-                    (Some(q), Some(p)) => {
-                        any_hit = true;
-                        radius = radius.max((q - p).length());
+            (Some(_), None) => any_hit = true,
+        }
+    }
+    match p {
+        _ if missed => any_hit,
+        Some(p) => {
+            let c = plane.pixels[k as usize].center;
+            let d = (frame * Vec3::new(c[0], c[1], 1.0)).normalize();
+            let mut faces = lit_grid::faces_seen(d);
+            // All four neighbours on one plane: the pixel's sub-rays land on that
+            // surface, whose lit side faces as it does.
+            if let [Some(l), Some(r), Some(b), Some(t)] = qs[..] {
+                let sn = (r - l).cross(t - b);
+                let len = sn.length();
+                if len > 0.0 {
+                    let mut sn = sn / len;
+                    if sn.dot(d) > 0.0 {
+                        sn = -sn;
                     }
-                    (Some(_), None) => any_hit = true,
+                    let flat = [l, r, b, t].iter().all(|&q| {
+                        let e = q - p;
+                        e.dot(sn).abs() <= 0.02 * e.length()
+                    });
+                    if flat {
+                        faces &= lit_grid::faces_near(sn);
+                    }
                 }
             }
-            match p {
-                _ if missed => any_hit,
-                Some(p) => {
-                    let c = plane.pixels[k as usize].center;
-                    let d = (frame * Vec3::new(c[0], c[1], 1.0)).normalize();
-                    let mut faces = lit_grid::faces_seen(d);
-                    // All four neighbours on the pixel's own plane: its sub-rays land on that
-                    // surface, whose lit side faces as it does.
-                    if let [Some(l), Some(r), Some(b), Some(t)] = qs[..] {
-                        let sn = (r - l).cross(t - b);
-                        let len = sn.length();
-                        if len > 0.0 {
-                            let mut sn = sn / len;
-                            if sn.dot(d) > 0.0 {
-                                sn = -sn;
-                            }
-                            let flat = [l, r, b, t].iter().all(|&q| {
-                                let e = q - p;
-                                e.dot(sn).abs() <= 0.02 * e.length()
-                            });
-                            if flat {
-                                faces &= lit_grid::faces_near(sn);
-                            }
-                        }
-                    }
-                    guide.grid.near(guide.voxels, p, radius, faces)
-                }
-                None => false,
-            }
-        })
-        .collect()
+            guide.grid.near(guide.voxels, p, radius, faces)
+        }
+        None => false,
+    }
 }
 
 /// Whether no sample of the plane has light (its record's irradiance would be exactly
@@ -213,6 +250,16 @@ pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample], noise: &[
 /// The `refined` pixels of highest contrast ([`contrast_keys`]), in pixel order; ties go
 /// to the lower pixel index (the GPU's selection exactly).
 ///
+/// With a `guide` (the frame's light maps see every lit surface) a lit plane with fewer than
+/// `refined` pixels of contrast gives the rest to pixels of no contrast whose sub-rays can
+/// land near a lit surface ([`near_light`], the dark planes' test), in [`filler_order`], and
+/// to no other: the pixel of no contrast far from light has nothing its sub-rays could
+/// find, and the one near light may hide a sunlit patch between the centre rays. It may
+/// then select fewer than `refined`. Without a guide the first pixels of no contrast by
+/// index take them (nothing says where the light is: an environment, emitters). On the
+/// nave's three variants this took the indirect error down by 4-7 % at five image sizes
+/// each, for the same rays (docs/results.md, "Spare refinement slots near light").
+///
 /// A plane without light anywhere has no contrast to rank; its `refined` slots (at least
 /// one) all say [`DARK_PLANE`] and every pixel of it is refined ([`refined_pixels`]): P^2 centre rays
 /// can miss light of a small solid angle (Sponza's arcade floors see the sunlit court only
@@ -244,10 +291,42 @@ pub fn select_pixels(
         return Vec::new();
     }
     let keys = contrast_keys(plane, samples, noise);
+    let contrast = keys.iter().filter(|&&key| key != 0).count();
+    if let Some(guide) = guide.filter(|_| contrast < refined as usize) {
+        // Fewer than K pixels of contrast where the light maps see every lit surface: those
+        // pixels, then pixels of no contrast near light in `filler_order`, up to K.
+        let need = refined as usize - contrast;
+        let mut chosen: Vec<u32> = (0..keys.len() as u32)
+            .filter(|&k| keys[k as usize] != 0)
+            .collect();
+        chosen.extend(
+            filler_order(plane)
+                .into_iter()
+                .filter(|&k| keys[k as usize] == 0 && near_light(plane, samples, guide, k, false))
+                .take(need),
+        );
+        chosen.sort_unstable();
+        return chosen;
+    }
     let mut order: Vec<u32> = (0..keys.len() as u32).collect();
     order.sort_by_key(|&k| (std::cmp::Reverse(keys[k as usize]), k));
     order.truncate(refined as usize);
     order.sort_unstable();
+    order
+}
+
+/// The plane's pixels by cosine weight, largest first, ties to the lower index: the order in
+/// which a lit plane with fewer than K pixels of contrast gives its other slots to pixels
+/// near light ([`select_pixels`]; `PlaneTable::filler_order` on the GPU). A refined pixel
+/// corrects E by its cosine weight, so the heaviest are worth the rays first.
+pub fn filler_order(plane: &HemispherePlane) -> Vec<u32> {
+    let mut order: Vec<u32> = (0..plane.pixels.len() as u32).collect();
+    order.sort_by_key(|&k| {
+        (
+            std::cmp::Reverse(plane.pixels[k as usize].cos_weight.to_bits()),
+            k,
+        )
+    });
     order
 }
 
@@ -328,8 +407,8 @@ pub struct RefinePass {
     /// The indirect dispatch (x y z) that refines a batch's dark planes, which the
     /// selection sizes, and the number of its workgroups (element 3).
     dark_dispatch: wgpu::Buffer,
-    /// Planes refined everywhere (dark) since the counter was last cleared, counted by the
-    /// selection (one u32 atomic: exact, whatever the order).
+    /// The selection's ray counters since they were last cleared ([`Self::dark_planes`];
+    /// u32 atomics: exact, whatever the order).
     dark_planes: wgpu::Buffer,
     resolution: u32,
     refined: u32,
@@ -374,6 +453,7 @@ impl RefinePass {
                     Uniform,
                     StorageRead,
                     StorageReadWrite,
+                    StorageRead,
                 ],
                 &[],
             ),
@@ -386,7 +466,7 @@ impl RefinePass {
                     | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
-            dark_planes: ctx.storage_buffer("dark planes", &[0u32; 3])?,
+            dark_planes: ctx.storage_buffer("dark planes", &[0u32; 4])?,
             resolution: settings.plane_resolution,
             refined,
             split,
@@ -455,6 +535,7 @@ impl RefinePass {
                 &light_maps.lit_grid.params_buffer,
                 &light_maps.lit_grid.voxels,
                 &self.dark_dispatch,
+                &table.filler_order,
             ],
         );
         enc.clear_buffer(&self.dark_dispatch, 0, None);
@@ -564,8 +645,9 @@ impl RefinePass {
         u64::from(self.resolution.pow(2) - self.refined) * u64::from(self.split.pow(2))
     }
 
-    /// The counter of planes refined everywhere (one u32; read and cleared by
-    /// `RecordPass::take_dark_plane_rays`).
+    /// The selection's ray counters (four u32: planes refined everywhere, pixels listed by
+    /// guided dark planes, guided dark planes, lit planes' unused slots; read and cleared
+    /// by `RecordPass::take_refinement_rays`).
     pub fn dark_planes(&self) -> &wgpu::Buffer {
         &self.dark_planes
     }

@@ -94,7 +94,8 @@ pub struct CacheSettings {
     /// Adaptive plane refinement (Radiance's `-as`, Ward's "adaptive super-sampling" of
     /// high-variance strata, algorithms.md 1.7): the fraction of each record's plane
     /// pixels, those of highest contrast, that get `plane_refine_split^2` more rays
-    /// ([`refine`](mod@super::refine)). 0: none by contrast (dark planes still are, see
+    /// ([`refine`](mod@super::refine); where fewer have contrast and the light maps see
+    /// every lit surface, pixels near light take the rest, [`refine::select_pixels`](super::refine::select_pixels)). 0: none by contrast (dark planes still are, see
     /// [`Self::dark_plane_refine`]).
     pub plane_refine: f32,
     /// Sub-samples per axis of a refined pixel (`split x split` strata).
