@@ -662,6 +662,7 @@ fn gpu_dark_planes_are_left_unrefined_when_dark_plane_refinement_is_off() {
 struct NaveGuide {
     renderer: Renderer,
     scene: Scene,
+    prepared: PreparedScene,
     settings: CacheSettings,
     maps: std::sync::Arc<radsplat::light_maps::LightMaps>,
     grid: radsplat::light_maps::lit_grid::LitGridParams,
@@ -696,6 +697,7 @@ fn nave_guide() -> NaveGuide {
     NaveGuide {
         renderer,
         scene,
+        prepared,
         settings,
         maps,
         grid,
@@ -709,12 +711,12 @@ fn gpu_dark_planes_refine_near_lit_surfaces_as_the_cpu() {
     let NaveGuide {
         renderer,
         scene,
+        prepared,
         settings,
         maps,
         grid,
         voxels,
     } = nave_guide();
-    let prepared = renderer.prepare(&scene).expect("prepare");
     let sites = sites(&scene, &renderer, &settings, 160);
     let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
     let reference = RecordReference::new(&scene, &settings);
@@ -807,9 +809,10 @@ fn gpu_dark_planes_refine_near_lit_surfaces_as_the_cpu() {
 /// pixels of contrast gives its other slots to pixels of no contrast near light
 /// (`records::refine::near_light`), the heaviest cosine weights first, and to no others:
 /// the GPU's selection is the CPU's (rounding of a hit point at a voxel's or a face's edge
-/// may flip a pixel: counted), its slots past the last pixel say `UNUSED_SLOT`, and fewer
-/// slots are filled than the planes had spare (before, the first pixels of no contrast by
-/// index took them all, far from light or not).
+/// may flip a pixel: counted), its slots past the last pixel say `UNUSED_SLOT`, the pixels
+/// of no contrast it passes over are all far from light (before, the first pixels of no
+/// contrast by index took the slots, far from light or not), and the frame's ray count
+/// leaves out the rays of the slots left unused.
 #[test]
 fn gpu_lit_planes_give_their_spare_slots_to_pixels_near_light_as_the_cpu() {
     use radsplat::records::refine::{
@@ -818,12 +821,12 @@ fn gpu_lit_planes_give_their_spare_slots_to_pixels_near_light_as_the_cpu() {
     let NaveGuide {
         renderer,
         scene,
+        prepared,
         settings,
         maps,
         grid,
         voxels,
     } = nave_guide();
-    let prepared = renderer.prepare(&scene).expect("prepare");
     // K at the default, and half the plane: there more slots are spare than pixels near
     // light, and planes run short.
     for plane_refine in [settings.plane_refine, 0.5] {

@@ -10,20 +10,20 @@
 // rays or light maps) plus emission not already sampled as a light. One invocation per
 // (pixel, record).
 //
-// Refining (MODE_REFINE_LIT, MODE_REFINE_DARK): for each pixel plane_refine_select.wgsl
-// selected, `split^2` more rays through the pixel's strata (the plane table's entries after
-// its P^2 pixels, records::PlaneTable), and the pixel's sample replaced by the weighted
-// mean of its centre ray and those: radiance `L_c w_c + sum L_i w_i`, depth the same
-// weighted harmonic mean of the hit depths (misses add 0 to the sum of 1/Z, as in R), so
-// the reduction (record_reduce.wgsl) reads refined pixels. One invocation per stratum ray:
-// a workgroup holds `per_group` pixels' strata, and each pixel's first invocation sums
-// them in stratum order once all have traced (the same sums, in the same order, as
-// records::refine::refine_plane). MODE_REFINE_LIT refines the K pixels each lit plane's
-// selection lists (one dispatch over every record); MODE_REFINE_DARK the pixels of the
-// planes that saw no light (DARK_PLANE: all of them; DARK_GUIDED: those listed), one
-// workgroup per item the selection appended after the batch's selections (a record and
-// which of its workgroups; an indirect dispatch the selection sized, so that their many
-// pixels cost no workgroups on the other planes, and no plane idle ones on the largest).
+// Refining (MODE_REFINE): for each pixel plane_refine_select.wgsl selected, `split^2`
+// more rays through the pixel's strata (the plane table's entries after its P^2 pixels,
+// records::PlaneTable), and the pixel's sample replaced by the weighted mean of its centre
+// ray and those: radiance `L_c w_c + sum L_i w_i`, depth the same weighted harmonic mean of
+// the hit depths (misses add 0 to the sum of 1/Z, as in R), so the reduction
+// (record_reduce.wgsl) reads refined pixels. One invocation per stratum ray: a workgroup
+// holds `per_group` pixels' strata, and each pixel's first invocation sums them in stratum
+// order once all have traced (the same sums, in the same order, as
+// records::refine::refine_plane). One workgroup per item the selection appended after the
+// batch's selections (a record and which of its workgroups; an indirect dispatch the
+// selection sized): a lit plane's selected pixels (up to K), a dark plane's (DARK_PLANE:
+// all of them; DARK_GUIDED: those listed). So a plane with many pixels costs no workgroups
+// on the others, a plane with none costs none (a dispatch of K pixels a record gave every
+// dark plane K idle lanes' workgroups), and no plane idles on the largest.
 //!include shared/plane.wgsl
 //!include shared/bounce_cache.wgsl
 
@@ -44,13 +44,10 @@ struct PlaneParams {
 }
 
 const MODE_TRACE: u32 = 0u;
-const MODE_REFINE_LIT: u32 = 1u;
-const MODE_REFINE_DARK: u32 = 2u;
+const MODE_REFINE: u32 = 1u;
 
 // Every slot of a dark plane's selection (plane_refine_select.wgsl).
 const DARK_PLANE: u32 = 0xffffffffu;
-// A selection that refines nothing (records::refine::NO_PIXELS).
-const NO_PIXELS: u32 = 0xfffffffeu;
 // A dark plane refined only at the pixels its selection lists: slot 1 holds their count,
 // slots 2.. the pixels (records::refine::DARK_GUIDED).
 const DARK_GUIDED: u32 = 0xfffffffdu;
@@ -100,7 +97,7 @@ fn main(
     // it).
     var record = group.z;
     var g = group.x;
-    if params.mode == MODE_REFINE_DARK {
+    if refining {
         // The list holds up to ceil(P^2 / per_group) items a record, zeros past its end.
         let i = group.x + group.y * 65535u;
         let capacity = params.count * ((n + params.per_group - 1u) / params.per_group);
@@ -136,10 +133,6 @@ fn main(
     }
     if refining {
         let first_slot = selected[row];
-        let dark = first_slot == DARK_PLANE || first_slot == DARK_GUIDED;
-        if first_slot == NO_PIXELS || dark != (params.mode == MODE_REFINE_DARK) {
-            return;     // not refined, or refined by the other dispatch
-        }
         // Slot j of the selection: a lit plane's K, a guided plane's listed pixels, or
         // every pixel of a plane refined everywhere.
         let j = g * params.per_group + lane / params.subsamples;

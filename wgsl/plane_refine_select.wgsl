@@ -10,9 +10,10 @@
 // (non-negative floats order as their bits) with integer workgroup histograms, then
 // prefix sums in pixel order. A plane without light anywhere
 // has no contrast to rank: its K slots all say DARK_PLANE, and hemisphere_plane.wgsl then
-// refines every pixel of it (or those a guided selection lists, DARK_GUIDED). Such a
-// plane's record is appended after the batch's selections, and the indirect dispatch that
-// refines them sized (`dark_dispatch`). The CPU mirror is records::refine::select_pixels.
+// refines every pixel of it (or those a guided selection lists, DARK_GUIDED). Every plane
+// with pixels to refine appends its workgroups after the batch's selections, and sizes the
+// indirect dispatch that refines them (`refine_dispatch`). The CPU mirror is
+// records::refine::select_pixels.
 //!include shared/records.wgsl
 //!include shared/lit_grid_query.wgsl
 
@@ -52,33 +53,34 @@ struct SelectParams {
 @group(1) @binding(7) var<storage, read> sites: array<RecordSite>;
 @group(1) @binding(8) var<uniform> lit_grid_params: LitGridParams;
 @group(1) @binding(9) var<storage, read> lit_grid: array<u32>;
-// The indirect dispatch (x y z, cleared before this pass) that refines the dark planes, and
-// (element 3) how many workgroups it holds: one per `per_group` pixels of each dark plane.
-@group(1) @binding(10) var<storage, read_write> dark_dispatch: array<atomic<u32>, 4>;
+// The indirect dispatch (x y z, cleared before this pass) that refines the planes, and
+// (element 3) how many workgroups it holds: one per `per_group` pixels of each plane.
+@group(1) @binding(10) var<storage, read_write> refine_dispatch: array<atomic<u32>, 4>;
 // The plane's pixels by cosine weight, largest first (ties: lower index), for
 // `fill_near_light` (records::refine::filler_order).
 @group(1) @binding(11) var<storage, read> filler_order: array<u32>;
 
-// Appends the workgroups that refine `record`, a dark plane with `pixels` pixels to refine,
+// Appends the workgroups that refine `record`, a plane with `pixels` pixels to refine,
 // after the batch's selections (cleared before this pass): workgroup g of the plane is
 // item `(g << 16 | record) + 1` (0: none), so that no workgroup of that dispatch is idle
-// (as one sized by the largest plane's pixels left most). Their order varies from run to
-// run; each refines its own pixels, so the result does not.
-fn push_dark_plane(record: u32, pixels: u32) {
+// (as one sized by the largest plane's pixels left most, or one that gave the dark planes
+// a lit plane's K). Their order varies from run to run; each refines its own pixels, so
+// the result does not.
+fn push_refined_plane(record: u32, pixels: u32) {
     let groups = (pixels + params.per_group - 1u) / params.per_group;
     if groups == 0u {
         return;
     }
-    let start = atomicAdd(&dark_dispatch[3], groups);
+    let start = atomicAdd(&refine_dispatch[3], groups);
     let tail = params.count * params.slots;
     for (var g = 0u; g < groups; g++) {
         selected[tail + start + g] = ((g << 16u) | record) + 1u;
     }
     // x up to 65535 a row, then y rows (shared/work_list.wgsl's rule).
     let end = start + groups;
-    atomicMax(&dark_dispatch[0], min(end, 65535u));
-    atomicMax(&dark_dispatch[1], (end - 1u) / 65535u + 1u);
-    atomicMax(&dark_dispatch[2], 1u);
+    atomicMax(&refine_dispatch[0], min(end, 65535u));
+    atomicMax(&refine_dispatch[1], (end - 1u) / 65535u + 1u);
+    atomicMax(&refine_dispatch[2], 1u);
 }
 
 // The first slot of a dark plane refined only where its rays can land near a lit surface
@@ -338,13 +340,13 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
                 atomicAdd(&dark_planes[2], 1u);
                 selected[row] = DARK_GUIDED;
                 selected[row + 1u] = slot;
-                push_dark_plane(record, slot);
+                push_refined_plane(record, slot);
             }
             return;
         }
         if lane == 0u {
             atomicAdd(&dark_planes[0], 1u);
-            push_dark_plane(record, n);
+            push_refined_plane(record, n);
         }
         for (var slot = lane; slot < params.slots; slot += THREADS) {
             selected[record * params.slots + slot] = DARK_PLANE;
@@ -538,11 +540,14 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         }
         rank += u32(key == threshold);
     }
-    if lane == THREADS - 1u && slot < params.refined {
-        // Fewer than K near light: the slots after the last pixel say so.
-        atomicAdd(&dark_planes[3], params.refined - slot);
-        for (var s = slot; s < params.refined; s++) {
-            selected[record * params.slots + s] = UNUSED_SLOT;
+    if lane == THREADS - 1u {
+        if slot < params.refined {
+            // Fewer than K near light: the slots after the last pixel say so.
+            atomicAdd(&dark_planes[3], params.refined - slot);
+            for (var s = slot; s < params.refined; s++) {
+                selected[record * params.slots + s] = UNUSED_SLOT;
+            }
         }
+        push_refined_plane(record, slot);
     }
 }

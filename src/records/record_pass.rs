@@ -38,7 +38,7 @@ pub(crate) struct PlaneParams {
     pub light_choices: u32,
     /// 1: also write each sample's environment-sampled share (refinement's selection).
     pub record_noise: u32,
-    /// [`Self::TRACE`], [`Self::REFINE_LIT`] or [`Self::REFINE_DARK`].
+    /// [`Self::TRACE`] or [`Self::REFINE`].
     pub mode: u32,
     /// Refining: K pixels selected per lit plane by contrast.
     pub refined: u32,
@@ -55,11 +55,9 @@ pub(crate) struct PlaneParams {
 impl PlaneParams {
     /// `mode`: trace the planes (`MODE_TRACE` in `hemisphere_plane.wgsl`).
     pub const TRACE: u32 = 0;
-    /// `mode`: refine the pixels selected on lit planes in place
-    /// ([`refine::RefinePass::record`]).
-    pub const REFINE_LIT: u32 = 1;
-    /// `mode`: refine the pixels of the planes that saw no light.
-    pub const REFINE_DARK: u32 = 2;
+    /// `mode`: refine the selected pixels in place, one workgroup per item the selection
+    /// listed ([`refine::RefinePass::record`]).
+    pub const REFINE: u32 = 1;
 }
 
 #[repr(C)]

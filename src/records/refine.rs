@@ -404,9 +404,9 @@ pub struct RefinePass {
     select: LazyPass,
     /// What the refinement binds for the plane pass's hits (it writes none).
     no_hits: wgpu::Buffer,
-    /// The indirect dispatch (x y z) that refines a batch's dark planes, which the
-    /// selection sizes, and the number of its workgroups (element 3).
-    dark_dispatch: wgpu::Buffer,
+    /// The indirect dispatch (x y z) that refines a batch's planes, which the selection
+    /// sizes, and the number of its workgroups (element 3).
+    refine_dispatch: wgpu::Buffer,
     /// The selection's ray counters since they were last cleared ([`Self::dark_planes`];
     /// u32 atomics: exact, whatever the order).
     dark_planes: wgpu::Buffer,
@@ -458,8 +458,8 @@ impl RefinePass {
                 &[],
             ),
             no_hits: ctx.storage_buffer_sized("no refined hits", 16)?,
-            dark_dispatch: ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("dark plane refinement dispatch"),
+            refine_dispatch: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("plane refinement dispatch"),
                 size: 16,
                 usage: wgpu::BufferUsages::STORAGE
                     | wgpu::BufferUsages::INDIRECT
@@ -479,9 +479,9 @@ impl RefinePass {
 
     /// Records the refinement of the `count` planes in `samples` (traced for `sites`, P^2
     /// each) in place: the selection, then `trace` (the record pass's plane pipeline,
-    /// `hemisphere_plane.wgsl`, built for `table`) in its refining modes. `selected`
+    /// `hemisphere_plane.wgsl`, built for `table`) in its refining mode. `selected`
     /// receives [`Self::slots`] u32 per record (the K selected pixels, [`DARK_PLANE`] in
-    /// each slot, or a [`DARK_GUIDED`] list), then the dark planes' workgroups (a buffer
+    /// each slot, or a [`DARK_GUIDED`] list), then the planes' refining workgroups (a buffer
     /// of [`Self::selected_bytes`]). `noise` holds each sample's environment share
     /// ([`contrast_keys`]; all zeros: plain contrast).
     #[allow(clippy::too_many_arguments)]
@@ -534,12 +534,12 @@ impl RefinePass {
                 sites,
                 &light_maps.lit_grid.params_buffer,
                 &light_maps.lit_grid.voxels,
-                &self.dark_dispatch,
+                &self.refine_dispatch,
                 &table.filler_order,
             ],
         );
-        enc.clear_buffer(&self.dark_dispatch, 0, None);
-        // The dark planes' workgroups, appended after the selections (0: none).
+        enc.clear_buffer(&self.refine_dispatch, 0, None);
+        // The planes' workgroups, appended after the selections (0: none).
         enc.clear_buffer(
             selected,
             u64::from(count) * u64::from(self.slots()) * 4,
@@ -552,56 +552,46 @@ impl RefinePass {
             [count, 1, 1],
             timer.next("plane refinement select"),
         );
-        // The strata of `per_group` pixels a workgroup: the K pixels of each lit plane in
-        // one dispatch, then the dark planes' in one the selection sized.
-        let params = |mode| PlaneParams {
-            resolution: self.resolution,
-            count,
-            light_samples: self.light_samples,
-            light_choices: self.light_choices,
-            mode,
-            refined: self.refined,
-            subsamples: self.split * self.split,
-            centre_weight: centre_weight(self.split),
-            slots: self.slots(),
-            per_group: self.per_group(),
-            ..PlaneParams::zeroed()
-        };
-        let bind = |params: &wgpu::Buffer| {
-            trace.bind(
-                ctx,
-                &[
-                    params,
-                    sites,
-                    &table.pixels,
-                    samples,
-                    &self.no_hits,
-                    &light_maps.maps_buffer,
-                    &light_maps.depths,
-                    &light_maps.first_buffer,
-                    &scene.bounce_cache(),
-                    noise,
-                    selected,
-                ],
-            )
-        };
-        let lit = ctx.uniform_buffer("refine params", &params(PlaneParams::REFINE_LIT));
-        let dark = ctx.uniform_buffer("dark refine params", &params(PlaneParams::REFINE_DARK));
-        if self.refined > 0 {
-            trace.record(
-                enc,
-                &scene.bind_group,
-                &bind(&lit),
-                [self.refined.div_ceil(self.per_group()), 1, count],
-                timer.next("plane refinement"),
-            );
-        }
+        // The strata of `per_group` pixels a workgroup, every plane's in one dispatch the
+        // selection sized.
+        let params = ctx.uniform_buffer(
+            "refine params",
+            &PlaneParams {
+                resolution: self.resolution,
+                count,
+                light_samples: self.light_samples,
+                light_choices: self.light_choices,
+                mode: PlaneParams::REFINE,
+                refined: self.refined,
+                subsamples: self.split * self.split,
+                centre_weight: centre_weight(self.split),
+                slots: self.slots(),
+                per_group: self.per_group(),
+                ..PlaneParams::zeroed()
+            },
+        );
+        let bind = trace.bind(
+            ctx,
+            &[
+                &params,
+                sites,
+                &table.pixels,
+                samples,
+                &self.no_hits,
+                &light_maps.maps_buffer,
+                &light_maps.depths,
+                &light_maps.first_buffer,
+                &scene.bounce_cache(),
+                noise,
+                selected,
+            ],
+        );
         trace.record_indirect(
             enc,
             &scene.bind_group,
-            &bind(&dark),
-            &self.dark_dispatch,
-            timer.next("plane refinement: dark planes"),
+            &bind,
+            &self.refine_dispatch,
+            timer.next("plane refinement"),
         );
         Ok(())
     }
