@@ -257,8 +257,8 @@ pub fn contrast_keys(plane: &HemispherePlane, samples: &[PlaneSample], noise: &[
 /// find, and the one near light may hide a sunlit patch between the centre rays. It may
 /// then select fewer than `refined`. Without a guide the first pixels of no contrast by
 /// index take them (nothing says where the light is: an environment, emitters). On the
-/// nave's three variants this took the indirect error down by 4-7 % at five image sizes
-/// each, for the same rays (docs/results.md, "Spare refinement slots near light").
+/// nave's four still variants this took the indirect error down by 4-10 % over five image
+/// sizes each, for the same rays (docs/results.md, "Spare refinement slots near light").
 ///
 /// A plane without light anywhere has no contrast to rank; its `refined` slots (at least
 /// one) all say [`DARK_PLANE`] and every pixel of it is refined ([`refined_pixels`]): P^2 centre rays
