@@ -44,9 +44,9 @@ struct SelectParams {
 @group(1) @binding(2) var<storage, read> samples: array<PlaneSample>;
 @group(1) @binding(3) var<storage, read_write> keys: array<u32>;
 @group(1) @binding(4) var<storage, read_write> selected: array<u32>;
-// For the frame's ray count (RecordPass::take_dark_plane_rays): planes refined everywhere,
+// For the frame's ray count (RecordPass::take_refinement_rays): planes refined everywhere,
 // pixels listed by guided dark planes, guided dark planes, lit planes' unused slots.
-@group(1) @binding(5) var<storage, read_write> dark_planes: array<atomic<u32>>;
+@group(1) @binding(5) var<storage, read_write> ray_counts: array<atomic<u32>>;
 // Per sample: what its environment samples gave it (hemisphere_plane.wgsl `noise`; zeros
 // where the plane pass did not write them).
 @group(1) @binding(6) var<storage, read> noise: array<f32>;
@@ -325,7 +325,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
                 mine += u32(refine);
             }
             // The listed pixels, in pixel order (each thread's run after the earlier ones).
-            atomicAdd(&dark_planes[1], mine);
+            atomicAdd(&ray_counts[1], mine);
             counts[lane] = mine;
             scan_counts(lane);
             let row = record * params.slots;
@@ -337,7 +337,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
                 }
             }
             if lane == THREADS - 1u {
-                atomicAdd(&dark_planes[2], 1u);
+                atomicAdd(&ray_counts[2], 1u);
                 selected[row] = DARK_GUIDED;
                 selected[row + 1u] = slot;
                 push_refined_plane(record, slot);
@@ -345,7 +345,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             return;
         }
         if lane == 0u {
-            atomicAdd(&dark_planes[0], 1u);
+            atomicAdd(&ray_counts[0], 1u);
             push_refined_plane(record, n);
         }
         for (var slot = lane; slot < params.slots; slot += THREADS) {
@@ -543,7 +543,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     if lane == THREADS - 1u {
         if slot < params.refined {
             // Fewer than K near light: the slots after the last pixel say so.
-            atomicAdd(&dark_planes[3], params.refined - slot);
+            atomicAdd(&ray_counts[3], params.refined - slot);
             for (var s = slot; s < params.refined; s++) {
                 selected[record * params.slots + s] = UNUSED_SLOT;
             }

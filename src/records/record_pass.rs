@@ -367,7 +367,7 @@ impl RecordPass {
         if refines.is_empty() {
             return Ok(rays);
         }
-        let counters: Vec<&wgpu::Buffer> = refines.iter().map(|r| r.dark_planes()).collect();
+        let counters: Vec<&wgpu::Buffer> = refines.iter().map(|r| r.ray_counts()).collect();
         let counts: Vec<Vec<u32>> = ctx.read_buffers(&counters)?;
         for (r, count) in refines.iter().zip(&counts) {
             let count = |i: usize| u64::from(count.get(i).copied().unwrap_or(0));
@@ -380,7 +380,7 @@ impl RecordPass {
                 .saturating_sub(count(2) * u64::from(r.refined()) * per_pixel);
             rays.unused += count(3) * per_pixel;
             ctx.queue
-                .write_buffer(r.dark_planes(), 0, bytemuck::bytes_of(&[0u32; 4]));
+                .write_buffer(r.ray_counts(), 0, bytemuck::bytes_of(&[0u32; 4]));
         }
         Ok(rays)
     }

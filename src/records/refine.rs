@@ -407,9 +407,9 @@ pub struct RefinePass {
     /// The indirect dispatch (x y z) that refines a batch's planes, which the selection
     /// sizes, and the number of its workgroups (element 3).
     refine_dispatch: wgpu::Buffer,
-    /// The selection's ray counters since they were last cleared ([`Self::dark_planes`];
+    /// The selection's ray counters since they were last cleared ([`Self::ray_counts`];
     /// u32 atomics: exact, whatever the order).
-    dark_planes: wgpu::Buffer,
+    ray_counts: wgpu::Buffer,
     resolution: u32,
     refined: u32,
     split: u32,
@@ -466,7 +466,7 @@ impl RefinePass {
                     | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
-            dark_planes: ctx.storage_buffer("dark planes", &[0u32; 4])?,
+            ray_counts: ctx.storage_buffer("refinement ray counts", &[0u32; 4])?,
             resolution: settings.plane_resolution,
             refined,
             split,
@@ -529,7 +529,7 @@ impl RefinePass {
                 samples,
                 &keys,
                 selected,
-                &self.dark_planes,
+                &self.ray_counts,
                 noise,
                 sites,
                 &light_maps.lit_grid.params_buffer,
@@ -638,8 +638,8 @@ impl RefinePass {
     /// The selection's ray counters (four u32: planes refined everywhere, pixels listed by
     /// guided dark planes, guided dark planes, lit planes' unused slots; read and cleared
     /// by `RecordPass::take_refinement_rays`).
-    pub fn dark_planes(&self) -> &wgpu::Buffer {
-        &self.dark_planes
+    pub fn ray_counts(&self) -> &wgpu::Buffer {
+        &self.ray_counts
     }
 }
 
