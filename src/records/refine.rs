@@ -437,8 +437,8 @@ impl RefinePass {
         }
         let split = settings.plane_refine_split;
         Ok(Some(Self {
-            // Nine storage buffers: with the scene's six, 15 of the 16 a stage may bind
-            // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`).
+            // Ten storage buffers: with the scene's six, all 16 a stage may bind
+            // (`gpu::context::STORAGE_BUFFERS_PER_STAGE`): another must share a buffer.
             select: LazyPass::new(
                 "plane_refine_select.wgsl",
                 &[
