@@ -705,36 +705,40 @@ fn nave_guide() -> NaveGuide {
     }
 }
 
+impl NaveGuide {
+    /// `sites`' planes traced and refined with the frame's light maps under `settings`.
+    fn trace(&self, settings: &CacheSettings, sites: &[RecordSite]) -> (RecordPass, RefinedPlanes) {
+        let pass = RecordPass::new(&self.renderer.ctx, settings).expect("record pass");
+        let gpu = pass
+            .trace_planes_refined_with(&self.renderer.ctx, &self.prepared.gpu, sites, &self.maps)
+            .expect("refined planes");
+        self.renderer.ctx.check().expect("no wgpu errors");
+        (pass, gpu)
+    }
+
+    /// The CPU's guide for `site`'s plane: the lit grid read back.
+    fn guide<'a>(&'a self, site: &'a RecordSite) -> radsplat::records::refine::DarkGuide<'a> {
+        radsplat::records::refine::DarkGuide {
+            grid: &self.grid,
+            voxels: &self.voxels,
+            site,
+        }
+    }
+}
+
 #[test]
 fn gpu_dark_planes_refine_near_lit_surfaces_as_the_cpu() {
-    use radsplat::records::refine::{DarkGuide, is_dark};
-    let NaveGuide {
-        renderer,
-        scene,
-        prepared,
-        settings,
-        maps,
-        grid,
-        voxels,
-    } = nave_guide();
-    let sites = sites(&scene, &renderer, &settings, 160);
-    let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
-    let reference = RecordReference::new(&scene, &settings);
-    let gpu = pass
-        .trace_planes_refined_with(&renderer.ctx, &prepared.gpu, &sites, &maps)
-        .expect("refined planes");
-    let everywhere_pass = RecordPass::new(
-        &renderer.ctx,
-        &CacheSettings {
-            dark_plane_guide: false,
-            ..settings.clone()
-        },
-    )
-    .expect("record pass");
-    let everywhere = everywhere_pass
-        .trace_planes_refined_with(&renderer.ctx, &prepared.gpu, &sites, &maps)
-        .expect("refined planes");
-    renderer.ctx.check().expect("no wgpu errors");
+    use radsplat::records::refine::is_dark;
+    let nave = nave_guide();
+    let settings = &nave.settings;
+    let sites = sites(&nave.scene, &nave.renderer, settings, 160);
+    let (pass, gpu) = nave.trace(settings, &sites);
+    let reference = RecordReference::new(&nave.scene, settings);
+    let everywhere_settings = CacheSettings {
+        dark_plane_guide: false,
+        ..settings.clone()
+    };
+    let (_, everywhere) = nave.trace(&everywhere_settings, &sites);
     let per = (settings.plane_resolution * settings.plane_resolution) as usize;
     let slots = pass.refine_slots() as usize;
     let (mut dark, mut listed, mut flag_mismatch, mut compared) = (0, 0, 0, 0);
@@ -750,12 +754,7 @@ fn gpu_dark_planes_refine_near_lit_surfaces_as_the_cpu() {
         let gpu_list = &gpu.selected[i * slots + 2..i * slots + 2 + count];
         let refined = &gpu.refined[i * per..(i + 1) * per];
         let noise = &gpu.noise[i * per..(i + 1) * per];
-        let guide = DarkGuide {
-            grid: &grid,
-            voxels: &voxels,
-            site,
-        };
-        let (cpu, list) = reference.refine_guided(site, coarse, noise, Some(&guide));
+        let (cpu, list) = reference.refine_guided(site, coarse, noise, Some(&nave.guide(site)));
         listed += list.len();
         // The lists themselves, pixel for pixel (rounding of a hit point at a voxel's or a
         // face's edge may flip a pixel: counted below).
@@ -816,32 +815,20 @@ fn gpu_dark_planes_refine_near_lit_surfaces_as_the_cpu() {
 #[test]
 fn gpu_lit_planes_give_their_spare_slots_to_pixels_near_light_as_the_cpu() {
     use radsplat::records::refine::{
-        DarkGuide, contrast_keys, filler_order, is_dark, near_light, select_pixels,
+        contrast_keys, filler_order, is_dark, near_light, select_pixels,
     };
-    let NaveGuide {
-        renderer,
-        scene,
-        prepared,
-        settings,
-        maps,
-        grid,
-        voxels,
-    } = nave_guide();
+    let nave = nave_guide();
     // K at the default, and half the plane: there more slots are spare than pixels near
     // light, and planes run short.
-    for plane_refine in [settings.plane_refine, 0.5] {
+    for plane_refine in [nave.settings.plane_refine, 0.5] {
         let settings = CacheSettings {
             plane_refine,
-            ..settings.clone()
+            ..nave.settings.clone()
         };
         let k = settings.refined_pixels() as usize;
-        let sites = sites(&scene, &renderer, &settings, 160);
-        let pass = RecordPass::new(&renderer.ctx, &settings).expect("record pass");
-        let reference = RecordReference::new(&scene, &settings);
-        let gpu = pass
-            .trace_planes_refined_with(&renderer.ctx, &prepared.gpu, &sites, &maps)
-            .expect("refined planes");
-        renderer.ctx.check().expect("no wgpu errors");
+        let sites = sites(&nave.scene, &nave.renderer, &settings, 160);
+        let (pass, gpu) = nave.trace(&settings, &sites);
+        let reference = RecordReference::new(&nave.scene, &settings);
         let per = (settings.plane_resolution * settings.plane_resolution) as usize;
         let slots = pass.refine_slots() as usize;
         let order = filler_order(&reference.plane);
@@ -854,11 +841,7 @@ fn gpu_lit_planes_give_their_spare_slots_to_pixels_near_light_as_the_cpu() {
             }
             lit += 1;
             let noise = &gpu.noise[i * per..(i + 1) * per];
-            let guide = DarkGuide {
-                grid: &grid,
-                voxels: &voxels,
-                site,
-            };
+            let guide = nave.guide(site);
             let cpu = select_pixels(
                 &reference.plane,
                 coarse,
@@ -934,7 +917,7 @@ fn gpu_lit_planes_give_their_spare_slots_to_pixels_near_light_as_the_cpu() {
         }
         assert!(differ * 200 <= selected_total, "{differ} pixels differ");
         // The frame's ray count leaves out the rays the unused slots did not trace.
-        let rays = RecordPass::take_refinement_rays(&renderer.ctx, &[&pass]).expect("rays");
+        let rays = RecordPass::take_refinement_rays(&nave.renderer.ctx, &[&pass]).expect("rays");
         let split = u64::from(settings.plane_refine_split);
         assert_eq!(rays.unused, unused_slots * split * split);
     }
