@@ -542,6 +542,46 @@ fn placement_waits_for_the_device_twice_per_round_and_still_times_its_passes() {
     }
 }
 
+/// Tracing passes leave their workgroup memory, the traversal stacks, unzeroed (lavapipe
+/// otherwise clears 24 KiB before each of their workgroups): the images are the bytes of
+/// a device that zeroes every pass's memory. On the nave lit by the sun through its
+/// windows (light maps; lit planes refined, their strata summed through the stacks; dark
+/// planes refined near light) and on the Cornell box (an area light, shadow rays).
+#[test]
+fn traversal_stacks_left_unzeroed_render_the_same_bytes() {
+    for (name, size) in [("nave.toml", (64, 64)), ("cornell-box.toml", (48, 48))] {
+        let scene = common::load(name, Some(size));
+        let mut images = Vec::new();
+        for zero_all in [true, false] {
+            let ctx = common::gpu();
+            ctx.set_zero_all_workgroup_memory(zero_all);
+            assert_eq!(ctx.zeroes_all_workgroup_memory(), zero_all);
+            let renderer = Renderer::new(ctx).expect("renderer");
+            let mut cache = renderer
+                .new_cache(&CacheSettings::default())
+                .expect("cache");
+            let frame = render(&renderer, &scene, &mut cache);
+            let stats = frame.stats.cache.clone().expect("cache stats");
+            let records = u64::from(stats.records);
+            assert!(
+                stats.plane_rays > records * 24 * 24,
+                "{name}: no plane was refined ({} rays, {records} records)",
+                stats.plane_rays
+            );
+            if name == "nave.toml" {
+                assert!(stats.dark_plane_rays > 0, "nave: no dark plane refined");
+            }
+            images.push(
+                exr_out::encode_exr(size.0, size.1, &exr_out::frame_channels(&frame)).expect("exr"),
+            );
+        }
+        assert!(
+            images[0] == images[1],
+            "{name}: other bytes with the traversal stacks unzeroed"
+        );
+    }
+}
+
 /// Passes built ahead on many threads (`radsplat render` builds them while the scene
 /// loads; with threads to spare, tail fill's record pass too) render what passes built at
 /// first use do, byte for byte, and a failing record pass ends the build with its error

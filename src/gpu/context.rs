@@ -118,6 +118,9 @@ pub struct GpuContext {
     /// Whether passes are timed ([`GpuContext::set_pass_timing`]); shared with the passes,
     /// which read it at each dispatch.
     pub(crate) pass_timing: Arc<std::sync::atomic::AtomicBool>,
+    /// Whether every pass's workgroup memory is zeroed, not only that of passes that read
+    /// it before writing it ([`GpuContext::set_zero_all_workgroup_memory`]).
+    pub(crate) zero_all_workgroup_memory: Arc<std::sync::atomic::AtomicBool>,
 }
 
 /// A wgpu pipeline cache kept in a file between runs, so a driver that compiles pipelines
@@ -338,6 +341,7 @@ impl GpuContext {
             deferred_times: Arc::default(),
             built_passes: Default::default(),
             pass_timing: Arc::default(),
+            zero_all_workgroup_memory: Arc::default(),
         }
     }
 
@@ -353,6 +357,26 @@ impl GpuContext {
     pub fn set_pass_timing(&self, on: bool) {
         self.pass_timing
             .store(on, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Zeroes the workgroup memory of every pass built from now on before each workgroup
+    /// runs, as WebGPU does by default. Without it, a pass whose only workgroup memory is
+    /// written before it is read (the traversal stacks:
+    /// [`shader::needs_zeroed_workgroup_memory`](super::shader::needs_zeroed_workgroup_memory))
+    /// skips the clearing, which on lavapipe is a `memset` of 24 KiB for each workgroup of
+    /// a tracing pass. The images are the same bytes either way (a test renders both);
+    /// this is for checking that. Passes already built on this device keep how they were
+    /// built, so call it before the first frame.
+    pub fn set_zero_all_workgroup_memory(&self, on: bool) {
+        self.zero_all_workgroup_memory
+            .store(on, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Whether every pass built from now on zeroes its workgroup memory
+    /// ([`GpuContext::set_zero_all_workgroup_memory`]).
+    pub fn zeroes_all_workgroup_memory(&self) -> bool {
+        self.zero_all_workgroup_memory
+            .load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Whether passes are timed: [`GpuContext::set_pass_timing`] asked for it and the

@@ -188,7 +188,8 @@ impl ComputePass {
         let device = &ctx.device;
         let t0 = std::time::Instant::now();
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = shader::module(device, name, constants)?;
+        let pass_module = shader::module(device, name, constants)?;
+        let module = pass_module.module;
         let entries: Vec<_> = bindings
             .iter()
             .enumerate()
@@ -226,8 +227,14 @@ impl ComputePass {
             layout: Some(&layout),
             module: &module,
             entry_point: Some("main"),
-            // The module is already specialised for the constants (shader::module).
-            compilation_options: wgpu::PipelineCompilationOptions::default(),
+            // The module is already specialised for the constants (shader::module). Its
+            // workgroup memory is zeroed unless every invocation writes it before reading
+            // it (`shader::needs_zeroed_workgroup_memory`).
+            compilation_options: wgpu::PipelineCompilationOptions {
+                zero_initialize_workgroup_memory: pass_module.zeroed_workgroup_memory
+                    || ctx.zeroes_all_workgroup_memory(),
+                ..Default::default()
+            },
             cache: ctx.pipeline_cache.as_ref().map(|c| &c.cache),
         });
         if let Some(e) = pollster::block_on(scope.pop()) {

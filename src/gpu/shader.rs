@@ -344,12 +344,9 @@ pub fn compose(name: &str) -> Result<String> {
 /// those values decide removed, and the functions only such branches called dropped
 /// ([`super::specialise::specialise`]): a driver converts and optimises the whole module
 /// it is given before it folds a constant. The pipeline is then created with no constants.
-pub fn module(
-    device: &wgpu::Device,
-    name: &str,
-    constants: &[(&str, f64)],
-) -> Result<wgpu::ShaderModule> {
+pub fn module(device: &wgpu::Device, name: &str, constants: &[(&str, f64)]) -> Result<PassModule> {
     let specialised = specialised_module(name, constants)?;
+    let zeroed_workgroup_memory = needs_zeroed_workgroup_memory(&specialised);
     // The module itself, not WGSL text, which wgpu would parse again (wgpu still validates
     // it against the device's own capabilities).
     let descriptor = wgpu::ShaderModuleDescriptor {
@@ -358,7 +355,47 @@ pub fn module(
     };
     // SAFETY: the checks kept are wgpu's defaults; the one dropped, `force_loop_bounding`,
     // requires that no loop runs forever, and none of ours does (`RUNTIME_CHECKS`).
-    Ok(unsafe { device.create_shader_module_trusted(descriptor, RUNTIME_CHECKS) })
+    let module = unsafe { device.create_shader_module_trusted(descriptor, RUNTIME_CHECKS) };
+    Ok(PassModule {
+        module,
+        zeroed_workgroup_memory,
+    })
+}
+
+/// A pass's shader module, and whether its pipeline must zero its workgroup memory.
+pub struct PassModule {
+    pub module: wgpu::ShaderModule,
+    /// False where the pass's only workgroup memory is the traversal stacks
+    /// ([`needs_zeroed_workgroup_memory`]).
+    pub zeroed_workgroup_memory: bool,
+}
+
+/// The workgroup variables a pass may leave unzeroed: each invocation writes an entry of
+/// them before it, or another invocation past a barrier, reads it. `bvh_stacks`
+/// (wgsl/shared/bvh.wgsl): a traversal pushes an entry before it pops it (the stack
+/// pointer starts at 0 in every traversal), and a slice handed on
+/// (`bvh_slice_store`, then a barrier, then `bvh_slice_load`) is stored by every
+/// invocation that reaches the barrier. A test keeps this list in step with `wgsl/`.
+pub(crate) const WORKGROUP_VARIABLES_WRITTEN_FIRST: &[&str] = &["bvh_stacks"];
+
+/// Whether a pipeline of `module` must have its workgroup memory zeroed before each
+/// workgroup (WebGPU's rule, and wgpu's default): true unless every workgroup variable
+/// the module keeps is written before it is read
+/// ([`WORKGROUP_VARIABLES_WRITTEN_FIRST`]).
+///
+/// Zeroing is not free on a CPU device: lavapipe clears a workgroup's memory with a
+/// `memset` before it runs, 24 KiB of traversal stacks for each workgroup of a tracing
+/// pass. On nave-west that was 0.81 G of the render's 9.19 G instructions under callgrind
+/// (`rep stosb` counts each byte there), about 0.6 % of its CPU samples under `perf`, for
+/// memory no invocation reads before writing it.
+pub fn needs_zeroed_workgroup_memory(module: &naga::Module) -> bool {
+    module.global_variables.iter().any(|(_, var)| {
+        var.space == naga::AddressSpace::WorkGroup
+            && !var
+                .name
+                .as_deref()
+                .is_some_and(|n| WORKGROUP_VARIABLES_WRITTEN_FIRST.contains(&n))
+    })
 }
 
 /// The runtime checks wgpu compiles into radsplat's shaders: all of its defaults (bounds,
@@ -471,6 +508,64 @@ mod tests {
             found, expected,
             "a `loop` or `while` was added to or removed from wgsl/: check that it ends \
              whatever the data (gpu::shader::RUNTIME_CHECKS) and update this list"
+        );
+    }
+
+    /// A pass leaves its workgroup memory unzeroed only where every variable in it is one
+    /// [`WORKGROUP_VARIABLES_WRITTEN_FIRST`] argues is written before it is read: the
+    /// traversal stacks, which only `shared/bvh.wgsl` touches (its pushes and pops, and the
+    /// slice hand-off), handed on only across a barrier. Every tracing pass skips the
+    /// zeroing, every other pass with workgroup memory keeps it (it is small). A workgroup
+    /// variable added to a tracing pass, or the stacks read elsewhere, fails here until
+    /// checked against that argument.
+    #[test]
+    fn workgroup_memory_is_left_unzeroed_only_where_it_is_written_first() {
+        assert_eq!(WORKGROUP_VARIABLES_WRITTEN_FIRST, &["bvh_stacks"]);
+        for (name, text) in SOURCES.iter() {
+            if *name == "shared/bvh.wgsl" {
+                continue;
+            }
+            assert!(
+                !text.contains("bvh_stacks"),
+                "{name} reads or writes the traversal stacks outside shared/bvh.wgsl"
+            );
+            if text.contains("bvh_slice_load(") {
+                let store = text
+                    .find("bvh_slice_store(")
+                    .expect("a slice loaded is stored");
+                let load = text.find("bvh_slice_load(").expect("load");
+                assert!(
+                    store < load && text[store..load].contains("workgroupBarrier();"),
+                    "{name}: a slice must be stored, then a barrier, then loaded"
+                );
+            }
+        }
+        let mut unzeroed = Vec::new();
+        for name in passes() {
+            let (module, _) = parsed_module(name).expect("parse");
+            let tracing = compose(name).expect("compose").contains("fn trace(");
+            let zeroed = needs_zeroed_workgroup_memory(&module);
+            let workgroup_memory = module
+                .global_variables
+                .iter()
+                .any(|(_, v)| v.space == naga::AddressSpace::WorkGroup);
+            assert!(
+                !(tracing && zeroed),
+                "{name}: a tracing pass's only workgroup memory must be the traversal stacks"
+            );
+            if !tracing && workgroup_memory {
+                assert!(
+                    zeroed,
+                    "{name}: a pass that does not trace keeps its memory zeroed"
+                );
+            }
+            if tracing {
+                unzeroed.push(name);
+            }
+        }
+        assert!(
+            unzeroed.contains(&"hemisphere_plane.wgsl") && unzeroed.len() >= 9,
+            "passes left unzeroed: {unzeroed:?}"
         );
     }
 
