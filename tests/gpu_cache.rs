@@ -545,8 +545,8 @@ fn placement_waits_for_the_device_twice_per_round_and_still_times_its_passes() {
 /// Tracing passes leave their workgroup memory, the traversal stacks, unzeroed (lavapipe
 /// otherwise clears 24 KiB before each of their workgroups): the images are the bytes of
 /// a device that zeroes every pass's memory. On the nave lit by the sun through its
-/// windows (light maps; lit planes refined, their strata summed through the stacks; dark
-/// planes refined near light) and on the Cornell box (an area light, shadow rays).
+/// windows (light maps; lit planes refined; dark planes refined near light) and on the
+/// Cornell box (an area light, shadow rays).
 #[test]
 fn traversal_stacks_left_unzeroed_render_the_same_bytes() {
     for (name, size) in [("nave.toml", (64, 64)), ("cornell-box.toml", (48, 48))] {

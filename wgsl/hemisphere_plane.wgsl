@@ -12,47 +12,22 @@
 //
 // Refining (MODE_REFINE): for each pixel plane_refine_select.wgsl selected, `split^2`
 // more rays through the pixel's strata (the plane table's entries after its P^2 pixels,
-// records::PlaneTable), and the pixel's sample replaced by the weighted mean of its centre
-// ray and those: radiance `L_c w_c + sum L_i w_i`, depth the same weighted harmonic mean of
-// the hit depths (misses add 0 to the sum of 1/Z, as in R), so the reduction
-// (record_reduce.wgsl) reads refined pixels. One invocation per stratum ray: a workgroup
-// holds `per_group` pixels' strata, and each pixel's first invocation sums them in stratum
-// order once all have traced (the same sums, in the same order, as
-// records::refine::refine_plane). One workgroup per item the selection appended after the
-// batch's selections (a record and which of its workgroups; an indirect dispatch the
-// selection sized): a lit plane's selected pixels (up to K), a dark plane's (DARK_PLANE:
-// all of them; DARK_GUIDED: those listed). So a plane with many pixels costs no workgroups
-// on the others, a plane with none costs none (a dispatch of K pixels a record gave every
-// dark plane K idle lanes' workgroups), and no plane idles on the largest.
+// records::PlaneTable), each stratum's radiance and depth kept in `per_ray`;
+// plane_refine_combine.wgsl then replaces the pixel's sample by the weighted mean of its
+// centre ray and those. One invocation per stratum ray: a workgroup holds `per_group`
+// pixels' strata (shared/plane_refine_items.wgsl). One workgroup per item the selection
+// appended after the batch's selections (a record and which of its workgroups; an
+// indirect dispatch the selection sized): a lit plane's selected pixels (up to K), a dark
+// plane's (DARK_PLANE: all of them; DARK_GUIDED: those listed). So a plane with many
+// pixels costs no workgroups on the others, a plane with none costs none (a dispatch of K
+// pixels a record gave every dark plane K idle lanes' workgroups), and no plane idles on
+// the largest. The sums are a pass of their own so that this one has no barrier:
+// lavapipe runs a shader with a barrier as coroutines, and the plane rays traced 1.10x as
+// many instructions with one (nave-west, refinement off; the same bytes).
 //!include shared/plane.wgsl
 //!include shared/bounce_cache.wgsl
 
-// Rust: records::PlaneParams.
-struct PlaneParams {
-    resolution: u32,
-    count: u32,
-    light_samples: u32,
-    record_hits: u32,   // 1: also write each sample's hit (temporal reprojection)
-    light_choices: u32, // lights sampled per hit (`shadow_loop_start_chosen`; 0: all)
-    record_noise: u32,  // 1: also write each sample's environment-sampled share (`noise`)
-    mode: u32,          // MODE_*
-    refined: u32,       // K selected pixels per lit plane
-    subsamples: u32,    // split^2 strata per pixel
-    centre_weight: f32, // 1 / (1 + split^2)
-    slots: u32,         // selection slots per record (RefinePass::slots)
-    per_group: u32,     // refined pixels per workgroup: 64 / split^2
-}
-
-const MODE_TRACE: u32 = 0u;
-const MODE_REFINE: u32 = 1u;
-
-// Every slot of a dark plane's selection (plane_refine_select.wgsl).
-const DARK_PLANE: u32 = 0xffffffffu;
-// A dark plane refined only at the pixels its selection lists: slot 1 holds their count,
-// slots 2.. the pixels (records::refine::DARK_GUIDED).
-const DARK_GUIDED: u32 = 0xfffffffdu;
-// A lit plane's selection slot past its last pixel (records::refine::UNUSED_SLOT).
-const UNUSED_SLOT: u32 = 0xfffffffcu;
+//!include shared/plane_refine_items.wgsl
 
 @group(1) @binding(0) var<uniform> params: PlaneParams;
 @group(1) @binding(1) var<storage, read> sites: array<RecordSite>;
@@ -65,9 +40,10 @@ const UNUSED_SLOT: u32 = 0xfffffffcu;
 @group(1) @binding(6) var<storage, read> light_map_depths: array<f32>;
 @group(1) @binding(7) var<storage, read> light_map_first: array<u32>;
 @group(1) @binding(8) var<storage, read> bounce_cache: array<u32>;
-// Per sample: the channel sum of what its environment samples gave it (TracedSample.noise),
-// for refinement's selection.
-@group(1) @binding(9) var<storage, read_write> noise: array<f32>;
+// Tracing: per sample, the channel sum of what its environment samples gave it
+// (TracedSample.noise), for refinement's selection. Refining: per stratum ray, its
+// radiance and depth (`stratum_offset`), for plane_refine_combine.wgsl.
+@group(1) @binding(9) var<storage, read_write> per_ray: array<f32>;
 // Refining: the selection (plane_refine_select.wgsl), `slots` per record, then the records
 // of the planes that saw no light.
 @group(1) @binding(10) var<storage, read> selected: array<u32>;
@@ -93,28 +69,20 @@ fn main(
     bvh_stack_init(lane);
     let n = params.resolution * params.resolution;
     let refining = params.mode != MODE_TRACE;
-    // The record and its workgroup (uniform over the workgroup: the barrier below needs
-    // it).
+    // The record and its workgroup; refining, the list item and the stratum ray.
     var record = group.z;
     var g = group.x;
+    var stratum = RefineStratum(false, 0u, 0u, 0u, 0u, false);
     if refining {
-        // The list holds up to ceil(P^2 / per_group) items a record, zeros past its end.
-        let i = group.x + group.y * 65535u;
-        let capacity = params.count * ((n + params.per_group - 1u) / params.per_group);
-        if i >= capacity {
-            return;     // past the list in the last row
+        stratum = refine_stratum(group, lane);
+        if !stratum.listed {
+            return;
         }
-        let item = selected[params.count * params.slots + i];
-        if item == 0u {
-            return;     // past the last item
-        }
-        record = (item - 1u) & 0xffffu;
-        g = (item - 1u) >> 16u;
+        record = stratum.record;
     } else if group.z >= params.count {
         return;
     }
     let base = record * n;
-    let row = record * params.slots;
     // This invocation's ray: pixel k's centre ray, or its stratum q.
     var k = g * 64u + lane;
     var q = 0u;
@@ -132,40 +100,19 @@ fn main(
         work = py < res;
     }
     if refining {
-        let first_slot = selected[row];
-        // Slot j of the selection: a lit plane's K, a guided plane's listed pixels, or
-        // every pixel of a plane refined everywhere.
-        let j = g * params.per_group + lane / params.subsamples;
-        q = lane % params.subsamples;
-        var count = params.refined;
-        if first_slot == DARK_GUIDED {
-            count = selected[row + 1u];
-        } else if first_slot == DARK_PLANE {
-            count = n;
-        }
-        work = lane < params.per_group * params.subsamples && j < count;
-        if first_slot == DARK_GUIDED {
-            k = selected[row + 2u + min(j, n - 1u)];
-        } else if first_slot == DARK_PLANE {
-            k = j;
-        } else {
-            k = selected[row + min(j, params.refined - 1u)];
-            if k == UNUSED_SLOT {
-                // Past a lit plane's last pixel (fewer than K near light).
-                work = false;
-                k = 0u;
-            }
-        }
+        k = stratum.k;
+        q = stratum.q;
+        work = stratum.work;
     }
     var traced = TracedSample(PlaneSample(vec3f(0.0), -1.0), PlaneHit(NO_HIT, 0u, 0.0, 0.0), 0.0);
     if work {
         // Refining: stratum q of pixel k, numbered past the pixels for its light samples.
-        let stratum = n + k * params.subsamples + q;
+        let strat = n + k * params.subsamples + q;
         var xy = plane[k].rot_center.zw;
         var index = k;
         if refining {
-            xy = plane[stratum].rot_center.zw;
-            index = stratum;
+            xy = plane[strat].rot_center.zw;
+            index = strat;
         }
         let site = sites[record];
         traced = trace_plane_ray(site, plane_point_direction(site, xy), index);
@@ -177,25 +124,16 @@ fn main(
                 hits[base + k] = traced.hit;
             }
             if params.record_noise != 0u {
-                noise[base + k] = traced.noise;
+                per_ray[base + k] = traced.noise;
             }
         }
         return;
     }
-    bvh_slice_store(lane, vec4f(traced.sample.radiance, traced.sample.depth));
-    workgroupBarrier();
-    if work && q == 0u {
-        let centre = samples[base + k];
-        var radiance = centre.radiance * params.centre_weight;
-        var inv_depth = select(0.0, params.centre_weight / centre.depth, centre.depth > 0.0);
-        for (var t = 0u; t < params.subsamples; t++) {
-            let s = bvh_slice_load(lane + t);
-            let weight = plane[n + k * params.subsamples + t].weights.x;
-            radiance += s.xyz * weight;
-            if s.w > 0.0 {
-                inv_depth += weight / s.w;
-            }
-        }
-        samples[base + k] = PlaneSample(radiance, select(-1.0, 1.0 / inv_depth, inv_depth > 0.0));
+    if work {
+        let o = stratum_offset(stratum.item, lane);
+        per_ray[o] = traced.sample.radiance.x;
+        per_ray[o + 1u] = traced.sample.radiance.y;
+        per_ray[o + 2u] = traced.sample.radiance.z;
+        per_ray[o + 3u] = traced.sample.depth;
     }
 }

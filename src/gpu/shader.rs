@@ -97,6 +97,14 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/hemisphere_plane.wgsl"),
     ),
     (
+        "plane_refine_combine.wgsl",
+        include_str!("../../wgsl/plane_refine_combine.wgsl"),
+    ),
+    (
+        "shared/plane_refine_items.wgsl",
+        include_str!("../../wgsl/shared/plane_refine_items.wgsl"),
+    ),
+    (
         "plane_reproject.wgsl",
         include_str!("../../wgsl/plane_reproject.wgsl"),
     ),
@@ -371,11 +379,9 @@ pub struct PassModule {
 }
 
 /// The workgroup variables a pass may leave unzeroed: each invocation writes an entry of
-/// them before it, or another invocation past a barrier, reads it. `bvh_stacks`
-/// (wgsl/shared/bvh.wgsl): a traversal pushes an entry before it pops it (the stack
-/// pointer starts at 0 in every traversal), and a slice handed on
-/// (`bvh_slice_store`, then a barrier, then `bvh_slice_load`) is stored by every
-/// invocation that reaches the barrier. A test keeps this list in step with `wgsl/`.
+/// them before it reads it. `bvh_stacks` (wgsl/shared/bvh.wgsl): a traversal pushes an
+/// entry before it pops it (the stack pointer starts at 0 in every traversal), and
+/// nothing else touches them. A test keeps this list in step with `wgsl/`.
 pub(crate) const WORKGROUP_VARIABLES_WRITTEN_FIRST: &[&str] = &["bvh_stacks"];
 
 /// Whether a pipeline of `module` must have its workgroup memory zeroed before each
@@ -513,8 +519,8 @@ mod tests {
 
     /// A pass leaves its workgroup memory unzeroed only where every variable in it is one
     /// [`WORKGROUP_VARIABLES_WRITTEN_FIRST`] argues is written before it is read: the
-    /// traversal stacks, which only `shared/bvh.wgsl` touches (its pushes and pops, and the
-    /// slice hand-off), handed on only across a barrier. Every tracing pass skips the
+    /// traversal stacks, which only `shared/bvh.wgsl` touches (its pushes and pops). Every
+    /// tracing pass skips the
     /// zeroing, every other pass with workgroup memory keeps it (it is small). A workgroup
     /// variable added to a tracing pass, or the stacks read elsewhere, fails here until
     /// checked against that argument.
@@ -529,16 +535,6 @@ mod tests {
                 !text.contains("bvh_stacks"),
                 "{name} reads or writes the traversal stacks outside shared/bvh.wgsl"
             );
-            if text.contains("bvh_slice_load(") {
-                let store = text
-                    .find("bvh_slice_store(")
-                    .expect("a slice loaded is stored");
-                let load = text.find("bvh_slice_load(").expect("load");
-                assert!(
-                    store < load && text[store..load].contains("workgroupBarrier();"),
-                    "{name}: a slice must be stored, then a barrier, then loaded"
-                );
-            }
         }
         let mut unzeroed = Vec::new();
         for name in passes() {
@@ -567,6 +563,16 @@ mod tests {
             unzeroed.contains(&"hemisphere_plane.wgsl") && unzeroed.len() >= 9,
             "passes left unzeroed: {unzeroed:?}"
         );
+    }
+
+    /// The plane pass has no barrier: lavapipe runs a shader with one as coroutines, and the
+    /// planes' rays took 1.10x the instructions so (nave-west, refinement off); the
+    /// refinement's sums are a pass of their own (`plane_refine_combine.wgsl`).
+    #[test]
+    fn the_plane_pass_has_no_barrier() {
+        let text = compose("hemisphere_plane.wgsl").expect("compose");
+        assert!(!text.contains("Barrier("), "a barrier in the plane pass");
+        assert!(compose("plane_refine_combine.wgsl").is_ok());
     }
 
     /// Every pass that can trace rays gives each invocation its own slice of the workgroup's

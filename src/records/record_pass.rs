@@ -237,7 +237,11 @@ impl RecordPass {
                 )?)
             }
         };
-        let plane_bytes = u64::from(settings.plane_resolution).pow(2) * 16;
+        // The largest buffer a record needs in one binding: its plane's samples, or, where
+        // planes are refined, its strata (refine::strata_bytes).
+        let plane_bytes = (u64::from(settings.plane_resolution).pow(2) * 16).max(
+            refine::strata_bytes(settings.plane_resolution, settings.plane_refine_split, 1),
+        );
         // As many records per dispatch as fit one binding, at most 256 (a few seconds of
         // rays on a CPU device, so progress stays visible).
         let batch = (ctx.max_binding_size() / plane_bytes).clamp(1, 256) as u32;
@@ -344,6 +348,7 @@ impl RecordPass {
         let mut recipes = vec![self.plane.recipe().clone()];
         if let Some(r) = &self.refine {
             recipes.push(r.select_recipe().clone());
+            recipes.push(r.combine_recipe().clone());
         }
         recipes.push(self.reduce.recipe().clone());
         recipes.push(self.sites.recipe().clone());

@@ -397,11 +397,26 @@ struct SelectParams {
     _pad: u32,
 }
 
+/// Refined pixels per workgroup of the plane pass for `split x split` strata a pixel.
+fn per_group(split: u32) -> u32 {
+    (64 / (split * split)).max(1)
+}
+
+/// Bytes of the refinement's strata buffer for `count` records of `resolution^2` pixels
+/// ([`RefinePass::strata_bytes`]).
+pub fn strata_bytes(resolution: u32, split: u32, count: u32) -> u64 {
+    let groups = u64::from(resolution.pow(2).div_ceil(per_group(split)));
+    u64::from(count) * groups * 64 * 16
+}
+
 /// The GPU passes of refinement for one [`CacheSettings`] (built when `plane_refine`
 /// selects at least one pixel or dark planes are refined, `dark_plane_refine`).
 pub struct RefinePass {
     /// Built at first use (or ahead, from [`Self::select_recipe`]).
     select: LazyPass,
+    /// Sums each refined pixel's strata into its sample (`plane_refine_combine.wgsl`;
+    /// built as `select`, [`Self::combine_recipe`]).
+    combine: LazyPass,
     /// What the refinement binds for the plane pass's hits (it writes none).
     no_hits: wgpu::Buffer,
     /// The indirect dispatch (x y z) that refines a batch's planes, which the selection
@@ -425,6 +440,11 @@ impl RefinePass {
     /// What the selection's pipeline is built from.
     pub fn select_recipe(&self) -> &PassRecipe {
         self.select.recipe()
+    }
+
+    /// What the strata sums' pipeline is built from.
+    pub fn combine_recipe(&self) -> &PassRecipe {
+        self.combine.recipe()
     }
 
     /// The selection pass for `settings` (the refinement's rays are traced by the record
@@ -453,6 +473,17 @@ impl RefinePass {
                     Uniform,
                     StorageRead,
                     StorageReadWrite,
+                    StorageRead,
+                ],
+                &[],
+            ),
+            combine: LazyPass::new(
+                "plane_refine_combine.wgsl",
+                &[
+                    Uniform,
+                    StorageRead,
+                    StorageReadWrite,
+                    StorageRead,
                     StorageRead,
                 ],
                 &[],
@@ -570,6 +601,10 @@ impl RefinePass {
                 ..PlaneParams::zeroed()
             },
         );
+        // Each stratum ray's radiance and depth, from the tracing pass to the sums: where
+        // the plane pass keeps its environment shares when it traces (it writes none when
+        // it refines; the selection has read them).
+        let strata = ctx.storage_buffer_sized("refinement strata", self.strata_bytes(count))?;
         let bind = trace.bind(
             ctx,
             &[
@@ -582,7 +617,7 @@ impl RefinePass {
                 &light_maps.depths,
                 &light_maps.first_buffer,
                 &scene.bounce_cache(),
-                noise,
+                &strata,
                 selected,
             ],
         );
@@ -593,13 +628,29 @@ impl RefinePass {
             &self.refine_dispatch,
             timer.next("plane refinement"),
         );
+        let combine = self.combine.get(ctx)?;
+        let bind = combine.bind(ctx, &[&params, &table.pixels, samples, selected, &strata]);
+        combine.record_indirect(
+            enc,
+            &scene.bind_group,
+            &bind,
+            &self.refine_dispatch,
+            timer.next("plane refinement sums"),
+        );
         Ok(())
+    }
+
+    /// Bytes of the strata buffer for `count` records: every workgroup of their longest
+    /// list, 64 rays of four floats each (`stratum_offset` in
+    /// wgsl/shared/plane_refine_items.wgsl).
+    pub fn strata_bytes(&self, count: u32) -> u64 {
+        strata_bytes(self.resolution, self.split, count)
     }
 
     /// Refined pixels per workgroup of the plane pass: its 64 invocations trace one
     /// stratum each.
     fn per_group(&self) -> u32 {
-        (64 / (self.split * self.split)).max(1)
+        per_group(self.split)
     }
 
     /// Bytes of the selection buffer for `count` records.

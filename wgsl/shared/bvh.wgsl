@@ -27,24 +27,6 @@ fn bvh_stack_init(local_invocation_index: u32) {
     bvh_stack_base = local_invocation_index * BVH_STACK_SIZE;
 }
 
-// Once an invocation's last traversal has returned, its stack slice is free: a pass can
-// hand a value to the other invocations of its workgroup through it (store, then
-// workgroupBarrier, then load), without workgroup memory of its own (the plane
-// refinement's strata, hemisphere_plane.wgsl).
-fn bvh_slice_store(local_invocation_index: u32, v: vec4f) {
-    let b = local_invocation_index * BVH_STACK_SIZE;
-    bvh_stacks[b] = bitcast<u32>(v.x);
-    bvh_stacks[b + 1u] = bitcast<u32>(v.y);
-    bvh_stacks[b + 2u] = bitcast<u32>(v.z);
-    bvh_stacks[b + 3u] = bitcast<u32>(v.w);
-}
-
-fn bvh_slice_load(local_invocation_index: u32) -> vec4f {
-    let b = local_invocation_index * BVH_STACK_SIZE;
-    return bitcast<vec4f>(vec4u(bvh_stacks[b], bvh_stacks[b + 1u], bvh_stacks[b + 2u],
-        bvh_stacks[b + 3u]));
-}
-
 // A traversal entry is one u32: an inner node's index, or, with LEAF_BIT set, a leaf's
 // first primitive (bits 4..30) and primitive count - 1 (bits 0..3); EMPTY marks an unused
 // child slot. Limits checked in `GpuScene::upload` and `GpuNode::new`.
