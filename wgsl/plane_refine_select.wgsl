@@ -57,7 +57,7 @@ struct SelectParams {
 // (element 3) how many workgroups it holds: one per `per_group` pixels of each plane.
 @group(1) @binding(10) var<storage, read_write> refine_dispatch: array<atomic<u32>, 4>;
 // The plane's pixels by cosine weight, largest first (ties: lower index), for
-// `mark_near_light` (records::refine::filler_order).
+// `fill_near_light` (records::refine::filler_order).
 @group(1) @binding(11) var<storage, read> filler_order: array<u32>;
 
 // Appends the workgroups that refine `record`, a plane with `pixels` pixels to refine,
@@ -208,16 +208,11 @@ var<workgroup> settled: u32;       // radix select: 1, the bin found takes all i
 var<workgroup> zero_keys: atomic<u32>;
 var<workgroup> need: u32;          // pixels of no contrast still to select near light
 
-// Marks pixels near light (`near_light`), 64 a step, with key 1 (above every zero). `own`
-// (a dark plane): every pixel is tested, in pixel order, the ball centred at its own hit,
-// and each key says whether it is near light (0 or 1); the caller sets `need` above 0
-// first. Else (a lit plane with fewer than K pixels of contrast): the first `need` pixels
-// of no contrast near light in `filler_order` (cosine weight, largest first;
-// records::refine::filler_order), each ball centred at the pixel's neighbours' mean hit,
-// stopping once enough are found (most lit planes of a hall lit through windows: in a
-// step or two). Both cases through this one loop, so that lavapipe, which inlines every
-// call, compiles `near_light` once (its second copy was a sixth of this pipeline's build).
-fn mark_near_light(lane: u32, record: u32, base: u32, own: bool) {
+// Gives the first `need` pixels of no contrast near light, in `filler_order` (cosine
+// weight, largest first; records::refine::filler_order), key 1: above every zero, so that
+// the selection takes them. A workgroup tests 64 pixels a step, and stops once it has
+// found enough (most lit planes of a hall lit through windows: in a step or two).
+fn fill_near_light(lane: u32, record: u32, base: u32) {
     let n = params.resolution * params.resolution;
     let site = sites[record];
     let frame = record_frame(site);
@@ -227,27 +222,19 @@ fn mark_near_light(lane: u32, record: u32, base: u32, own: bool) {
             break;
         }
         let i = start + lane;
-        var k = i;
+        var k = 0u;
         var found = false;
         if i < n {
-            if !own {
-                k = filler_order[i];
-            }
-            found = (own || keys[base + k] == 0u) && near_light(site, frame, base, k, own);
+            k = filler_order[i];
+            found = keys[base + k] == 0u && near_light(site, frame, base, k, false);
         }
-        if own {
-            if i < n {
-                keys[base + k] = u32(found);
-            }
-        } else {
-            counts[lane] = u32(found);
-            scan_counts(lane);
-            if found && counts[lane] < wanted {
-                keys[base + k] = 1u;
-            }
-            if lane == THREADS - 1u {
-                need = wanted - min(wanted, counts[lane] + u32(found));
-            }
+        counts[lane] = u32(found);
+        scan_counts(lane);
+        if found && counts[lane] < wanted {
+            keys[base + k] = 1u;
+        }
+        if lane == THREADS - 1u {
+            need = wanted - min(wanted, counts[lane] + u32(found));
         }
     }
     // The keys written here are read by the threads that own their pixels.
@@ -329,13 +316,13 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             // surface of such a scene (every light mapped, no environment, no emitters of
             // their own, one bounce: the caller's rule), so the other pixels' sub-rays
             // could only find darkness.
-            if lane == 0u {
-                need = 1u;
-            }
-            mark_near_light(lane, record, base, true);
+            let site = sites[record];
+            let frame = record_frame(site);
             var mine = 0u;
             for (var k = first; k < last; k++) {
-                mine += keys[base + k];
+                let refine = near_light(site, frame, base, k, true);
+                keys[base + k] = u32(refine);
+                mine += u32(refine);
             }
             // The listed pixels, in pixel order (each thread's run after the earlier ones).
             atomicAdd(&ray_counts[1], mine);
@@ -437,7 +424,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
             }
         }
         if workgroupUniformLoad(&need) != 0u {
-            mark_near_light(lane, record, base, false);
+            fill_near_light(lane, record, base);
         }
     }
     // Radix select, 8 bits a round from the top: the K-th largest key T, and how many of
