@@ -382,7 +382,7 @@ pub struct PassModule {
 /// them before it reads it. `bvh_stacks` (wgsl/shared/bvh.wgsl): a traversal pushes an
 /// entry before it pops it (the stack pointer starts at 0 in every traversal), and
 /// nothing else touches them. A test keeps this list in step with `wgsl/`.
-pub(crate) const WORKGROUP_VARIABLES_WRITTEN_FIRST: &[&str] = &["bvh_stacks"];
+pub const WORKGROUP_VARIABLES_WRITTEN_FIRST: &[&str] = &["bvh_stacks"];
 
 /// Whether a pipeline of `module` must have its workgroup memory zeroed before each
 /// workgroup (WebGPU's rule, and wgpu's default): true unless every workgroup variable
