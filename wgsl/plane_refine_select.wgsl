@@ -16,17 +16,12 @@
 // records::refine::select_pixels.
 //!include shared/records.wgsl
 //!include shared/lit_grid_query.wgsl
+//!include shared/refine_selection.wgsl
 
 // 64 threads: a 24x24 plane gives each 9 pixels. On lavapipe a workgroup's threads run as
 // SIMD loops split at every barrier, so the select's dozen barriers cost per thread: 256
 // threads (2-3 pixels each) spent more on them than on the pixels.
 const THREADS: u32 = 64u;
-// Every slot of a dark plane's selection (records::refine::DARK_PLANE).
-const DARK_PLANE: u32 = 0xffffffffu;
-// The first slot of a selection that refines nothing (records::refine::NO_PIXELS).
-const NO_PIXELS: u32 = 0xfffffffeu;
-// A lit plane's slots past its last selected pixel (records::refine::UNUSED_SLOT).
-const UNUSED_SLOT: u32 = 0xfffffffcu;
 
 struct SelectParams {
     resolution: u32,
@@ -74,7 +69,7 @@ fn push_refined_plane(record: u32, pixels: u32) {
     let start = atomicAdd(&refine_dispatch[3], groups);
     let tail = params.count * params.slots;
     for (var g = 0u; g < groups; g++) {
-        selected[tail + start + g] = ((g << 16u) | record) + 1u;
+        selected[tail + start + g] = refine_item(record, g);
     }
     // x up to 65535 a row, then y rows (shared/work_list.wgsl's rule).
     let end = start + groups;
@@ -82,11 +77,6 @@ fn push_refined_plane(record: u32, pixels: u32) {
     atomicMax(&refine_dispatch[1], (end - 1u) / 65535u + 1u);
     atomicMax(&refine_dispatch[2], 1u);
 }
-
-// The first slot of a dark plane refined only where its rays can land near a lit surface
-// (records::refine::DARK_GUIDED): slot 1 holds how many pixels, slots 2.. the pixels in
-// pixel order (RefinePass::slots makes room for P^2 of them).
-const DARK_GUIDED: u32 = 0xfffffffdu;
 
 // Hit point of pixel k of the plane at `base` (w: 0 on a miss).
 fn plane_hit_point(frame: mat3x3f, origin: vec3f, base: u32, k: u32) -> vec4f {

@@ -105,6 +105,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/shared/plane_refine_items.wgsl"),
     ),
     (
+        "shared/refine_selection.wgsl",
+        include_str!("../../wgsl/shared/refine_selection.wgsl"),
+    ),
+    (
         "plane_reproject.wgsl",
         include_str!("../../wgsl/plane_reproject.wgsl"),
     ),

@@ -402,8 +402,9 @@ fn per_group(split: u32) -> u32 {
     (64 / (split * split)).max(1)
 }
 
-/// Bytes of the refinement's strata buffer for `count` records of `resolution^2` pixels
-/// ([`RefinePass::strata_bytes`]).
+/// Bytes of the refinement's strata buffer for `count` records of `resolution^2` pixels:
+/// every workgroup of their longest list, 64 rays of four floats each (`stratum_offset` in
+/// wgsl/shared/plane_refine_items.wgsl).
 pub fn strata_bytes(resolution: u32, split: u32, count: u32) -> u64 {
     let groups = u64::from(resolution.pow(2).div_ceil(per_group(split)));
     u64::from(count) * groups * 64 * 16
@@ -604,7 +605,10 @@ impl RefinePass {
         // Each stratum ray's radiance and depth, from the tracing pass to the sums: where
         // the plane pass keeps its environment shares when it traces (it writes none when
         // it refines; the selection has read them).
-        let strata = ctx.storage_buffer_sized("refinement strata", self.strata_bytes(count))?;
+        let strata = ctx.storage_buffer_sized(
+            "refinement strata",
+            strata_bytes(self.resolution, self.split, count),
+        )?;
         let bind = trace.bind(
             ctx,
             &[
@@ -638,13 +642,6 @@ impl RefinePass {
             timer.next("plane refinement sums"),
         );
         Ok(())
-    }
-
-    /// Bytes of the strata buffer for `count` records: every workgroup of their longest
-    /// list, 64 rays of four floats each (`stratum_offset` in
-    /// wgsl/shared/plane_refine_items.wgsl).
-    pub fn strata_bytes(&self, count: u32) -> u64 {
-        strata_bytes(self.resolution, self.split, count)
     }
 
     /// Refined pixels per workgroup of the plane pass: its 64 invocations trace one

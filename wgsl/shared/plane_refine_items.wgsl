@@ -1,9 +1,9 @@
 // The hemisphere planes' parameters, and the refinement's work list as both of its passes
 // read it: hemisphere_plane.wgsl traces the strata of the pixels plane_refine_select.wgsl
 // selected, plane_refine_combine.wgsl sums them into the pixels. The including pass
-// declares `params: PlaneParams` and `selected: array<u32>` (the selection, `slots` per
-// record, then the items: `(g << 16 | record) + 1`, 0 past the last).
+// declares `params: PlaneParams` and `selected: array<u32>` (shared/refine_selection.wgsl).
 //!include shared/records.wgsl
+//!include shared/refine_selection.wgsl
 
 // Rust: records::PlaneParams.
 struct PlaneParams {
@@ -23,14 +23,6 @@ struct PlaneParams {
 
 const MODE_TRACE: u32 = 0u;
 const MODE_REFINE: u32 = 1u;
-
-// Every slot of a dark plane's selection (plane_refine_select.wgsl).
-const DARK_PLANE: u32 = 0xffffffffu;
-// A dark plane refined only at the pixels its selection lists: slot 1 holds their count,
-// slots 2.. the pixels (records::refine::DARK_GUIDED).
-const DARK_GUIDED: u32 = 0xfffffffdu;
-// A lit plane's selection slot past its last pixel (records::refine::UNUSED_SLOT).
-const UNUSED_SLOT: u32 = 0xfffffffcu;
 
 // The stratum ray of invocation `lane` of refinement workgroup `group`: the workgroup's
 // item (its index in the list) and record, the pixel k and its stratum q, and whether the
@@ -62,8 +54,8 @@ fn refine_stratum(group: vec3u, lane: u32) -> RefineStratum {
     }
     out.listed = true;
     out.item = i;
-    out.record = (item - 1u) & 0xffffu;
-    let g = (item - 1u) >> 16u;
+    out.record = refine_item_record(item);
+    let g = refine_item_group(item);
     let row = out.record * params.slots;
     let first_slot = selected[row];
     // Slot j of the selection: a lit plane's K, a guided plane's listed pixels, or
