@@ -582,6 +582,40 @@ fn traversal_stacks_left_unzeroed_render_the_same_bytes() {
     }
 }
 
+/// The traversal reads its triangles from the node texture or from their storage buffer
+/// (`TriangleFetch`: the texture on lavapipe without AVX-512, where a buffer's loads
+/// stall): the same bytes either way, on the nave (one instance entered at its BLAS, a
+/// sun's light map) and on the Cornell box (an area light, shadow rays).
+#[test]
+fn triangles_from_the_node_texture_render_the_same_bytes() {
+    use radsplat::gpu::TriangleFetch;
+    for (name, size) in [("nave.toml", (64, 64)), ("cornell-box.toml", (48, 48))] {
+        let scene = common::load(name, Some(size));
+        let mut images = Vec::new();
+        for fetch in [TriangleFetch::Buffer, TriangleFetch::Texture] {
+            let ctx = common::gpu();
+            ctx.set_triangle_fetch(fetch);
+            assert_eq!(ctx.triangle_fetch(), fetch);
+            let renderer = Renderer::new(ctx).expect("renderer");
+            let mut cache = renderer
+                .new_cache(&CacheSettings::default())
+                .expect("cache");
+            let frame = render(&renderer, &scene, &mut cache);
+            assert!(
+                frame.stats.cache.as_ref().expect("cache stats").records > 0,
+                "{name}: no records"
+            );
+            images.push(
+                exr_out::encode_exr(size.0, size.1, &exr_out::frame_channels(&frame)).expect("exr"),
+            );
+        }
+        assert!(
+            images[0] == images[1],
+            "{name}: other bytes with the triangles read from the node texture"
+        );
+    }
+}
+
 /// Passes built ahead on many threads (`radsplat render` builds them while the scene
 /// loads; with threads to spare, tail fill's record pass too) render what passes built at
 /// first use do, byte for byte, and a failing record pass ends the build with its error

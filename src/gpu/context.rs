@@ -1,6 +1,7 @@
 //! The GPU context: instance, adapter, device and queue, either created headless by us or
 //! handed to us by an embedding engine.
 
+use super::triangle_fetch::TriangleFetch;
 use crate::{Error, Result};
 use std::sync::{Arc, Mutex};
 
@@ -121,6 +122,9 @@ pub struct GpuContext {
     /// Whether every pass's workgroup memory is zeroed, not only that of passes that read
     /// it before writing it ([`GpuContext::set_zero_all_workgroup_memory`]).
     pub(crate) zero_all_workgroup_memory: Arc<std::sync::atomic::AtomicBool>,
+    /// Whether the traversal reads triangles from the node texture
+    /// ([`GpuContext::triangle_fetch`]).
+    pub(crate) triangles_in_texture: Arc<std::sync::atomic::AtomicBool>,
 }
 
 /// A wgpu pipeline cache kept in a file between runs, so a driver that compiles pipelines
@@ -312,6 +316,8 @@ impl GpuContext {
                 f.get_or_insert_with(|| e.to_string());
             }));
         let pipeline_cache = PipelineCacheFile::open(&ctx.device, &info);
+        let is_llvmpipe = info.name.to_ascii_lowercase().contains("llvmpipe");
+        ctx.set_triangle_fetch(TriangleFetch::for_adapter(Some(is_llvmpipe)));
         Ok(Self {
             adapter_info: Some(info),
             pipeline_cache,
@@ -342,6 +348,9 @@ impl GpuContext {
             built_passes: Default::default(),
             pass_timing: Arc::default(),
             zero_all_workgroup_memory: Arc::default(),
+            triangles_in_texture: Arc::new(std::sync::atomic::AtomicBool::new(
+                TriangleFetch::for_adapter(None) == TriangleFetch::Texture,
+            )),
         }
     }
 
@@ -377,6 +386,31 @@ impl GpuContext {
     pub fn zeroes_all_workgroup_memory(&self) -> bool {
         self.zero_all_workgroup_memory
             .load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Where the traversal reads triangles from ([`TriangleFetch`]): chosen for the adapter
+    /// when radsplat creates the device ([`TriangleFetch::for_adapter`]), the buffer for a
+    /// device handed to [`GpuContext::from_device`].
+    pub fn triangle_fetch(&self) -> TriangleFetch {
+        if self
+            .triangles_in_texture
+            .load(std::sync::atomic::Ordering::Relaxed)
+        {
+            TriangleFetch::Texture
+        } else {
+            TriangleFetch::Buffer
+        }
+    }
+
+    /// Sets where the traversal reads triangles from. Scenes uploaded and passes built
+    /// afterwards follow it (a pass's pipelines are kept per choice); call it before
+    /// uploading the scenes it should render, as a scene uploaded for the buffer has no
+    /// triangle texels. The images are the same bytes either way.
+    pub fn set_triangle_fetch(&self, fetch: TriangleFetch) {
+        self.triangles_in_texture.store(
+            fetch == TriangleFetch::Texture,
+            std::sync::atomic::Ordering::Relaxed,
+        );
     }
 
     /// Whether passes are timed: [`GpuContext::set_pass_timing`] asked for it and the

@@ -11,12 +11,14 @@ pub mod scene_pass;
 pub mod shader;
 pub mod specialise;
 pub mod timer;
+pub mod triangle_fetch;
 mod wgsl_compose;
 
 pub use context::{GpuContext, OPTIONAL_FEATURES, required_limits};
 pub use pipeline::ComputePass;
 pub use scene_buffers::GpuScene;
 pub use scene_features::SceneFeatures;
+pub use triangle_fetch::TriangleFetch;
 
 /// The name [`SceneFeatures`] had while it held only the kinds of light.
 #[deprecated(

@@ -153,11 +153,15 @@ impl ComputePass {
         bindings: &[Binding],
         constants: &[(&str, f64)],
     ) -> Result<Arc<Self>> {
+        // The device's constants are in the key too: a pass is built again when they change
+        // (GpuContext::set_triangle_fetch).
+        let device_constants = device_constants(ctx);
         let key = PassKey {
             name,
             bindings: bindings.to_vec(),
             constants: constants
                 .iter()
+                .chain(&device_constants)
                 .map(|&(k, v)| (k.to_string(), v.to_bits()))
                 .collect(),
         };
@@ -188,7 +192,7 @@ impl ComputePass {
         let device = &ctx.device;
         let t0 = std::time::Instant::now();
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pass_module = shader::module(device, name, constants)?;
+        let pass_module = shader::module(device, name, constants, &device_constants(ctx))?;
         let module = pass_module.module;
         let entries: Vec<_> = bindings
             .iter()
@@ -389,4 +393,13 @@ pub fn split_groups(ctx: &GpuContext, groups: u32) -> [u32; 3] {
     } else {
         [max, groups.div_ceil(max), 1]
     }
+}
+
+/// The constants every pass that declares them is built with, from the device's settings:
+/// where the traversal reads triangles ([`super::TriangleFetch`]).
+fn device_constants(ctx: &GpuContext) -> [(&'static str, f64); 1] {
+    [(
+        super::triangle_fetch::TRIANGLE_TEXELS_CONSTANT,
+        ctx.triangle_fetch().constant(),
+    )]
 }

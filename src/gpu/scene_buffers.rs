@@ -2,6 +2,7 @@
 //! triangles, shading data, instances, materials, textures, lights and a small info block.
 
 use super::GpuContext;
+use super::triangle_fetch::TriangleFetch;
 use crate::bvh::SceneBvh;
 use crate::scene::{Light, Scene};
 use crate::{Error, Result};
@@ -17,19 +18,35 @@ pub const BVH_TEXTURE_WIDTH: u32 = 2048;
 /// Nodes are read through a texture, not a storage buffer: lavapipe (Mesa 22.3) turns each
 /// storage-buffer load into a per-lane loop, while texel fetches are straight-line gathers
 /// (`docs/bvh-performance.md`).
+/// With [`TriangleFetch::Texture`] the triangles follow the nodes, three texels each, from
+/// texel `4 * nodes` ([`GpuSceneInfo::triangle_texels`]).
 fn bvh_texture(ctx: &GpuContext, bvh: &SceneBvh) -> Result<wgpu::Texture> {
     use wgpu::util::DeviceExt;
     let nodes = bvh.gpu_nodes();
-    let texels = nodes.len() as u32 * 4;
-    let rows = texels.div_ceil(BVH_TEXTURE_WIDTH).max(1);
+    let triangles: &[u32] = match ctx.triangle_fetch() {
+        TriangleFetch::Texture => bytemuck::cast_slice(&bvh.triangles),
+        TriangleFetch::Buffer => &[],
+    };
+    let texels = nodes.len() as u64 * 4 + triangles.len() as u64 / 4;
+    let rows = texels.div_ceil(u64::from(BVH_TEXTURE_WIDTH)).max(1);
     let max = ctx.device.limits().max_texture_dimension_2d;
-    if rows > max {
+    if rows > u64::from(max) {
+        let what = if triangles.is_empty() {
+            format!("{} BVH nodes", nodes.len())
+        } else {
+            format!(
+                "{} BVH nodes and {} triangles",
+                nodes.len(),
+                bvh.triangles.len()
+            )
+        };
         return Err(Error::DeviceLimit(format!(
-            "{} BVH nodes need a {BVH_TEXTURE_WIDTH}x{rows} texture; this device allows {max} rows",
-            nodes.len()
+            "{what} need a {BVH_TEXTURE_WIDTH}x{rows} texture; this device allows {max} rows"
         )));
     }
+    let rows = rows as u32;
     let mut words: Vec<u32> = bytemuck::cast_slice(&nodes).to_vec();
+    words.extend_from_slice(triangles);
     words.resize((rows * BVH_TEXTURE_WIDTH * 4) as usize, 0);
     Ok(ctx.device.create_texture_with_data(
         &ctx.queue,
@@ -174,7 +191,10 @@ pub struct GpuSceneInfo {
     pub env_rotation: [f32; 2],
     /// 1: `tlas_root` is in instance 0's BLAS, whose object space is world space.
     pub root_in_blas: u32,
-    pub _pad: [u32; 3],
+    /// The first texel of the triangles in the BVH node texture ([`TriangleFetch::Texture`];
+    /// 4 texels a node precede them).
+    pub triangle_texels: u32,
+    pub _pad: [u32; 2],
 }
 
 /// [`GpuSceneInfo::env_map`] of a scene without an environment map.
@@ -482,7 +502,8 @@ impl GpuScene {
             instance_count: scene.instances.len() as u32,
             tlas_root: start.entry,
             root_in_blas: u32::from(start.in_blas),
-            _pad: [0; 3],
+            triangle_texels: bvh.gpu_nodes().len() as u32 * 4,
+            _pad: [0; 2],
             env_map: environment_map_offset(scene),
             env_width: scene.environment_map.as_ref().map_or(0, |m| m.width),
             env_height: scene.environment_map.as_ref().map_or(0, |m| m.height),

@@ -356,8 +356,25 @@ pub fn compose(name: &str) -> Result<String> {
 /// those values decide removed, and the functions only such branches called dropped
 /// ([`super::specialise::specialise`]): a driver converts and optimises the whole module
 /// it is given before it folds a constant. The pipeline is then created with no constants.
-pub fn module(device: &wgpu::Device, name: &str, constants: &[(&str, f64)]) -> Result<PassModule> {
-    let specialised = specialised_module(name, constants)?;
+///
+/// `device_constants` are the device's own (the triangle fetch,
+/// [`super::triangle_fetch::TRIANGLE_TEXELS_CONSTANT`]): each applies to the passes that
+/// declare it, where `constants` must all be declared.
+pub fn module(
+    device: &wgpu::Device,
+    name: &str,
+    constants: &[(&str, f64)],
+    device_constants: &[(&str, f64)],
+) -> Result<PassModule> {
+    let (parsed, _) = parsed_module(name)?;
+    let mut all = constants.to_vec();
+    all.extend(device_constants.iter().filter(|(key, _)| {
+        parsed
+            .overrides
+            .iter()
+            .any(|(_, o)| o.name.as_deref() == Some(key))
+    }));
+    let specialised = specialised_module(name, &all)?;
     let zeroed_workgroup_memory = needs_zeroed_workgroup_memory(&specialised);
     // The module itself, not WGSL text, which wgpu would parse again (wgpu still validates
     // it against the device's own capabilities).

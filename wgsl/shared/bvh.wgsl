@@ -194,7 +194,7 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
             let count = (entry & 15u) + 1u;
             for (var i = 0u; i < count; i++) {
                 let tri_index = first + i;
-                let r = intersect_triangle(triangles[tri_index], origin, dir, ray.tmin, hit.t);
+                let r = intersect_triangle(traversal_triangle(tri_index), origin, dir, ray.tmin, hit.t);
                 if r.x < hit.t {
                     hit = Hit(r.x, instance, tri_index, r.y, r.z);
                     if any_hit {

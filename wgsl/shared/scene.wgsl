@@ -77,6 +77,7 @@ struct SceneInfo {
     env_size: vec2u,  // its width and height
     env_rotation: vec2f, // cos and sin of its rotation about +y
     root_in_blas: u32,   // 1: `tlas_root` is in instance 0's BLAS, in world space
+    triangle_texels: u32, // with TRIANGLE_TEXELS: the triangles' first texel in `bvh_nodes`
 }
 
 // What a pipeline is compiled for (`gpu::SceneFeatures`): the kinds of light it shades (bits
@@ -110,8 +111,30 @@ fn texture_info(index: u32) -> TextureInfo {
 
 // Texel `k` (0..3) of BVH node `node`; 512 nodes per row of 2048 texels
 // (`BVH_TEXTURE_WIDTH` in src/gpu/scene_buffers.rs).
+const BVH_TEXTURE_WIDTH: u32 = 2048u;
+
 fn bvh_texel(node: u32, k: u32) -> vec4u {
     return textureLoad(bvh_nodes, vec2u(((node & 511u) << 2u) | k, node >> 9u), 0);
+}
+
+// Whether the traversal reads triangles from `bvh_nodes` (three texels each, from
+// `scene_info.triangle_texels`) instead of `triangles`: gpu::TriangleFetch. On lavapipe
+// without AVX-512 a storage-buffer load stalls on every lane's every component, a texel
+// fetch does not. A pipeline constant the device sets, so each pipeline holds one way.
+override TRIANGLE_TEXELS: bool = false;
+
+// Triangle `index` for the traversal's tests (the same bits either way).
+fn traversal_triangle(index: u32) -> Triangle {
+    if TRIANGLE_TEXELS {
+        let t = scene_info.triangle_texels + 3u * index;
+        return Triangle(triangle_texel(t), triangle_texel(t + 1u), triangle_texel(t + 2u));
+    }
+    return triangles[index];
+}
+
+// Texel `t` of `bvh_nodes` counted row by row, as floats.
+fn triangle_texel(t: u32) -> vec4f {
+    return bitcast<vec4f>(textureLoad(bvh_nodes, vec2u(t % BVH_TEXTURE_WIDTH, t / BVH_TEXTURE_WIDTH), 0));
 }
 
 fn transform_point(m: array<vec4f, 3>, p: vec3f) -> vec3f {
