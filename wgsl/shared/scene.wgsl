@@ -109,10 +109,10 @@ fn texture_info(index: u32) -> TextureInfo {
     return TextureInfo(texels[b], texels[b + 1u], texels[b + 2u], 0u);
 }
 
-// Texel `k` (0..3) of BVH node `node`; 512 nodes per row of 2048 texels
-// (`BVH_TEXTURE_WIDTH` in src/gpu/scene_buffers.rs).
+// Texels per row of `bvh_nodes` (`BVH_TEXTURE_WIDTH` in src/gpu/scene_buffers.rs).
 const BVH_TEXTURE_WIDTH: u32 = 2048u;
 
+// Texel `k` (0..3) of BVH node `node`; 512 nodes per row of 2048 texels.
 fn bvh_texel(node: u32, k: u32) -> vec4u {
     return textureLoad(bvh_nodes, vec2u(((node & 511u) << 2u) | k, node >> 9u), 0);
 }
