@@ -29,7 +29,7 @@ fn main(
         let c = vec3u(clamp(vec3i(floor(q)), vec3i(0), vec3i(p.dims) - vec3i(1)));
         // The lit side's normal (facing the light), by its dominant axis: bit 2 axis + (0
         // for +, 1 for -) of the voxel's mask (lit_grid.wgsl).
-        let tri = triangles[hit.triangle];
+        let tri = traversal_triangle(hit.triangle);
         let inst = instances[hit.instance];
         var n = transform_vector(inst.normal_to_world, cross(tri.e1.xyz, tri.e2.xyz));
         if dot(n, ray.dir) > 0.0 {

@@ -31,7 +31,7 @@ struct Surface {
 }
 
 fn surface_at(hit: Hit, ray_dir: vec3f) -> Surface {
-    let tri = triangles[hit.triangle];
+    let tri = traversal_triangle(hit.triangle);
     let sh = shading[hit.triangle];
     let inst = instances[hit.instance];
     let w = 1.0 - hit.u - hit.v;
