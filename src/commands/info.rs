@@ -21,6 +21,15 @@ pub fn info() -> Result<()> {
             );
         }
     }
+    // gpu::TriangleFetch: where the traversal reads triangles (RADSPLAT_TRIANGLE_FETCH
+    // overrides the choice).
+    println!(
+        "triangles:    {}",
+        match ctx.triangle_fetch() {
+            crate::gpu::TriangleFetch::Texture => "node texture (storage loads stall here)",
+            crate::gpu::TriangleFetch::Buffer => "storage buffer",
+        }
+    );
     let l = ctx.device.limits();
     println!("limits:");
     println!(

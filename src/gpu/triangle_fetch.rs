@@ -40,9 +40,14 @@ impl TriangleFetch {
         match std::env::var(TRIANGLE_FETCH_VAR).ok().as_deref() {
             Some("texture") => return Self::Texture,
             Some("buffer") => return Self::Buffer,
-            Some(other) => log::warn!(
-                "{TRIANGLE_FETCH_VAR}={other:?} is neither `buffer` nor `texture`; ignored"
-            ),
+            Some(other) => {
+                static WARNED: std::sync::Once = std::sync::Once::new();
+                WARNED.call_once(|| {
+                    log::warn!(
+                        "{TRIANGLE_FETCH_VAR}={other:?} is neither `buffer` nor `texture`; ignored"
+                    )
+                });
+            }
             None => {}
         }
         if is_llvmpipe == Some(true) && !host_has_avx512() {
