@@ -893,7 +893,11 @@ impl Renderer {
     ) -> Result<()> {
         let mut builds: Vec<Build> = vec![
             Box::new(move || self.direct_pass(features).map(|_| ())),
-            Box::new(|| self.light_map_pass().map(|_| ())),
+            Box::new(move || {
+                self.light_map_pass()?
+                    .trace(&self.ctx, features)
+                    .map(|_| ())
+            }),
         ];
         builds.extend(
             recipes

@@ -30,8 +30,13 @@ fn main(
         // The lit side's normal (facing the light), by its dominant axis: bit 2 axis + (0
         // for +, 1 for -) of the voxel's mask (lit_grid.wgsl).
         let tri = traversal_triangle(hit.triangle);
-        let inst = instances[hit.instance];
-        var n = transform_vector(inst.normal_to_world, cross(tri.e1.xyz, tri.e2.xyz));
+        var n = cross(tri.e1.xyz, tri.e2.xyz);
+        if TRAVERSES_INSTANCES {
+            // Without instances the one instance is placed as modelled: its normal matrix
+            // is the identity, which could change only the sign of a zero component, and
+            // neither the face bit nor the flip below tells those apart.
+            n = transform_vector(instances[hit.instance].normal_to_world, n);
+        }
         if dot(n, ray.dir) > 0.0 {
             n = -n;
         }

@@ -99,6 +99,12 @@ impl SceneFeatures {
         }
     }
 
+    /// Of these features, what a pass that traces rays but shades no hit needs: whether
+    /// rays enter instances (the light-map trace).
+    pub fn traversal_only(self) -> SceneFeatures {
+        SceneFeatures(self.0 & Self::INSTANCES_BIT)
+    }
+
     /// Whether hits are lit by an environment (a map, or a constant that is not black).
     pub fn has_environment(self) -> bool {
         self.0 & Self::ENVIRONMENT_BIT != 0

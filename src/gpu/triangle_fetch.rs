@@ -7,15 +7,18 @@
 //! CPU cannot forward from the two stores: a stall for every component of every lane. A
 //! triangle is three `vec4f` loads, so a leaf of eight triangles paid 96 of them for each
 //! SIMD group of eight rays. A texel fetch is a gather in straight-line code. On a
-//! two-core AMD EPYC (Zen 3, AVX2) the nave-west render took 0.896x the process wall
-//! time with the triangles in the node texture (10 pairs, the same bytes; docs/results.md,
-//! "Triangles from the node texture where loads stall"). With AVX-512 the insertion
-//! is a masked move, and earlier measurements on such a machine found triangles from a
-//! texture slower (docs/bvh-performance.md: 0.86x in the second round, incoherent rays
-//! 0.93x in the third), so those hosts keep the buffer, as do GPUs (not measured).
+//! two-core AMD EPYC (Zen 3, AVX2) a render took 0.83-0.88x the CPU time with the triangles
+//! in the node texture, on each scene measured (the same bytes; docs/results.md,
+//! "Triangles from the node texture where storage loads stall"). With AVX-512 LLVM inserts
+//! the lane with a masked move, so the loads do not stall, and the texture's address work
+//! would buy nothing; such hosts (none was at hand to measure) keep the buffer, as do GPUs
+//! (not measured either). Earlier rounds had measured triangles from a texture slower
+//! (docs/bvh-performance.md: 0.86x in the second round, incoherent rays 0.93x in the
+//! third), on hosts whose vector extensions were not recorded.
 
 /// Which copy of the triangles the traversal reads (`TRIANGLE_TEXELS` in
-/// `wgsl/shared/scene.wgsl`). Shading and every other reader keep the storage buffer.
+/// `wgsl/shared/scene.wgsl`). The plane hits' surfaces and the light-map
+/// trace read the same copy; every other reader keeps the storage buffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TriangleFetch {
     /// `triangles`, the storage buffer (group 0 binding 1).

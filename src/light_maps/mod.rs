@@ -227,27 +227,42 @@ pub fn layout(
     (maps, first)
 }
 
-/// The trace pass (`wgsl/light_map_trace.wgsl`).
+/// The trace pass's bindings (`wgsl/light_map_trace.wgsl`).
+const TRACE_BINDINGS: [Binding; 4] = [
+    Binding::StorageRead,
+    Binding::StorageReadWrite,
+    Binding::Uniform,
+    Binding::StorageReadWrite,
+];
+
+/// The trace pass (`wgsl/light_map_trace.wgsl`), compiled for whether the scene's rays enter
+/// instances (built once per device and such feature, at the first scene that has it).
 pub struct LightMapPass {
-    trace: std::sync::Arc<ComputePass>,
     lit_grid: lit_grid::LitGridReducePass,
 }
 
 impl LightMapPass {
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         Ok(Self {
-            trace: ComputePass::new(
-                ctx,
-                "light_map_trace.wgsl",
-                &[
-                    Binding::StorageRead,
-                    Binding::StorageReadWrite,
-                    Binding::Uniform,
-                    Binding::StorageReadWrite,
-                ],
-            )?,
             lit_grid: lit_grid::LitGridReducePass::new(ctx)?,
         })
+    }
+
+    /// The trace compiled for a scene of `features`: without the TLAS leaf's instance loads
+    /// and transforms when its rays never leave one BLAS placed as modelled (lavapipe runs
+    /// every branch of the traversal loop). Built once per device and traversal; a frame's
+    /// builds ahead call it with the scene's features.
+    pub fn trace(
+        &self,
+        ctx: &GpuContext,
+        features: crate::gpu::SceneFeatures,
+    ) -> Result<std::sync::Arc<ComputePass>> {
+        ComputePass::with_constants(
+            ctx,
+            "light_map_trace.wgsl",
+            &TRACE_BINDINGS,
+            &[features.traversal_only().constant()],
+        )
     }
 
     /// Lays out and traces the maps of `lights` over `scene` (timed as "light maps").
@@ -282,13 +297,14 @@ impl LightMapPass {
         } else {
             lit_grid::LitGrid::none(ctx)?
         };
-        let bind = self.trace.bind(
+        let trace = self.trace(ctx, scene.features())?;
+        let bind = trace.bind(
             ctx,
             &[&maps_buffer, &depths, &grid.params_buffer, &grid.voxels],
         );
         let mut timer = PassTimer::new(ctx, 1);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        self.trace.record(
+        trace.record(
             &mut enc,
             &scene.bind_group,
             &bind,
