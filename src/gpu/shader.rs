@@ -366,7 +366,7 @@ pub fn module(
     constants: &[(&str, f64)],
     device_constants: &[(&str, f64)],
 ) -> Result<PassModule> {
-    let (parsed, _) = parsed_module(name)?;
+    let (parsed, info) = parsed_module(name)?;
     let mut all = constants.to_vec();
     all.extend(device_constants.iter().filter(|(key, _)| {
         parsed
@@ -374,7 +374,8 @@ pub fn module(
             .iter()
             .any(|(_, o)| o.name.as_deref() == Some(key))
     }));
-    let specialised = specialised_module(name, &all)?;
+    let specialised = super::specialise::specialise(&parsed, &info, &all)
+        .map_err(|e| Error::Gpu(format!("{name}: {e}")))?;
     let zeroed_workgroup_memory = needs_zeroed_workgroup_memory(&specialised);
     // The module itself, not WGSL text, which wgpu would parse again (wgpu still validates
     // it against the device's own capabilities).
@@ -636,6 +637,40 @@ mod tests {
             assert_eq!(invocations, N, "{name}: @workgroup_size({size})");
         }
         assert!(tracing.len() >= 9, "tracing passes found: {tracing:?}");
+    }
+
+    /// Every tracing pass declares the triangle fetch's constant (so the device's choice
+    /// reaches its traversal), and specialises and validates with the triangles read from
+    /// the node texture, alone and with every pass constant at its default; a pass that does
+    /// not trace declares no such constant and is built without it.
+    #[test]
+    fn every_tracing_pass_specialises_for_triangles_from_the_node_texture() {
+        use crate::gpu::triangle_fetch::{TRIANGLE_TEXELS_CONSTANT, TriangleFetch};
+        let mut tracing = 0;
+        for (name, _) in SOURCES.iter().filter(|(n, _)| !n.starts_with("shared/")) {
+            let text = compose(name).expect("compose");
+            let (parsed, _) = parsed_module(name).expect("parsed");
+            let declares = parsed
+                .overrides
+                .iter()
+                .any(|(_, o)| o.name.as_deref() == Some(TRIANGLE_TEXELS_CONSTANT));
+            assert_eq!(
+                declares,
+                text.contains("fn trace("),
+                "{name}: declares {TRIANGLE_TEXELS_CONSTANT} exactly when it traces"
+            );
+            if !declares {
+                continue;
+            }
+            tracing += 1;
+            let constant = [(TRIANGLE_TEXELS_CONSTANT, TriangleFetch::Texture.constant())];
+            let module =
+                specialised_module(name, &constant).unwrap_or_else(|e| panic!("{name}: {e}"));
+            validator()
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{name} with triangle texels: {e:?}"));
+        }
+        assert!(tracing >= 9, "tracing passes: {tracing}");
     }
 
     #[test]
