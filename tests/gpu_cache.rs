@@ -542,25 +542,49 @@ fn placement_waits_for_the_device_twice_per_round_and_still_times_its_passes() {
     }
 }
 
-/// Tracing passes leave their workgroup memory, the traversal stacks, unzeroed (lavapipe
-/// otherwise clears 24 KiB before each of their workgroups): the images are the bytes of
-/// a device that zeroes every pass's memory. On the nave lit by the sun through its
-/// windows (light maps; lit planes refined; dark planes refined near light) and on the
-/// Cornell box (an area light, shadow rays).
-#[test]
-fn traversal_stacks_left_unzeroed_render_the_same_bytes() {
+/// Renders the nave lit by the sun through its windows (64 x 64: light maps, lit planes
+/// refined, dark planes refined near light, one instance entered at its BLAS) and the
+/// Cornell box (48 x 48: an area light, shadow rays) at the default cache settings, each on
+/// two fresh devices set up by `configure(ctx, false)` and `configure(ctx, true)`; checks
+/// every frame with `check(scene name, frame)` and asserts that each scene's two renders are
+/// the same bytes (`what` names the second way in the message).
+fn both_ways_render_the_same_bytes(
+    what: &str,
+    configure: impl Fn(&radsplat::gpu::GpuContext, bool),
+    check: impl Fn(&str, &Frame),
+) {
     for (name, size) in [("nave.toml", (64, 64)), ("cornell-box.toml", (48, 48))] {
         let scene = common::load(name, Some(size));
         let mut images = Vec::new();
-        for zero_all in [true, false] {
+        for second in [false, true] {
             let ctx = common::gpu();
-            ctx.set_zero_all_workgroup_memory(zero_all);
-            assert_eq!(ctx.zeroes_all_workgroup_memory(), zero_all);
+            configure(&ctx, second);
             let renderer = Renderer::new(ctx).expect("renderer");
             let mut cache = renderer
                 .new_cache(&CacheSettings::default())
                 .expect("cache");
             let frame = render(&renderer, &scene, &mut cache);
+            check(name, &frame);
+            images.push(
+                exr_out::encode_exr(size.0, size.1, &exr_out::frame_channels(&frame)).expect("exr"),
+            );
+        }
+        assert!(images[0] == images[1], "{name}: other bytes {what}");
+    }
+}
+
+/// Tracing passes leave their workgroup memory, the traversal stacks, unzeroed (lavapipe
+/// otherwise clears 24 KiB before each of their workgroups): the images are the bytes of
+/// a device that zeroes every pass's memory.
+#[test]
+fn traversal_stacks_left_unzeroed_render_the_same_bytes() {
+    both_ways_render_the_same_bytes(
+        "with the traversal stacks unzeroed",
+        |ctx, unzeroed| {
+            ctx.set_zero_all_workgroup_memory(!unzeroed);
+            assert_eq!(ctx.zeroes_all_workgroup_memory(), !unzeroed);
+        },
+        |name, frame| {
             let stats = frame.stats.cache.clone().expect("cache stats");
             let records = u64::from(stats.records);
             assert!(
@@ -571,49 +595,34 @@ fn traversal_stacks_left_unzeroed_render_the_same_bytes() {
             if name == "nave.toml" {
                 assert!(stats.dark_plane_rays > 0, "nave: no dark plane refined");
             }
-            images.push(
-                exr_out::encode_exr(size.0, size.1, &exr_out::frame_channels(&frame)).expect("exr"),
-            );
-        }
-        assert!(
-            images[0] == images[1],
-            "{name}: other bytes with the traversal stacks unzeroed"
-        );
-    }
+        },
+    );
 }
 
 /// The traversal reads its triangles from the node texture or from their storage buffer
 /// (`TriangleFetch`: the texture on lavapipe without AVX-512, where a buffer's loads
-/// stall): the same bytes either way, on the nave (one instance entered at its BLAS, a
-/// sun's light map) and on the Cornell box (an area light, shadow rays).
+/// stall): the same bytes either way.
 #[test]
 fn triangles_from_the_node_texture_render_the_same_bytes() {
     use radsplat::gpu::TriangleFetch;
-    for (name, size) in [("nave.toml", (64, 64)), ("cornell-box.toml", (48, 48))] {
-        let scene = common::load(name, Some(size));
-        let mut images = Vec::new();
-        for fetch in [TriangleFetch::Buffer, TriangleFetch::Texture] {
-            let ctx = common::gpu();
+    both_ways_render_the_same_bytes(
+        "with the triangles read from the node texture",
+        |ctx, texture| {
+            let fetch = if texture {
+                TriangleFetch::Texture
+            } else {
+                TriangleFetch::Buffer
+            };
             ctx.set_triangle_fetch(fetch);
             assert_eq!(ctx.triangle_fetch(), fetch);
-            let renderer = Renderer::new(ctx).expect("renderer");
-            let mut cache = renderer
-                .new_cache(&CacheSettings::default())
-                .expect("cache");
-            let frame = render(&renderer, &scene, &mut cache);
+        },
+        |name, frame| {
             assert!(
                 frame.stats.cache.as_ref().expect("cache stats").records > 0,
                 "{name}: no records"
             );
-            images.push(
-                exr_out::encode_exr(size.0, size.1, &exr_out::frame_channels(&frame)).expect("exr"),
-            );
-        }
-        assert!(
-            images[0] == images[1],
-            "{name}: other bytes with the triangles read from the node texture"
-        );
-    }
+        },
+    );
 }
 
 /// Passes built ahead on many threads (`radsplat render` builds them while the scene

@@ -124,7 +124,7 @@ pub struct GpuContext {
     pub(crate) zero_all_workgroup_memory: Arc<std::sync::atomic::AtomicBool>,
     /// Whether the traversal reads triangles from the node texture
     /// ([`GpuContext::triangle_fetch`]).
-    pub(crate) triangles_in_texture: Arc<std::sync::atomic::AtomicBool>,
+    pub(crate) triangles_in_texture: std::sync::atomic::AtomicBool,
 }
 
 /// A wgpu pipeline cache kept in a file between runs, so a driver that compiles pipelines
@@ -348,9 +348,9 @@ impl GpuContext {
             built_passes: Default::default(),
             pass_timing: Arc::default(),
             zero_all_workgroup_memory: Arc::default(),
-            triangles_in_texture: Arc::new(std::sync::atomic::AtomicBool::new(
+            triangles_in_texture: std::sync::atomic::AtomicBool::new(
                 TriangleFetch::for_adapter(None) == TriangleFetch::Texture,
-            )),
+            ),
         }
     }
 

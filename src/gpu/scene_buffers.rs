@@ -19,8 +19,8 @@ pub const BVH_TEXTURE_WIDTH: u32 = 2048;
 /// storage-buffer load into a per-lane loop, while texel fetches are straight-line gathers
 /// (`docs/bvh-performance.md`).
 /// With [`TriangleFetch::Texture`] the triangles follow the nodes, three texels each, from
-/// texel `4 * nodes` ([`GpuSceneInfo::triangle_texels`]).
-fn bvh_texture(ctx: &GpuContext, bvh: &SceneBvh) -> Result<wgpu::Texture> {
+/// texel `4 * nodes`, which it returns beside the texture ([`GpuSceneInfo::triangle_texels`]).
+fn bvh_texture(ctx: &GpuContext, bvh: &SceneBvh) -> Result<(wgpu::Texture, u32)> {
     use wgpu::util::DeviceExt;
     let nodes = bvh.gpu_nodes();
     let triangles: &[u32] = match ctx.triangle_fetch() {
@@ -45,10 +45,11 @@ fn bvh_texture(ctx: &GpuContext, bvh: &SceneBvh) -> Result<wgpu::Texture> {
         )));
     }
     let rows = rows as u32;
+    let triangle_texels = nodes.len() as u32 * 4;
     let mut words: Vec<u32> = bytemuck::cast_slice(&nodes).to_vec();
     words.extend_from_slice(triangles);
     words.resize((rows * BVH_TEXTURE_WIDTH * 4) as usize, 0);
-    Ok(ctx.device.create_texture_with_data(
+    let texture = ctx.device.create_texture_with_data(
         &ctx.queue,
         &wgpu::TextureDescriptor {
             label: Some("bvh nodes"),
@@ -66,7 +67,8 @@ fn bvh_texture(ctx: &GpuContext, bvh: &SceneBvh) -> Result<wgpu::Texture> {
         },
         wgpu::util::TextureDataOrder::LayerMajor,
         bytemuck::cast_slice(&words),
-    ))
+    );
+    Ok((texture, triangle_texels))
 }
 
 /// Rust mirror of WGSL `Material`.
@@ -468,7 +470,7 @@ impl GpuScene {
         }
         let materials = gpu_materials(scene);
         let lights: Vec<GpuLight> = scene.lights.iter().map(GpuLight::new).collect();
-        let bvh_nodes = bvh_texture(ctx, bvh)?;
+        let (bvh_nodes, triangle_texels) = bvh_texture(ctx, bvh)?;
         let bvh_view = bvh_nodes.create_view(&Default::default());
         // Binding order (from 1): triangles, shading, instances, materials, texels (with
         // the texture table at their head), lights. The mesh and texture tables do not
@@ -502,7 +504,7 @@ impl GpuScene {
             instance_count: scene.instances.len() as u32,
             tlas_root: start.entry,
             root_in_blas: u32::from(start.in_blas),
-            triangle_texels: bvh.gpu_nodes().len() as u32 * 4,
+            triangle_texels,
             _pad: [0; 2],
             env_map: environment_map_offset(scene),
             env_width: scene.environment_map.as_ref().map_or(0, |m| m.width),
