@@ -1610,3 +1610,56 @@ fn tail_pass_computes_the_records_of_a_pass_built_at_its_resolution() {
         .dark;
     assert!(dark > 0, "the dark sites' planes were refined");
 }
+
+/// A texel table copied from a storage buffer (what the record reduction and refinement's
+/// selection read on hosts where storage loads stall) holds the buffer's rows in order,
+/// across whole texture rows and the partial last one, and keeps rows past the copy.
+#[test]
+fn a_texel_table_holds_the_rows_of_the_buffer_it_was_copied_from() {
+    use radsplat::gpu::texel_table::{TEXEL_TABLE_WIDTH, TexelTable};
+    let ctx = common::gpu();
+    let width = u64::from(TEXEL_TABLE_WIDTH);
+    // Two whole texture rows and five texels of a third.
+    let rows = 2 * width + 5;
+    let words: Vec<u32> = (0..rows as u32 * 4)
+        .map(|i| i.wrapping_mul(2_654_435_761))
+        .collect();
+    let buffer = ctx.storage_buffer("rows", &words).expect("buffer");
+    let table = TexelTable::new(&ctx, "texels", rows + 7).expect("table");
+    assert_eq!(table.capacity(), 3 * width);
+    let read = ctx
+        .storage_buffer_sized("read back", table.capacity() * 16)
+        .expect("read-back buffer");
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    // A first copy of every row, then one of a row fewer over a buffer of other words:
+    // the last row keeps the first copy's value.
+    table.copy_from(&mut enc, &buffer, rows);
+    let other: Vec<u32> = words.iter().map(|w| !w).collect();
+    let other = ctx.storage_buffer("other rows", &other).expect("buffer");
+    table.copy_from(&mut enc, &other, rows - 1);
+    enc.copy_texture_to_buffer(
+        table.texture().as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &read,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(TEXEL_TABLE_WIDTH * 16),
+                rows_per_image: None,
+            },
+        },
+        wgpu::Extent3d {
+            width: TEXEL_TABLE_WIDTH,
+            height: 3,
+            depth_or_array_layers: 1,
+        },
+    );
+    ctx.queue.submit([enc.finish()]);
+    let back: Vec<u32> = ctx.read_buffer(&read).expect("read back");
+    let n = rows as usize * 4;
+    let expected: Vec<u32> = words[..n - 4]
+        .iter()
+        .map(|w| !w)
+        .chain(words[n - 4..].iter().copied())
+        .collect();
+    assert!(back[..n] == expected[..], "rows differ from the buffer's");
+}

@@ -17,6 +17,7 @@
 //!include shared/records.wgsl
 //!include shared/lit_grid_query.wgsl
 //!include shared/refine_selection.wgsl
+//!include shared/plane_texels.wgsl
 
 // 64 threads: a 24x24 plane gives each 9 pixels. On lavapipe a workgroup's threads run as
 // SIMD loops split at every barrier, so the select's dozen barriers cost per thread: 256
@@ -54,6 +55,9 @@ struct SelectParams {
 // The plane's pixels by cosine weight, largest first (ties: lower index), for
 // `fill_near_light` (records::refine::filler_order).
 @group(1) @binding(11) var<storage, read> filler_order: array<u32>;
+// With PLANE_TEXELS: `samples` and `plane` as texel tables (shared/plane_texels.wgsl).
+@group(1) @binding(12) var sample_texels: texture_2d<u32>;
+@group(1) @binding(13) var pixel_texels: texture_2d<u32>;
 
 // Appends the workgroups that refine `record`, a plane with `pixels` pixels to refine,
 // after the batch's selections (cleared before this pass): workgroup g of the plane is
@@ -80,11 +84,11 @@ fn push_refined_plane(record: u32, pixels: u32) {
 
 // Hit point of pixel k of the plane at `base` (w: 0 on a miss).
 fn plane_hit_point(frame: mat3x3f, origin: vec3f, base: u32, k: u32) -> vec4f {
-    let z = samples[base + k].depth;
+    let z = plane_sample(base + k).depth;
     if z <= 0.0 {
         return vec4f(0.0);
     }
-    return vec4f(origin + frame * vec3f(plane[k].rot_center.zw, 1.0) * z, 1.0);
+    return vec4f(origin + frame * vec3f(plane_pixel(k).rot_center.zw, 1.0) * z, 1.0);
 }
 
 // How far a pixel's footprint reaches (the largest distance from its hit to a
@@ -161,7 +165,7 @@ fn near_light(site: RecordSite, frame: mat3x3f, base: u32, k: u32, own: bool) ->
     if missed {
         refine = any_hit;   // an edge against a miss: refine it
     } else if centre.w != 0.0 {
-        let d = normalize(frame * vec3f(plane[k].rot_center.zw, 1.0));
+        let d = normalize(frame * vec3f(plane_pixel(k).rot_center.zw, 1.0));
         var faces = lit_faces_seen(d);
         if has_l && has_r && has_d && has_u {
             // All four neighbours on one plane: the pixel's sub-rays land on that
@@ -277,7 +281,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
     }
     workgroupBarrier();
     for (var k = first; k < last; k++) {
-        if channel_sum(samples[base + k].radiance) != 0.0 {
+        if channel_sum(plane_sample(base + k).radiance) != 0.0 {
             atomicOr(&lit, 1u);
             break;
         }
@@ -368,10 +372,10 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         let kr = select(k, k + 1u, has_r);
         let kd = select(k, k - res, has_d);
         let ku = select(k, k + res, has_u);
-        let yl = channel_sum(samples[base + kl].radiance);
-        let yr = channel_sum(samples[base + kr].radiance);
-        let yd = channel_sum(samples[base + kd].radiance);
-        let yu = channel_sum(samples[base + ku].radiance);
+        let yl = channel_sum(plane_sample(base + kl).radiance);
+        let yr = channel_sum(plane_sample(base + kr).radiance);
+        let yd = channel_sum(plane_sample(base + kd).radiance);
+        let yu = channel_sum(plane_sample(base + ku).radiance);
         let nl = noise[base + kl];
         let nr = noise[base + kr];
         let nd = noise[base + kd];
@@ -385,7 +389,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_index) la
         c = max(c, select(0.0, edge_contrast(yr, nr, yd, nd), has_r && has_d));
         c = max(c, select(0.0, edge_contrast(yr, nr, yu, nu), has_r && has_u));
         c = max(c, select(0.0, edge_contrast(yd, nd, yu, nu), has_d && has_u));
-        let key = bitcast<u32>(c * plane[k].weights.x);
+        let key = bitcast<u32>(c * plane_pixel(k).weights.x);
         keys[base + k] = key;
         zeros += u32(key == 0u);
     }

@@ -7,6 +7,7 @@
 //!include shared/record_hessian.wgsl
 //!include shared/sampling.wgsl
 //!include shared/neighbour_grid.wgsl
+//!include shared/plane_texels.wgsl
 
 const THREADS: u32 = 64u;
 const SUM_LANES: u32 = 128u;
@@ -37,6 +38,9 @@ struct ReduceParams {
 @group(1) @binding(5) var<uniform> grid: NeighbourGrid;
 @group(1) @binding(6) var<storage, read> grid_offsets: array<u32>;   // cells + 1
 @group(1) @binding(7) var<storage, read> grid_records: array<u32>;
+// With PLANE_TEXELS: `samples` and `plane` as texel tables (shared/plane_texels.wgsl).
+@group(1) @binding(8) var sample_texels: texture_2d<u32>;
+@group(1) @binding(9) var pixel_texels: texture_2d<u32>;
 
 struct Partial {
     irradiance: vec3f,
@@ -76,8 +80,8 @@ fn add(a: Partial, b: Partial) -> Partial {
 fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32, turn: vec2f) {
     let count = res * res;
     let i = k % res;
-    let s = samples[base + k];
-    let px = plane[k];
+    let s = plane_sample(base + k);
+    let px = plane_pixel(k);
     // The corral: the plane's outermost ring holds the rays nearest the horizon.
     let j = k / res;
     if CORRAL && s.depth > 0.0 && (i == 0u || j == 0u || i + 1u == res || j + 1u == res) {
@@ -95,18 +99,18 @@ fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32
     var right: PlaneSample;
     var up: PlaneSample;
     if has_right {
-        right = samples[base + k + 1u];
+        right = plane_sample(base + k + 1u);
     }
     if has_up {
-        up = samples[base + k + res];
+        up = plane_sample(base + k + res);
     }
     // Quad (i, j) exists where both its right and up edges are inside the plane.
     if RECORD_RADIUS_HESSIAN && has_right && has_up {
-        let upright = samples[base + k + res + 1u];
+        let upright = plane_sample(base + k + res + 1u);
         let vp = hessian_vertex(px.rot_center.zw, s, far);
-        let vr = hessian_vertex(plane[k + 1u].rot_center.zw, right, far);
-        let vu = hessian_vertex(plane[k + res].rot_center.zw, up, far);
-        let vur = hessian_vertex(plane[k + res + 1u].rot_center.zw, upright, far);
+        let vr = hessian_vertex(plane_pixel(k + 1u).rot_center.zw, right, far);
+        let vu = hessian_vertex(plane_pixel(k + res).rot_center.zw, up, far);
+        let vur = hessian_vertex(plane_pixel(k + res + 1u).rot_center.zw, upright, far);
         let has_b = k >= res;
         let has_l = i > 0u;
         var vb = vec4f(0.0);
@@ -114,13 +118,13 @@ fn accumulate(acc: ptr<function, Partial>, base: u32, k: u32, res: u32, far: f32
         var vl = vec4f(0.0);
         var ll = 0.0;
         if has_b {
-            let below = samples[base + k + 1u - res];
-            vb = hessian_vertex(plane[k + 1u - res].rot_center.zw, below, far);
+            let below = plane_sample(base + k + 1u - res);
+            vb = hessian_vertex(plane_pixel(k + 1u - res).rot_center.zw, below, far);
             lb = dot(below.radiance, LUMINANCE);
         }
         if has_l {
-            let left = samples[base + k + res - 1u];
-            vl = hessian_vertex(plane[k + res - 1u].rot_center.zw, left, far);
+            let left = plane_sample(base + k + res - 1u);
+            vl = hessian_vertex(plane_pixel(k + res - 1u).rot_center.zw, left, far);
             ll = dot(left.radiance, LUMINANCE);
         }
         (*acc).hessian += hessian_edges(

@@ -10,6 +10,7 @@ pub mod scene_features;
 pub mod scene_pass;
 pub mod shader;
 pub mod specialise;
+pub mod texel_table;
 pub mod timer;
 pub mod triangle_fetch;
 mod wgsl_compose;

@@ -12,6 +12,8 @@ pub enum Binding {
     Uniform,
     StorageRead,
     StorageReadWrite,
+    /// A `texture_2d<u32>` ([`super::texel_table::TexelTable`]'s view).
+    Texels,
 }
 
 /// What a pass is built from: its shader, its group-1 bindings and its pipeline constants
@@ -130,6 +132,9 @@ pub struct ComputePass {
     compiled: std::sync::atomic::AtomicBool,
     /// The context's [`GpuContext::set_pass_timing`] switch.
     timing: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    /// Built to read the plane's samples from texel tables (`PLANE_TEXELS`, where the
+    /// shader declares it): the pass's caller copies them there.
+    plane_texels: bool,
 }
 
 impl ComputePass {
@@ -200,18 +205,23 @@ impl ComputePass {
             .map(|(i, b)| wgpu::BindGroupLayoutEntry {
                 binding: i as u32,
                 visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: match b {
-                        Binding::Uniform => wgpu::BufferBindingType::Uniform,
-                        Binding::StorageRead => {
-                            wgpu::BufferBindingType::Storage { read_only: true }
-                        }
-                        Binding::StorageReadWrite => {
-                            wgpu::BufferBindingType::Storage { read_only: false }
-                        }
+                ty: match b {
+                    Binding::Texels => wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Uint,
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
                     },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
+                    buffer => wgpu::BindingType::Buffer {
+                        ty: match buffer {
+                            Binding::Uniform => wgpu::BufferBindingType::Uniform,
+                            Binding::StorageRead => {
+                                wgpu::BufferBindingType::Storage { read_only: true }
+                            }
+                            _ => wgpu::BufferBindingType::Storage { read_only: false },
+                        },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
                 },
                 count: None,
             })
@@ -263,6 +273,7 @@ impl ComputePass {
             compile_times: ctx.compile_times.clone(),
             compiled: std::sync::atomic::AtomicBool::new(!lazy),
             timing: ctx.pass_timing.clone(),
+            plane_texels: ctx.triangle_fetch() == super::TriangleFetch::Texture,
         })
     }
 
@@ -308,14 +319,31 @@ impl ComputePass {
             .push((self.name, ms));
     }
 
+    /// Whether a pass that declares `PLANE_TEXELS` reads the plane's samples and pixel
+    /// table from texel tables ([`super::texel_table`]), as the device said when it was
+    /// built.
+    pub fn reads_plane_texels(&self) -> bool {
+        self.plane_texels
+    }
+
     /// Binds `buffers` (in binding order) for this pass.
     pub fn bind(&self, ctx: &GpuContext, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
-        let entries: Vec<_> = buffers
+        let resources: Vec<_> = buffers.iter().map(|b| b.as_entire_binding()).collect();
+        self.bind_resources(ctx, &resources)
+    }
+
+    /// Binds `resources` (in binding order) for this pass: buffers and texel tables.
+    pub fn bind_resources(
+        &self,
+        ctx: &GpuContext,
+        resources: &[wgpu::BindingResource<'_>],
+    ) -> wgpu::BindGroup {
+        let entries: Vec<_> = resources
             .iter()
             .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
+            .map(|(i, r)| wgpu::BindGroupEntry {
                 binding: i as u32,
-                resource: b.as_entire_binding(),
+                resource: r.clone(),
             })
             .collect();
         ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -396,10 +424,13 @@ pub fn split_groups(ctx: &GpuContext, groups: u32) -> [u32; 3] {
 }
 
 /// The constants every pass that declares them is built with, from the device's settings:
-/// where the traversal reads triangles ([`super::TriangleFetch`]).
-fn device_constants(ctx: &GpuContext) -> [(&'static str, f64); 1] {
-    [(
-        super::triangle_fetch::TRIANGLE_TEXELS_CONSTANT,
-        ctx.triangle_fetch().constant(),
-    )]
+/// where the traversal reads triangles ([`super::TriangleFetch`]), and, by the same
+/// choice, whether the passes that read every plane sample read their texel tables
+/// ([`super::texel_table`]).
+fn device_constants(ctx: &GpuContext) -> [(&'static str, f64); 2] {
+    let fetch = ctx.triangle_fetch().constant();
+    [
+        (super::triangle_fetch::TRIANGLE_TEXELS_CONSTANT, fetch),
+        (super::texel_table::PLANE_TEXELS_CONSTANT, fetch),
+    ]
 }

@@ -7,6 +7,7 @@ use super::{
 };
 use crate::gpu::pipeline::{Binding, LazyPass, PassRecipe};
 use crate::gpu::scene_buffers::GpuScene;
+use crate::gpu::texel_table::{TexelCopy, TexelTable};
 use crate::gpu::{GpuContext, SceneFeatures};
 use crate::light_maps::LightMaps;
 use crate::visibility::VisibilityBuffer;
@@ -105,6 +106,9 @@ pub struct PlaneTable {
     /// The pixels by cosine weight, largest first ([`refine::filler_order`]): the order in
     /// which refinement gives a lit plane's spare slots to pixels near light.
     pub filler_order: wgpu::Buffer,
+    /// `pixels` as a texel table, two rows a pixel, for the passes that read the table
+    /// through texels on hosts where storage loads stall ([`crate::gpu::texel_table`]).
+    pub pixel_texels: TexelTable,
 }
 
 impl PlaneTable {
@@ -133,6 +137,11 @@ impl PlaneTable {
         Ok(Self {
             resolution,
             pixels: ctx.storage_buffer("plane table", &pixels)?,
+            pixel_texels: TexelTable::with_data(
+                ctx,
+                "plane table texels",
+                bytemuck::cast_slice(&pixels),
+            )?,
             cos_weight_sum: cos_weight_sum as f32,
             filler_order: ctx
                 .storage_buffer("plane filler order", &refine::filler_order(&table))?,
@@ -178,6 +187,9 @@ pub struct RecordPass {
     no_noise: wgpu::Buffer,
     /// What the plane pass binds as refinement's selection when it traces.
     no_selection: wgpu::Buffer,
+    /// The plane samples the reduction reads as texels where its pipeline reads texels
+    /// ([`crate::gpu::ComputePass::reads_plane_texels`]).
+    sample_texels: TexelCopy,
     /// The kind of records computed; radiance records also project their planes.
     pub kind: RecordKind,
     /// The scene features its plane pipelines are compiled for ([`Self::for_scene`]).
@@ -307,6 +319,8 @@ impl RecordPass {
                     Uniform,
                     StorageRead,
                     StorageRead,
+                    Texels,
+                    Texels,
                 ],
                 &[
                     (
@@ -329,6 +343,7 @@ impl RecordPass {
             no_light_maps: LightMaps::none(ctx)?,
             no_noise: ctx.storage_buffer_sized("no plane noise", 16)?,
             no_selection: ctx.storage_buffer_sized("no refinement selection", 16)?,
+            sample_texels: TexelCopy::new(ctx, "plane sample texels")?,
             kind,
             features,
             projection,
@@ -912,17 +927,23 @@ impl RecordPass {
             },
         );
         let reduce = self.reduce.get(ctx)?;
-        let bind = reduce.bind(
+        let rows = u64::from(batch.count) * u64::from(table.resolution * table.resolution);
+        let sample_texels =
+            self.sample_texels
+                .view(ctx, enc, samples, rows, reduce.reads_plane_texels())?;
+        let bind = reduce.bind_resources(
             ctx,
             &[
-                &params,
-                batch.sites,
-                &table.pixels,
-                samples,
-                records,
-                &grid.params,
-                &grid.offsets,
-                &grid.records,
+                params.as_entire_binding(),
+                batch.sites.as_entire_binding(),
+                table.pixels.as_entire_binding(),
+                samples.as_entire_binding(),
+                records.as_entire_binding(),
+                grid.params.as_entire_binding(),
+                grid.offsets.as_entire_binding(),
+                grid.records.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&sample_texels),
+                wgpu::BindingResource::TextureView(table.pixel_texels.view()),
             ],
         );
         reduce.record(

@@ -38,6 +38,7 @@ use crate::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, ComputePass, LazyPass, PassRecipe};
 use crate::gpu::scene_buffers::GpuScene;
+use crate::gpu::texel_table::TexelCopy;
 use crate::light_maps::lit_grid::{self, LitGridParams};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -418,6 +419,9 @@ pub struct RefinePass {
     /// Sums each refined pixel's strata into its sample (`plane_refine_combine.wgsl`;
     /// built as `select`, [`Self::combine_recipe`]).
     combine: LazyPass,
+    /// The plane samples the selection reads as texels where its pipeline reads texels
+    /// ([`ComputePass::reads_plane_texels`]).
+    sample_texels: TexelCopy,
     /// What the refinement binds for the plane pass's hits (it writes none).
     no_hits: wgpu::Buffer,
     /// The indirect dispatch (x y z) that refines a batch's planes, which the selection
@@ -475,9 +479,12 @@ impl RefinePass {
                     StorageRead,
                     StorageReadWrite,
                     StorageRead,
+                    Texels,
+                    Texels,
                 ],
                 &[],
             ),
+            sample_texels: TexelCopy::new(ctx, "refinement's plane sample texels")?,
             combine: LazyPass::new(
                 "plane_refine_combine.wgsl",
                 &[
@@ -553,21 +560,30 @@ impl RefinePass {
             },
         );
         let select = self.select.get(ctx)?;
-        let bind = select.bind(
+        let sample_texels = self.sample_texels.view(
+            ctx,
+            enc,
+            samples,
+            u64::from(count) * n,
+            select.reads_plane_texels(),
+        )?;
+        let bind = select.bind_resources(
             ctx,
             &[
-                &select_params,
-                &table.pixels,
-                samples,
-                &keys,
-                selected,
-                &self.ray_counts,
-                noise,
-                sites,
-                &light_maps.lit_grid.params_buffer,
-                &light_maps.lit_grid.voxels,
-                &self.refine_dispatch,
-                &table.filler_order,
+                select_params.as_entire_binding(),
+                table.pixels.as_entire_binding(),
+                samples.as_entire_binding(),
+                keys.as_entire_binding(),
+                selected.as_entire_binding(),
+                self.ray_counts.as_entire_binding(),
+                noise.as_entire_binding(),
+                sites.as_entire_binding(),
+                light_maps.lit_grid.params_buffer.as_entire_binding(),
+                light_maps.lit_grid.voxels.as_entire_binding(),
+                self.refine_dispatch.as_entire_binding(),
+                table.filler_order.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&sample_texels),
+                wgpu::BindingResource::TextureView(table.pixel_texels.view()),
             ],
         );
         enc.clear_buffer(&self.refine_dispatch, 0, None);
