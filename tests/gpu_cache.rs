@@ -602,8 +602,8 @@ fn traversal_stacks_left_unzeroed_render_the_same_bytes() {
 /// The traversal reads its triangles from the node texture or from their storage buffer
 /// (`TriangleFetch`: the texture on lavapipe without AVX-512, where a buffer's loads
 /// stall), and by the same choice the record reduction and refinement's selection read the
-/// plane samples and pixel table from texel tables or from their buffers: the same bytes
-/// either way.
+/// plane samples and pixel table, and the splat gathers the records, from texel tables or
+/// from their buffers: the same bytes either way.
 #[test]
 fn triangles_from_the_node_texture_render_the_same_bytes() {
     use radsplat::gpu::TriangleFetch;

@@ -55,7 +55,7 @@ struct SelectParams {
 // The plane's pixels by cosine weight, largest first (ties: lower index), for
 // `fill_near_light` (records::refine::filler_order).
 @group(1) @binding(11) var<storage, read> filler_order: array<u32>;
-// With PLANE_TEXELS: `samples` and `plane` as texel tables (shared/plane_texels.wgsl).
+// With TABLE_TEXELS: `samples` and `plane` as texel tables (shared/plane_texels.wgsl).
 @group(1) @binding(12) var sample_texels: texture_2d<u32>;
 @group(1) @binding(13) var pixel_texels: texture_2d<u32>;
 

@@ -38,7 +38,7 @@ struct ReduceParams {
 @group(1) @binding(5) var<uniform> grid: NeighbourGrid;
 @group(1) @binding(6) var<storage, read> grid_offsets: array<u32>;   // cells + 1
 @group(1) @binding(7) var<storage, read> grid_records: array<u32>;
-// With PLANE_TEXELS: `samples` and `plane` as texel tables (shared/plane_texels.wgsl).
+// With TABLE_TEXELS: `samples` and `plane` as texel tables (shared/plane_texels.wgsl).
 @group(1) @binding(8) var sample_texels: texture_2d<u32>;
 @group(1) @binding(9) var pixel_texels: texture_2d<u32>;
 

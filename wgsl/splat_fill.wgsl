@@ -7,8 +7,8 @@
 //!include shared/splat_pixel.wgsl
 //!include shared/linear_dispatch.wgsl
 
-@group(1) @binding(8) var<storage, read> empty_pixels: array<u32>;
-@group(1) @binding(9) var<storage, read> empty_count: array<u32>;
+@group(1) @binding(9) var<storage, read> empty_pixels: array<u32>;
+@group(1) @binding(10) var<storage, read> empty_count: array<u32>;
 
 @compute @workgroup_size(256)
 fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) groups: vec3u) {
@@ -34,7 +34,7 @@ fn main(@builtin(global_invocation_id) id: vec3u, @builtin(num_workgroups) group
             if err > params.accuracy {
                 continue;
             }
-            r = records[k];
+            r = record_for_sums(k);
             pixel_add(&s, k, r, err);
             if COUNTS_COVERAGE && params.count_coverage == COUNT_ALL {
                 atomicAdd(&coverage[k], 1u);

@@ -48,7 +48,7 @@ fn main(@builtin(workgroup_id) group: vec3u, @builtin(local_invocation_id) local
             if min(min(err_a, err_b), min(err_c, err_d)) > params.accuracy {
                 continue;
             }
-            r = records[k];
+            r = record_for_sums(k);
             var covered = 0u;
             if err_a <= params.accuracy {
                 pixel_add(&a, k, r, err_a);

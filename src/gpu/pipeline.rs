@@ -132,9 +132,9 @@ pub struct ComputePass {
     compiled: std::sync::atomic::AtomicBool,
     /// The context's [`GpuContext::set_pass_timing`] switch.
     timing: std::sync::Arc<std::sync::atomic::AtomicBool>,
-    /// Built to read the plane's samples from texel tables (`PLANE_TEXELS`, where the
-    /// shader declares it): the pass's caller copies them there.
-    plane_texels: bool,
+    /// Built to read its tables from texel tables (`TABLE_TEXELS`, where the shader
+    /// declares it): the pass's caller copies them there.
+    texel_tables: bool,
 }
 
 impl ComputePass {
@@ -273,7 +273,7 @@ impl ComputePass {
             compile_times: ctx.compile_times.clone(),
             compiled: std::sync::atomic::AtomicBool::new(!lazy),
             timing: ctx.pass_timing.clone(),
-            plane_texels: ctx.triangle_fetch() == super::TriangleFetch::Texture,
+            texel_tables: ctx.triangle_fetch() == super::TriangleFetch::Texture,
         })
     }
 
@@ -319,11 +319,10 @@ impl ComputePass {
             .push((self.name, ms));
     }
 
-    /// Whether a pass that declares `PLANE_TEXELS` reads the plane's samples and pixel
-    /// table from texel tables ([`super::texel_table`]), as the device said when it was
-    /// built.
-    pub fn reads_plane_texels(&self) -> bool {
-        self.plane_texels
+    /// Whether a pass that declares `TABLE_TEXELS` reads its tables from texel tables
+    /// ([`super::texel_table`]), as the device said when it was built.
+    pub fn reads_texel_tables(&self) -> bool {
+        self.texel_tables
     }
 
     /// Binds `buffers` (in binding order) for this pass.
@@ -425,12 +424,12 @@ pub fn split_groups(ctx: &GpuContext, groups: u32) -> [u32; 3] {
 
 /// The constants every pass that declares them is built with, from the device's settings:
 /// where the traversal reads triangles ([`super::TriangleFetch`]), and, by the same
-/// choice, whether the passes that read every plane sample read their texel tables
+/// choice, whether the passes that read a table many times a lane read its texel table
 /// ([`super::texel_table`]).
 fn device_constants(ctx: &GpuContext) -> [(&'static str, f64); 2] {
     let fetch = ctx.triangle_fetch().constant();
     [
         (super::triangle_fetch::TRIANGLE_TEXELS_CONSTANT, fetch),
-        (super::texel_table::PLANE_TEXELS_CONSTANT, fetch),
+        (super::texel_table::TABLE_TEXELS_CONSTANT, fetch),
     ]
 }

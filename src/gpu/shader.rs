@@ -121,6 +121,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../wgsl/shared/plane_direction.wgsl"),
     ),
     (
+        "shared/texel_table.wgsl",
+        include_str!("../../wgsl/shared/texel_table.wgsl"),
+    ),
+    (
         "shared/plane_texels.wgsl",
         include_str!("../../wgsl/shared/plane_texels.wgsl"),
     ),
@@ -677,31 +681,40 @@ mod tests {
         assert!(tracing >= 9, "tracing passes: {tracing}");
     }
 
-    /// The passes that read every plane sample (the record reduction, refinement's
-    /// selection) declare the plane-texel constant, so the device's choice reaches them,
-    /// and specialise and validate with it; no other pass declares it.
+    /// The passes that read a table many times a lane (the record reduction and
+    /// refinement's selection, every plane sample; the splat gathers, each contributing
+    /// record) declare the texel-table constant, so the device's choice reaches them, and
+    /// specialise and validate with it; no other pass declares it.
     #[test]
-    fn the_plane_sample_readers_specialise_for_texel_tables() {
-        use crate::gpu::texel_table::PLANE_TEXELS_CONSTANT;
+    fn the_table_readers_specialise_for_texel_tables() {
+        use crate::gpu::texel_table::TABLE_TEXELS_CONSTANT;
         let mut readers = Vec::new();
         for (name, _) in SOURCES.iter().filter(|(n, _)| !n.starts_with("shared/")) {
             let (parsed, _) = parsed_module(name).expect("parsed");
             if !parsed
                 .overrides
                 .iter()
-                .any(|(_, o)| o.name.as_deref() == Some(PLANE_TEXELS_CONSTANT))
+                .any(|(_, o)| o.name.as_deref() == Some(TABLE_TEXELS_CONSTANT))
             {
                 continue;
             }
             readers.push(*name);
-            let module = specialised_module(name, &[(PLANE_TEXELS_CONSTANT, 1.0)])
+            let module = specialised_module(name, &[(TABLE_TEXELS_CONSTANT, 1.0)])
                 .unwrap_or_else(|e| panic!("{name}: {e}"));
             validator()
                 .validate(&module)
-                .unwrap_or_else(|e| panic!("{name} with plane texels: {e:?}"));
+                .unwrap_or_else(|e| panic!("{name} with texel tables: {e:?}"));
         }
         readers.sort();
-        assert_eq!(readers, ["plane_refine_select.wgsl", "record_reduce.wgsl"]);
+        assert_eq!(
+            readers,
+            [
+                "plane_refine_select.wgsl",
+                "record_reduce.wgsl",
+                "splat_fill.wgsl",
+                "splat_gather.wgsl"
+            ]
+        );
     }
 
     #[test]

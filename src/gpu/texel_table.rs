@@ -5,16 +5,17 @@
 //! It exists for the hosts where [`TriangleFetch::Texture`](super::TriangleFetch) holds:
 //! lavapipe without AVX-512 loads a storage buffer lane by lane, with a stall for every
 //! lane's every component, while a texel fetch is a gather in straight-line code
-//! (`gpu::triangle_fetch`). The passes that read a per-round table many times a lane (the
-//! record reduction and refinement's selection read every plane sample and plane pixel)
-//! read this copy there; the copy itself is a memcpy on lavapipe.
+//! (`gpu::triangle_fetch`). The passes that read a table many times a lane read this copy
+//! there: the record reduction and refinement's selection (every plane sample and plane
+//! pixel), the splat gathers (each contributing record). The copy itself is a memcpy on
+//! lavapipe.
 
 use super::GpuContext;
 use crate::{Error, Result};
 
-/// The pipeline constant that makes a pass read the plane's samples and pixel table from
-/// texel tables (`wgsl/shared/plane_texels.wgsl`), set with the triangle fetch.
-pub const PLANE_TEXELS_CONSTANT: &str = "PLANE_TEXELS";
+/// The pipeline constant that makes a pass read its tables from texel tables
+/// (`wgsl/shared/texel_table.wgsl`), set with the triangle fetch.
+pub const TABLE_TEXELS_CONSTANT: &str = "TABLE_TEXELS";
 
 /// Texels a texture row: `texel_table.wgsl`'s `TEXEL_TABLE_WIDTH`. 2048 rows of 16 bytes
 /// are 32 KiB, a multiple of the 256 bytes a buffer-to-texture copy needs a row.
@@ -152,7 +153,7 @@ impl TexelTable {
 }
 
 /// A texel-table copy of a storage buffer that a pass reads as texels, made where the
-/// pass's pipeline reads texels ([`super::ComputePass::reads_plane_texels`]): one table,
+/// pass's pipeline reads texels ([`super::ComputePass::reads_texel_tables`]): one table,
 /// grown to the largest copy asked of it, and a one-texel stand-in that the pass binds
 /// where it reads the buffer.
 pub struct TexelCopy {

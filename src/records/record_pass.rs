@@ -188,7 +188,7 @@ pub struct RecordPass {
     /// What the plane pass binds as refinement's selection when it traces.
     no_selection: wgpu::Buffer,
     /// The plane samples the reduction reads as texels where its pipeline reads texels
-    /// ([`crate::gpu::ComputePass::reads_plane_texels`]).
+    /// ([`crate::gpu::ComputePass::reads_texel_tables`]).
     sample_texels: TexelCopy,
     /// The kind of records computed; radiance records also project their planes.
     pub kind: RecordKind,
@@ -930,7 +930,7 @@ impl RecordPass {
         let rows = u64::from(batch.count) * u64::from(table.resolution * table.resolution);
         let sample_texels =
             self.sample_texels
-                .view(ctx, enc, samples, rows, reduce.reads_plane_texels())?;
+                .view(ctx, enc, samples, rows, reduce.reads_texel_tables())?;
         let bind = reduce.bind_resources(
             ctx,
             &[

@@ -420,7 +420,7 @@ pub struct RefinePass {
     /// built as `select`, [`Self::combine_recipe`]).
     combine: LazyPass,
     /// The plane samples the selection reads as texels where its pipeline reads texels
-    /// ([`ComputePass::reads_plane_texels`]).
+    /// ([`ComputePass::reads_texel_tables`]).
     sample_texels: TexelCopy,
     /// What the refinement binds for the plane pass's hits (it writes none).
     no_hits: wgpu::Buffer,
@@ -565,7 +565,7 @@ impl RefinePass {
             enc,
             samples,
             u64::from(count) * n,
-            select.reads_plane_texels(),
+            select.reads_texel_tables(),
         )?;
         let bind = select.bind_resources(
             ctx,

@@ -55,7 +55,11 @@ const GATHER_BINDINGS: &[Binding] = &[
     Binding::StorageReadWrite,
     Binding::StorageReadWrite,
     Binding::StorageRead,
+    Binding::Texels,
 ];
+
+/// Rows of a record in its texel table (`record_for_sums` in `wgsl/shared/splat_pixel.wgsl`).
+const RECORD_TEXELS: u64 = (std::mem::size_of::<crate::records::Record>() / 16) as u64;
 
 /// Bindings of `splat_cover.wgsl`.
 const COVER_BINDINGS: &[Binding] = &[
@@ -477,6 +481,9 @@ pub struct SplatPass {
     no_empty: tile_bounds::EmptyPixels,
     /// The widened gather's check against the default one, built when a frame first widens.
     consistency: OnFirstUse<consistency::ConsistencyPass>,
+    /// The records as the gathers read them where their pipelines read texel tables
+    /// ([`ComputePass::reads_texel_tables`]), copied before each gather.
+    record_texels: crate::gpu::texel_table::TexelCopy,
 }
 
 /// The splat passes' parameters (`SplatParams`) for `src`, and its image's tiles (x, y),
@@ -565,6 +572,7 @@ impl SplatPass {
                 &[Uniform, StorageReadWrite],
             )?,
             no_sums: ctx.storage_buffer_sized("no splat sums", 16)?,
+            record_texels: crate::gpu::texel_table::TexelCopy::new(ctx, "record texels")?,
             no_empty: tile_bounds::EmptyPixels {
                 list: ctx.storage_buffer_sized("no empty pixels", 4)?,
                 count: ctx.storage_buffer_sized("no empty pixel count", 4)?,
@@ -682,19 +690,27 @@ impl SplatPass {
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         // Tail fill weighs no corral (`SplatSource::corral`).
         let fill = self.fill(ctx)?.for_mode(ctx, out.coverage_mode, false)?;
-        let bind = fill.bind(
+        let record_texels = self.record_texels.view(
+            ctx,
+            &mut enc,
+            &src.records.buffer,
+            u64::from(src.records.count) * RECORD_TEXELS,
+            fill.reads_texel_tables(),
+        )?;
+        let bind = fill.bind_resources(
             ctx,
             &[
-                &bins.params,
-                &src.vis.samples,
-                &src.records.buffer,
-                &bins.tile_offsets,
-                &bins.sorted,
-                &out.sums,
-                &out.coverage,
-                &out.expiring,
-                &empty.list,
-                &empty.count,
+                bins.params.as_entire_binding(),
+                src.vis.samples.as_entire_binding(),
+                src.records.buffer.as_entire_binding(),
+                bins.tile_offsets.as_entire_binding(),
+                bins.sorted.as_entire_binding(),
+                out.sums.as_entire_binding(),
+                out.coverage.as_entire_binding(),
+                out.expiring.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&record_texels),
+                empty.list.as_entire_binding(),
+                empty.count.as_entire_binding(),
             ],
         );
         fill.record(
@@ -733,17 +749,25 @@ impl SplatPass {
             let gather = self
                 .gather(ctx)?
                 .for_mode(ctx, out.coverage_mode, src.corral)?;
-            let bind = gather.bind(
+            let record_texels = self.record_texels.view(
+                ctx,
+                &mut enc,
+                &cache.buffer,
+                u64::from(cache.count) * RECORD_TEXELS,
+                gather.reads_texel_tables(),
+            )?;
+            let bind = gather.bind_resources(
                 ctx,
                 &[
-                    &bins.params,
-                    &vis.samples,
-                    &cache.buffer,
-                    &bins.tile_offsets,
-                    &bins.sorted,
-                    &out.sums,
-                    &out.coverage,
-                    &out.expiring,
+                    bins.params.as_entire_binding(),
+                    vis.samples.as_entire_binding(),
+                    cache.buffer.as_entire_binding(),
+                    bins.tile_offsets.as_entire_binding(),
+                    bins.sorted.as_entire_binding(),
+                    out.sums.as_entire_binding(),
+                    out.coverage.as_entire_binding(),
+                    out.expiring.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(&record_texels),
                 ],
             );
             gather.record(

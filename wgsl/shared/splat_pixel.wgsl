@@ -1,7 +1,8 @@
 // One pixel's part of a splat gather (splat_gather.wgsl, splat_fill.wgsl): its sums over
 // its tile's records in list order, Ward's weight and the gradients' extrapolation, and
-// the bindings both gathers share (bindings 0-7; splat_fill adds its pixel list after).
+// the bindings both gathers share (bindings 0-8; splat_fill adds its pixel list after).
 //!include shared/splat_weight.wgsl
+//!include shared/texel_table.wgsl
 
 @group(1) @binding(0) var<uniform> params: SplatParams;
 @group(1) @binding(1) var<storage, read> vis: array<VisSample>;
@@ -11,6 +12,22 @@
 @group(1) @binding(5) var<storage, read_write> splat: array<vec4f>;
 @group(1) @binding(6) var<storage, read_write> coverage: array<atomic<u32>>;
 @group(1) @binding(7) var<storage, read> expiring: array<u32>;   // 1: expires after this frame
+// With TABLE_TEXELS: `records` as a texel table, nine rows a record (`record_for_sums`).
+@group(1) @binding(8) var record_texels: texture_2d<u32>;
+
+// Record k, whole, for `pixel_add` (from its copy with TABLE_TEXELS: a contributing
+// record's 36 words were over half of nave-west's gather as storage loads).
+fn record_for_sums(k: u32) -> Record {
+    if TABLE_TEXELS {
+        var t: array<vec4f, 9>;
+        for (var i = 0u; i < 9u; i++) {
+            t[i] = bitcast<vec4f>(texel_row(record_texels, 9u * k + i));
+        }
+        return Record(t[0].xyz, t[0].w, t[1].xyz, t[1].w, t[2].xyz, bitcast<u32>(t[2].w),
+                      array<vec4f, 3>(t[3], t[4], t[5]), array<vec4f, 3>(t[6], t[7], t[8]));
+    }
+    return records[k];
+}
 
 // Whether this pipeline counts coverage (`count_coverage` 1 or 2). A still frame counts
 // nothing, and its gathers are compiled without the count (src/splat, `GatherPipelines`):
