@@ -709,6 +709,7 @@ mod tests {
         assert_eq!(
             readers,
             [
+                "hemisphere_plane.wgsl",
                 "plane_refine_select.wgsl",
                 "record_reduce.wgsl",
                 "splat_fill.wgsl",

@@ -25,6 +25,9 @@ struct SiteParams {
     _pad: [u32; 3],
 }
 
+/// Rows of a [`RecordSite`] in a texel table (`plane_site` in `wgsl/hemisphere_plane.wgsl`).
+pub(crate) const SITE_TEXELS: u64 = (std::mem::size_of::<RecordSite>() / 16) as u64;
+
 /// Parameters of the plane pass and its refinement (`hemisphere_plane.wgsl`), and of the
 /// plane refresh's re-trace (`plane_retrace.wgsl`, which reads the first eight fields).
 #[repr(C)]
@@ -190,6 +193,8 @@ pub struct RecordPass {
     /// The plane samples the reduction reads as texels where its pipeline reads texels
     /// ([`crate::gpu::ComputePass::reads_texel_tables`]).
     sample_texels: TexelCopy,
+    /// The batch's sites as the plane pass reads them where it reads texel tables.
+    site_texels: TexelCopy,
     /// The kind of records computed; radiance records also project their planes.
     pub kind: RecordKind,
     /// The scene features its plane pipelines are compiled for ([`Self::for_scene`]).
@@ -303,6 +308,8 @@ impl RecordPass {
                     StorageRead,
                     StorageReadWrite,
                     StorageRead,
+                    Texels,
+                    Texels,
                 ],
                 &[features.constant()],
             ),
@@ -344,6 +351,7 @@ impl RecordPass {
             no_noise: ctx.storage_buffer_sized("no plane noise", 16)?,
             no_selection: ctx.storage_buffer_sized("no refinement selection", 16)?,
             sample_texels: TexelCopy::new(ctx, "plane sample texels")?,
+            site_texels: TexelCopy::new(ctx, "record site texels")?,
             kind,
             features,
             projection,
@@ -859,20 +867,29 @@ impl RecordPass {
                 ..PlaneParams::zeroed()
             },
         );
-        let plane_bind = plane.bind(
+        let site_texels = self.site_texels.view(
+            ctx,
+            enc,
+            batch.sites,
+            u64::from(batch.count) * SITE_TEXELS,
+            plane.reads_texel_tables(),
+        )?;
+        let plane_bind = plane.bind_resources(
             ctx,
             &[
-                &plane_params,
-                batch.sites,
-                &self.table.pixels,
-                batch.samples,
-                batch.hits,
-                &light_maps.maps_buffer,
-                &light_maps.depths,
-                &light_maps.first_buffer,
-                &scene.bounce_cache(),
-                noise.unwrap_or(&self.no_noise),
-                &self.no_selection,
+                plane_params.as_entire_binding(),
+                batch.sites.as_entire_binding(),
+                self.table.pixels.as_entire_binding(),
+                batch.samples.as_entire_binding(),
+                batch.hits.as_entire_binding(),
+                light_maps.maps_buffer.as_entire_binding(),
+                light_maps.depths.as_entire_binding(),
+                light_maps.first_buffer.as_entire_binding(),
+                scene.bounce_cache().as_entire_binding(),
+                noise.unwrap_or(&self.no_noise).as_entire_binding(),
+                self.no_selection.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&site_texels),
+                wgpu::BindingResource::TextureView(self.table.pixel_texels.view()),
             ],
         );
         plane.record(

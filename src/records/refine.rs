@@ -422,6 +422,8 @@ pub struct RefinePass {
     /// The plane samples the selection reads as texels where its pipeline reads texels
     /// ([`ComputePass::reads_texel_tables`]).
     sample_texels: TexelCopy,
+    /// The batch's sites as the plane pass's refinement reads them, likewise.
+    site_texels: TexelCopy,
     /// What the refinement binds for the plane pass's hits (it writes none).
     no_hits: wgpu::Buffer,
     /// The indirect dispatch (x y z) that refines a batch's planes, which the selection
@@ -485,6 +487,7 @@ impl RefinePass {
                 &[],
             ),
             sample_texels: TexelCopy::new(ctx, "refinement's plane sample texels")?,
+            site_texels: TexelCopy::new(ctx, "refinement's site texels")?,
             combine: LazyPass::new(
                 "plane_refine_combine.wgsl",
                 &[
@@ -625,20 +628,29 @@ impl RefinePass {
             "refinement strata",
             strata_bytes(self.resolution, self.split, count),
         )?;
-        let bind = trace.bind(
+        let site_texels = self.site_texels.view(
+            ctx,
+            enc,
+            sites,
+            u64::from(count) * super::record_pass::SITE_TEXELS,
+            trace.reads_texel_tables(),
+        )?;
+        let bind = trace.bind_resources(
             ctx,
             &[
-                &params,
-                sites,
-                &table.pixels,
-                samples,
-                &self.no_hits,
-                &light_maps.maps_buffer,
-                &light_maps.depths,
-                &light_maps.first_buffer,
-                &scene.bounce_cache(),
-                &strata,
-                selected,
+                params.as_entire_binding(),
+                sites.as_entire_binding(),
+                table.pixels.as_entire_binding(),
+                samples.as_entire_binding(),
+                self.no_hits.as_entire_binding(),
+                light_maps.maps_buffer.as_entire_binding(),
+                light_maps.depths.as_entire_binding(),
+                light_maps.first_buffer.as_entire_binding(),
+                scene.bounce_cache().as_entire_binding(),
+                strata.as_entire_binding(),
+                selected.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&site_texels),
+                wgpu::BindingResource::TextureView(table.pixel_texels.view()),
             ],
         );
         trace.record_indirect(
