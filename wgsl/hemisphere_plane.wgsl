@@ -49,8 +49,11 @@
 // of the planes that saw no light.
 @group(1) @binding(10) var<storage, read> selected: array<u32>;
 // With TABLE_TEXELS (shared/texel_table.wgsl): `sites` as a texel table, three rows a site,
-// and `plane`, two rows a pixel. Every ray reads its site's 12 words: as storage loads (a
-// per-lane loop on lavapipe), loading them twice cost nave-west's plane rays 1.3x the time.
+// and `plane`, two rows a pixel. Every ray reads its site's 12 words (storage loads are a
+// per-lane loop on lavapipe): from texels nave-west's plane rays took 0.96 of their time
+// and their refinement 0.94, the Cornell box's 0.88 and 0.91. (Per-hit tables, inside the
+// trace, are another matter: a texel fetch is a call that spills the shadow loop's
+// registers; the lights from the node texture made both passes slower, 1.06 and 1.05.)
 @group(1) @binding(11) var site_texels: texture_2d<u32>;
 @group(1) @binding(12) var pixel_texels: texture_2d<u32>;
 
