@@ -18,7 +18,9 @@
 
 /// Which copy of the triangles the traversal reads (`TRIANGLE_TEXELS` in
 /// `wgsl/shared/scene.wgsl`). The plane hits' surfaces and the light-map
-/// trace read the same copy; every other reader keeps the storage buffer.
+/// trace read the same copy; every other reader keeps the storage buffer. The same choice
+/// makes the passes that read a per-round table many times a lane read its texel table
+/// ([`super::texel_table`], `TABLE_TEXELS`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TriangleFetch {
     /// `triangles`, the storage buffer (group 0 binding 1).
