@@ -10,6 +10,9 @@
 # addresses; the hemisphere-plane shader is the largest). The first run under valgrind
 # compiles every shader afresh, because valgrind's CPU lacks AVX-512 and Mesa keys its
 # shader cache on the CPU's features; so this renders twice and reports the second run.
+# After a change of shaders, call it twice: pipelines that the first render's threads were
+# still building when it ended are never cached, and the second render compiles them (its
+# count then includes LLVM; docs/results.md, stop 75).
 # It counts instructions, not time: memset's `rep stosb` counts once per iteration, so
 # lavapipe's zeroing of workgroup memory weighs far more here than on the clock. Needs
 # valgrind (`apt-get install -y valgrind`) and RADSPLAT_ASSET_PATH for scenes outside the
