@@ -21,12 +21,15 @@ pub fn info() -> Result<()> {
             );
         }
     }
-    // gpu::TriangleFetch: where the traversal reads triangles (RADSPLAT_TRIANGLE_FETCH
+    // gpu::TriangleFetch: where the traversal reads triangles, and by the same choice
+    // whether the per-round tables are read from texel tables (RADSPLAT_TRIANGLE_FETCH
     // overrides the choice).
     println!(
         "triangles:    {}",
         match ctx.triangle_fetch() {
-            crate::gpu::TriangleFetch::Texture => "node texture (storage loads stall here)",
+            crate::gpu::TriangleFetch::Texture => {
+                "node texture, per-round tables as texel tables (storage loads stall here)"
+            }
             crate::gpu::TriangleFetch::Buffer => "storage buffer",
         }
     );
