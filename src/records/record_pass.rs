@@ -26,7 +26,7 @@ struct SiteParams {
 }
 
 /// Rows of a [`RecordSite`] in a texel table (`plane_site` in `wgsl/hemisphere_plane.wgsl`).
-pub(crate) const SITE_TEXELS: u64 = (std::mem::size_of::<RecordSite>() / 16) as u64;
+const SITE_TEXELS: u64 = (std::mem::size_of::<RecordSite>() / 16) as u64;
 
 /// Parameters of the plane pass and its refinement (`hemisphere_plane.wgsl`), and of the
 /// plane refresh's re-trace (`plane_retrace.wgsl`, which reads the first eight fields).
@@ -193,7 +193,8 @@ pub struct RecordPass {
     /// The plane samples the reduction reads as texels where its pipeline reads texels
     /// ([`crate::gpu::ComputePass::reads_texel_tables`]).
     sample_texels: TexelCopy,
-    /// The batch's sites as the plane pass reads them where it reads texel tables.
+    /// The batch's sites as the plane pass and its refinement read them where they read
+    /// texel tables ([`Self::site_texels_of`]).
     site_texels: TexelCopy,
     /// The kind of records computed; radiance records also project their planes.
     pub kind: RecordKind,
@@ -649,6 +650,7 @@ impl RecordPass {
                 on_batch(done);
                 continue;
             }
+            let site_texels = self.site_texels_of(ctx, &mut enc, &batch_sites, n)?;
             let replaced = match stage.as_deref_mut() {
                 Some(st) => st.replace_tracing(
                     ctx,
@@ -667,6 +669,7 @@ impl RecordPass {
                     &mut enc,
                     scene,
                     &batch,
+                    &site_texels,
                     record_hits,
                     noise.as_ref(),
                     light_maps,
@@ -699,6 +702,7 @@ impl RecordPass {
                     self.plane.get(ctx)?,
                     &self.table,
                     &batch_sites,
+                    &site_texels,
                     &samples,
                     &selected,
                     noise,
@@ -838,6 +842,21 @@ impl RecordPass {
         }
     }
 
+    /// The first `count` sites of `sites` as the plane pipeline reads them: where it reads
+    /// texel tables, records their copy into `enc` (once a batch: the plane pass and its
+    /// refinement both bind it).
+    fn site_texels_of(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        sites: &wgpu::Buffer,
+        count: u32,
+    ) -> Result<wgpu::TextureView> {
+        let reads = self.plane.get(ctx)?.reads_texel_tables();
+        self.site_texels
+            .view(ctx, enc, sites, u64::from(count) * SITE_TEXELS, reads)
+    }
+
     /// Records the plane pass (`hemisphere_plane.wgsl`) for `batch`: its samples, and with
     /// `record_hits` what each sample hit.
     #[allow(clippy::too_many_arguments)]
@@ -847,6 +866,7 @@ impl RecordPass {
         enc: &mut wgpu::CommandEncoder,
         scene: &GpuScene,
         batch: &PlaneBatch<'_>,
+        site_texels: &wgpu::TextureView,
         record_hits: bool,
         noise: Option<&wgpu::Buffer>,
         light_maps: &LightMaps,
@@ -867,13 +887,6 @@ impl RecordPass {
                 ..PlaneParams::zeroed()
             },
         );
-        let site_texels = self.site_texels.view(
-            ctx,
-            enc,
-            batch.sites,
-            u64::from(batch.count) * SITE_TEXELS,
-            plane.reads_texel_tables(),
-        )?;
         let plane_bind = plane.bind_resources(
             ctx,
             &[
@@ -888,7 +901,7 @@ impl RecordPass {
                 scene.bounce_cache().as_entire_binding(),
                 noise.unwrap_or(&self.no_noise).as_entire_binding(),
                 self.no_selection.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&site_texels),
+                wgpu::BindingResource::TextureView(site_texels),
                 wgpu::BindingResource::TextureView(self.table.pixel_texels.view()),
             ],
         );
@@ -1024,6 +1037,7 @@ impl RecordPass {
         let selected = ctx.storage_buffer_sized("refined pixels", r.selected_bytes(n).max(4))?;
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         let mut timer = crate::gpu::timer::PassTimer::new(ctx, 3);
+        let site_texels = self.site_texels_of(ctx, &mut enc, &sites_buf, n)?;
         r.record(
             ctx,
             &mut enc,
@@ -1031,6 +1045,7 @@ impl RecordPass {
             self.plane.get(ctx)?,
             &self.table,
             &sites_buf,
+            &site_texels,
             &samples,
             &selected,
             &noise,
@@ -1124,11 +1139,13 @@ impl RecordPass {
             count: n,
         };
         let mut enc = ctx.device.create_command_encoder(&Default::default());
+        let site_texels = self.site_texels_of(ctx, &mut enc, &sites_buf, n)?;
         self.record_planes(
             ctx,
             &mut enc,
             scene,
             &batch,
+            &site_texels,
             record_hits,
             noise,
             light_maps,

@@ -422,8 +422,6 @@ pub struct RefinePass {
     /// The plane samples the selection reads as texels where its pipeline reads texels
     /// ([`ComputePass::reads_texel_tables`]).
     sample_texels: TexelCopy,
-    /// The batch's sites as the plane pass's refinement reads them, likewise.
-    site_texels: TexelCopy,
     /// What the refinement binds for the plane pass's hits (it writes none).
     no_hits: wgpu::Buffer,
     /// The indirect dispatch (x y z) that refines a batch's planes, which the selection
@@ -487,7 +485,6 @@ impl RefinePass {
                 &[],
             ),
             sample_texels: TexelCopy::new(ctx, "refinement's plane sample texels")?,
-            site_texels: TexelCopy::new(ctx, "refinement's site texels")?,
             combine: LazyPass::new(
                 "plane_refine_combine.wgsl",
                 &[
@@ -525,7 +522,8 @@ impl RefinePass {
     /// receives [`Self::slots`] u32 per record (the K selected pixels, [`DARK_PLANE`] in
     /// each slot, or a [`DARK_GUIDED`] list), then the planes' refining workgroups (a buffer
     /// of [`Self::selected_bytes`]). `noise` holds each sample's environment share
-    /// ([`contrast_keys`]; all zeros: plain contrast).
+    /// ([`contrast_keys`]; all zeros: plain contrast). `site_texels`: `sites` as `trace`
+    /// reads them (`RecordPass`'s copy of the batch's sites, or its stand-in).
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -535,6 +533,7 @@ impl RefinePass {
         trace: &ComputePass,
         table: &PlaneTable,
         sites: &wgpu::Buffer,
+        site_texels: &wgpu::TextureView,
         samples: &wgpu::Buffer,
         selected: &wgpu::Buffer,
         noise: &wgpu::Buffer,
@@ -628,13 +627,6 @@ impl RefinePass {
             "refinement strata",
             strata_bytes(self.resolution, self.split, count),
         )?;
-        let site_texels = self.site_texels.view(
-            ctx,
-            enc,
-            sites,
-            u64::from(count) * super::record_pass::SITE_TEXELS,
-            trace.reads_texel_tables(),
-        )?;
         let bind = trace.bind_resources(
             ctx,
             &[
@@ -649,7 +641,7 @@ impl RefinePass {
                 scene.bounce_cache().as_entire_binding(),
                 strata.as_entire_binding(),
                 selected.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&site_texels),
+                wgpu::BindingResource::TextureView(site_texels),
                 wgpu::BindingResource::TextureView(table.pixel_texels.view()),
             ],
         );

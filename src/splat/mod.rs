@@ -690,29 +690,13 @@ impl SplatPass {
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         // Tail fill weighs no corral (`SplatSource::corral`).
         let fill = self.fill(ctx)?.for_mode(ctx, out.coverage_mode, false)?;
-        let record_texels = self.record_texels.view(
+        let bind = self.bind_gather(
             ctx,
             &mut enc,
-            &src.records.buffer,
-            u64::from(src.records.count) * RECORD_TEXELS,
-            fill.reads_texel_tables(),
+            &fill,
+            (&bins, src.vis, src.records, out),
+            &[&empty.list, &empty.count],
         )?;
-        let bind = fill.bind_resources(
-            ctx,
-            &[
-                bins.params.as_entire_binding(),
-                src.vis.samples.as_entire_binding(),
-                src.records.buffer.as_entire_binding(),
-                bins.tile_offsets.as_entire_binding(),
-                bins.sorted.as_entire_binding(),
-                out.sums.as_entire_binding(),
-                out.coverage.as_entire_binding(),
-                out.expiring.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&record_texels),
-                empty.list.as_entire_binding(),
-                empty.count.as_entire_binding(),
-            ],
-        );
         fill.record(
             &mut enc,
             &src.scene.bind_group,
@@ -724,6 +708,40 @@ impl SplatPass {
         ctx.queue.submit([enc.finish()]);
         times.extend(timer.read(ctx)?);
         Ok(pixels)
+    }
+
+    /// Binds a gather pipeline (`pass`: the gather's or tail fill's) to the bindings both
+    /// share (`shared/splat_pixel.wgsl`: the bins, the visibility samples, the records and
+    /// their texel table, the sums), then `extra`. Where the pipeline reads texel tables,
+    /// records the copy of the records into `enc` first.
+    fn bind_gather(
+        &self,
+        ctx: &GpuContext,
+        enc: &mut wgpu::CommandEncoder,
+        pass: &ComputePass,
+        (bins, vis, records, out): (&TileBins, &VisibilityBuffer, &RecordCache, &SplatBuffer),
+        extra: &[&wgpu::Buffer],
+    ) -> Result<wgpu::BindGroup> {
+        let record_texels = self.record_texels.view(
+            ctx,
+            enc,
+            &records.buffer,
+            u64::from(records.count) * RECORD_TEXELS,
+            pass.reads_texel_tables(),
+        )?;
+        let mut resources = vec![
+            bins.params.as_entire_binding(),
+            vis.samples.as_entire_binding(),
+            records.buffer.as_entire_binding(),
+            bins.tile_offsets.as_entire_binding(),
+            bins.sorted.as_entire_binding(),
+            out.sums.as_entire_binding(),
+            out.coverage.as_entire_binding(),
+            out.expiring.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&record_texels),
+        ];
+        resources.extend(extra.iter().map(|b| b.as_entire_binding()));
+        Ok(pass.bind_resources(ctx, &resources))
     }
 
     fn gather_into(
@@ -749,27 +767,7 @@ impl SplatPass {
             let gather = self
                 .gather(ctx)?
                 .for_mode(ctx, out.coverage_mode, src.corral)?;
-            let record_texels = self.record_texels.view(
-                ctx,
-                &mut enc,
-                &cache.buffer,
-                u64::from(cache.count) * RECORD_TEXELS,
-                gather.reads_texel_tables(),
-            )?;
-            let bind = gather.bind_resources(
-                ctx,
-                &[
-                    bins.params.as_entire_binding(),
-                    vis.samples.as_entire_binding(),
-                    cache.buffer.as_entire_binding(),
-                    bins.tile_offsets.as_entire_binding(),
-                    bins.sorted.as_entire_binding(),
-                    out.sums.as_entire_binding(),
-                    out.coverage.as_entire_binding(),
-                    out.expiring.as_entire_binding(),
-                    wgpu::BindingResource::TextureView(&record_texels),
-                ],
-            );
+            let bind = self.bind_gather(ctx, &mut enc, &gather, (&bins, vis, cache, out), &[])?;
             gather.record(
                 &mut enc,
                 &scene.bind_group,
