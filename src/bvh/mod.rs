@@ -484,7 +484,7 @@ impl SceneBvh {
 }
 
 /// The rows of a 3x4 identity matrix ([`GpuInstance::object_from_world`]).
-const IDENTITY_ROWS: [[f32; 4]; 3] = [
+pub const IDENTITY_ROWS: [[f32; 4]; 3] = [
     [1.0, 0.0, 0.0, 0.0],
     [0.0, 1.0, 0.0, 0.0],
     [0.0, 0.0, 1.0, 0.0],

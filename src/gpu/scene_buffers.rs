@@ -197,6 +197,14 @@ pub struct GpuSceneInfo {
     /// 4 texels a node precede them).
     pub triangle_texels: u32,
     pub _pad: [u32; 2],
+    /// Instance 0's `world_from_object` and `normal_to_world` rows ([`GpuInstance`]), the
+    /// identity when there is none. A scene of one instance placed as modelled (no
+    /// instances bit in [`crate::gpu::SceneFeatures`]) shades its hits with them from this
+    /// uniform: the same products, so the same bits, where the `instances` buffer cost
+    /// 24 storage loads a hit, lane by lane on lavapipe (`surface_at` in
+    /// `wgsl/shared/shading.wgsl`).
+    pub one_instance_world_from_object: [[f32; 4]; 3],
+    pub one_instance_normal_to_world: [[f32; 4]; 3],
 }
 
 /// [`GpuSceneInfo::env_map`] of a scene without an environment map.
@@ -506,6 +514,14 @@ impl GpuScene {
             root_in_blas: u32::from(start.in_blas),
             triangle_texels,
             _pad: [0; 2],
+            one_instance_world_from_object: bvh
+                .instances
+                .first()
+                .map_or(crate::bvh::IDENTITY_ROWS, |i| i.world_from_object),
+            one_instance_normal_to_world: bvh
+                .instances
+                .first()
+                .map_or(crate::bvh::IDENTITY_ROWS, |i| i.normal_to_world),
             env_map: environment_map_offset(scene),
             env_width: scene.environment_map.as_ref().map_or(0, |m| m.width),
             env_height: scene.environment_map.as_ref().map_or(0, |m| m.height),

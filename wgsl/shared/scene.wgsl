@@ -78,6 +78,10 @@ struct SceneInfo {
     env_rotation: vec2f, // cos and sin of its rotation about +y
     root_in_blas: u32,   // 1: `tlas_root` is in instance 0's BLAS, in world space
     triangle_texels: u32, // with TRIANGLE_TEXELS: the triangles' first texel in `bvh_nodes`
+    // Instance 0's transforms, for a scene of one instance placed as modelled (no
+    // FEATURE_INSTANCES): its hits read them here, not lane by lane from `instances`.
+    one_instance_world_from_object: array<vec4f, 3>,
+    one_instance_normal_to_world: array<vec4f, 3>,
 }
 
 // What a pipeline is compiled for (`gpu::SceneFeatures`): the kinds of light it shades (bits

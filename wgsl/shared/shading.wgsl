@@ -40,24 +40,23 @@ fn surface_at(hit: Hit, ray_dir: vec3f) -> Surface {
     let usable = dot(sh.n0, sh.n0) > 0.0 && dot(sh.n1, sh.n1) > 0.0 && dot(sh.n2, sh.n2) > 0.0;
     let n_obj = w * sh.n0 + hit.u * sh.n1 + hit.v * sh.n2;
     let interpolated = usable && dot(n_obj, n_obj) > 1.0e-12;
-    var s: Surface;
-    var ng: vec3f;
-    var ns: vec3f;
-    // A scene of one instance placed as modelled (no TRAVERSES_INSTANCES: rays never
-    // leave its BLAS, in world space) skips its instance: 24 words a hit that lavapipe
-    // loads lane by lane, and on hosts without AVX-512 stalls on each (gpu::triangle_fetch).
-    // Without them nave-west's plane rays took 0.89 of their time and its frame 0.94; the
-    // same bytes (`identity_transform` gives what the identity's rows give).
+    // A scene of one instance placed as modelled (no TRAVERSES_INSTANCES: rays never leave
+    // its BLAS) takes that instance's transforms from the scene's uniform: the same
+    // products, so the same bits, without the 24 storage loads a hit that lavapipe runs
+    // lane by lane, stalling on each lane on hosts without AVX-512 (gpu::triangle_fetch).
+    // nave-west's plane rays took 0.89 of their time, its frame 0.94.
+    var world_from_object = scene_info.one_instance_world_from_object;
+    var normal_to_world = scene_info.one_instance_normal_to_world;
     if TRAVERSES_INSTANCES {
         let inst = instances[hit.instance];
-        s.position = transform_point(inst.world_from_object, p_obj);
-        ng = normalize(transform_vector(inst.normal_to_world, n_tri));
-        ns = select(ng, normalize(transform_vector(inst.normal_to_world, n_obj)), interpolated);
-    } else {
-        s.position = identity_transform(p_obj);
-        ng = normalize(identity_transform(n_tri));
-        ns = select(ng, normalize(identity_transform(n_obj)), interpolated);
+        world_from_object = inst.world_from_object;
+        normal_to_world = inst.normal_to_world;
     }
+    var s: Surface;
+    s.position = transform_point(world_from_object, p_obj);
+    var ng = normalize(transform_vector(normal_to_world, n_tri));
+    let ns_smooth = normalize(transform_vector(normal_to_world, n_obj));
+    var ns = select(ng, ns_smooth, interpolated);
     s.front_face = dot(ng, ray_dir) < 0.0;
     if !s.front_face {
         ng = -ng;
