@@ -639,3 +639,46 @@ impl GpuScene {
             .write_buffer(&self.info_buffer, 0, bytemuck::bytes_of(&self.info));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::GpuSceneInfo;
+
+    /// `GpuSceneInfo` is the WGSL `SceneInfo` byte for byte: its size, and the offsets of
+    /// the instance transforms that `surface_at` reads for a one-instance scene (a
+    /// mismatch would shade every hit of such a scene with wrong transforms).
+    #[test]
+    fn scene_info_mirror_matches_the_wgsl_struct() {
+        let (module, _) = crate::gpu::shader::parsed_module("visibility.wgsl").expect("parse");
+        let (members, span) = module
+            .types
+            .iter()
+            .find_map(|(_, t)| match (&t.name, &t.inner) {
+                (Some(n), naga::TypeInner::Struct { members, span }) if n == "SceneInfo" => {
+                    Some((members.clone(), *span))
+                }
+                _ => None,
+            })
+            .expect("SceneInfo in scene.wgsl");
+        assert_eq!(span as usize, std::mem::size_of::<GpuSceneInfo>());
+        let offset = |name: &str| {
+            members
+                .iter()
+                .find(|m| m.name.as_deref() == Some(name))
+                .map(|m| m.offset as usize)
+                .expect("member")
+        };
+        assert_eq!(
+            offset("one_instance_world_from_object"),
+            std::mem::offset_of!(GpuSceneInfo, one_instance_world_from_object)
+        );
+        assert_eq!(
+            offset("one_instance_normal_to_world"),
+            std::mem::offset_of!(GpuSceneInfo, one_instance_normal_to_world)
+        );
+        assert_eq!(
+            offset("triangle_texels"),
+            std::mem::offset_of!(GpuSceneInfo, triangle_texels)
+        );
+    }
+}
