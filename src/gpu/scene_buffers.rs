@@ -197,8 +197,8 @@ pub struct GpuSceneInfo {
     /// 4 texels a node precede them).
     pub triangle_texels: u32,
     pub _pad: [u32; 2],
-    /// Instance 0's `world_from_object` and `normal_to_world` rows ([`GpuInstance`]), the
-    /// identity when there is none. A scene of one instance placed as modelled (no
+    /// Instance 0's `world_from_object` and `normal_to_world` rows
+    /// ([`crate::bvh::gpu_layout::GpuInstance`]), the identity when there is none. A scene of one instance placed as modelled (no
     /// instances bit in [`crate::gpu::SceneFeatures`]) shades its hits with them from this
     /// uniform: the same products, so the same bits, where the `instances` buffer cost
     /// 24 storage loads a hit, lane by lane on lavapipe (`surface_at` in
