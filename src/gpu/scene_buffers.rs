@@ -198,11 +198,11 @@ pub struct GpuSceneInfo {
     pub triangle_texels: u32,
     pub _pad: [u32; 2],
     /// Instance 0's `world_from_object` and `normal_to_world` rows
-    /// ([`crate::bvh::gpu_layout::GpuInstance`]), the identity when there is none. A scene of one instance placed as modelled (no
-    /// instances bit in [`crate::gpu::SceneFeatures`]) shades its hits with them from this
-    /// uniform: the same products, so the same bits, where the `instances` buffer cost
-    /// 24 storage loads a hit, lane by lane on lavapipe (`surface_at` in
-    /// `wgsl/shared/shading.wgsl`).
+    /// ([`crate::bvh::gpu_layout::GpuInstance`]), the identity when there is none. A scene
+    /// of one instance placed as modelled (no instances bit in [`crate::gpu::SceneFeatures`])
+    /// shades its hits with them from this uniform: the same products, so the same bits,
+    /// where the `instances` buffer cost 24 storage loads a hit, lane by lane on lavapipe
+    /// (`surface_at` in `wgsl/shared/shading.wgsl`).
     pub one_instance_world_from_object: [[f32; 4]; 3],
     pub one_instance_normal_to_world: [[f32; 4]; 3],
 }
