@@ -505,6 +505,7 @@ impl GpuScene {
             }
         };
         let start = bvh.traversal_start();
+        let first_instance = bvh.instances.first();
         let info = GpuSceneInfo {
             environment: scene.environment.into(),
             light_count: lights.len() as u32,
@@ -514,13 +515,9 @@ impl GpuScene {
             root_in_blas: u32::from(start.in_blas),
             triangle_texels,
             _pad: [0; 2],
-            one_instance_world_from_object: bvh
-                .instances
-                .first()
+            one_instance_world_from_object: first_instance
                 .map_or(crate::bvh::IDENTITY_ROWS, |i| i.world_from_object),
-            one_instance_normal_to_world: bvh
-                .instances
-                .first()
+            one_instance_normal_to_world: first_instance
                 .map_or(crate::bvh::IDENTITY_ROWS, |i| i.normal_to_world),
             env_map: environment_map_offset(scene),
             env_width: scene.environment_map.as_ref().map_or(0, |m| m.width),

@@ -146,12 +146,6 @@ fn transform_point(m: array<vec4f, 3>, p: vec3f) -> vec3f {
     return vec3f(dot(m[0], h), dot(m[1], h), dot(m[2], h));
 }
 
-// What `transform_point` and `transform_vector` give for the identity matrix: `v` with
-// its zeros' signs made positive (each row's dot product adds +0 terms).
-fn identity_transform(v: vec3f) -> vec3f {
-    return select(v, vec3f(0.0), v == vec3f(0.0));
-}
-
 fn transform_vector(m: array<vec4f, 3>, v: vec3f) -> vec3f {
     let h = vec4f(v, 0.0);
     return vec3f(dot(m[0], h), dot(m[1], h), dot(m[2], h));

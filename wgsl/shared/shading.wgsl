@@ -33,18 +33,11 @@ struct Surface {
 fn surface_at(hit: Hit, ray_dir: vec3f) -> Surface {
     let tri = traversal_triangle(hit.triangle);
     let sh = shading[hit.triangle];
-    let w = 1.0 - hit.u - hit.v;
-    let p_obj = tri.v0.xyz + hit.u * tri.e1.xyz + hit.v * tri.e2.xyz;
-    let n_tri = cross(tri.e1.xyz, tri.e2.xyz);
-    // Vertex normals of zero length mark missing or broken data: use the geometric normal.
-    let usable = dot(sh.n0, sh.n0) > 0.0 && dot(sh.n1, sh.n1) > 0.0 && dot(sh.n2, sh.n2) > 0.0;
-    let n_obj = w * sh.n0 + hit.u * sh.n1 + hit.v * sh.n2;
-    let interpolated = usable && dot(n_obj, n_obj) > 1.0e-12;
     // A scene of one instance placed as modelled (no TRAVERSES_INSTANCES: rays never leave
     // its BLAS) takes that instance's transforms from the scene's uniform: the same
     // products, so the same bits, without the 24 storage loads a hit that lavapipe runs
     // lane by lane, stalling on each lane on hosts without AVX-512 (gpu::triangle_fetch).
-    // nave-west's plane rays took 0.89 of their time, its frame 0.94.
+    // nave-west's plane rays took 0.94 of their time, its CPU seconds 0.92-0.96.
     var world_from_object = scene_info.one_instance_world_from_object;
     var normal_to_world = scene_info.one_instance_normal_to_world;
     if TRAVERSES_INSTANCES {
@@ -52,11 +45,20 @@ fn surface_at(hit: Hit, ray_dir: vec3f) -> Surface {
         world_from_object = inst.world_from_object;
         normal_to_world = inst.normal_to_world;
     }
+    let w = 1.0 - hit.u - hit.v;
+    let p_obj = tri.v0.xyz + hit.u * tri.e1.xyz + hit.v * tri.e2.xyz;
     var s: Surface;
     s.position = transform_point(world_from_object, p_obj);
-    var ng = normalize(transform_vector(normal_to_world, n_tri));
-    let ns_smooth = normalize(transform_vector(normal_to_world, n_obj));
-    var ns = select(ng, ns_smooth, interpolated);
+    var ng = normalize(transform_vector(normal_to_world, cross(tri.e1.xyz, tri.e2.xyz)));
+    // Vertex normals of zero length mark missing or broken data: use the geometric normal.
+    let usable = dot(sh.n0, sh.n0) > 0.0 && dot(sh.n1, sh.n1) > 0.0 && dot(sh.n2, sh.n2) > 0.0;
+    var ns = ng;
+    if usable {
+        let n_obj = w * sh.n0 + hit.u * sh.n1 + hit.v * sh.n2;
+        if dot(n_obj, n_obj) > 1.0e-12 {
+            ns = normalize(transform_vector(normal_to_world, n_obj));
+        }
+    }
     s.front_face = dot(ng, ray_dir) < 0.0;
     if !s.front_face {
         ng = -ng;
